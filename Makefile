@@ -1,0 +1,42 @@
+# The README's commands. Each target does the set-up itself when it is missing or stale.
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV := .venv
+PACKAGES := src/com_core com_estimator wrench_sim exploration_sequencer
+VENV_STAMP := $(VENV)/.installed
+BUILD_STAMP := install/.built
+PACKAGE_FILES := $(shell find $(PACKAGES) -name setup.py -o -name setup.cfg -o -name package.xml)
+IN_ENV := source ./env.sh &&
+ARGS ?=
+
+.PHONY: setup demo test lint bench study clean
+
+setup: $(BUILD_STAMP)
+
+$(VENV_STAMP): requirements.txt constraints.txt
+	$(PYTHON) -m venv $(VENV)
+	$(VENV)/bin/pip install --disable-pip-version-check -q pip==25.3
+	$(VENV)/bin/pip install --disable-pip-version-check -q -r requirements.txt -c constraints.txt
+	$(VENV)/bin/pip install --disable-pip-version-check -q --no-deps --no-build-isolation -e src/com_core
+	touch $(VENV)/COLCON_IGNORE $@
+
+$(BUILD_STAMP): $(VENV_STAMP) $(PACKAGE_FILES)
+	source $(VENV)/bin/activate && colcon build --symlink-install --base-paths $(PACKAGES) \
+		--event-handlers console_cohesion- summary-
+	touch $@
+
+demo: setup
+	$(IN_ENV) python -m com_core.study $(ARGS)
+
+test: setup lint
+	$(IN_ENV) python -m pytest test $(ARGS)
+
+lint: $(VENV_STAMP)
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
+
+bench: setup
+	$(IN_ENV) python bench/estimator_efficiency.py
+
+clean:
+	rm -rf build install log

@@ -1,0 +1,14 @@
+# Source this file (". ./env.sh") in bash to use the workspace: it activates the venv,
+# sources the colcon install, and keeps DDS on this machine.
+_com_ws="$(cd "$(dirname "${BASH_SOURCE[0]:-$0}")" && pwd)"
+# shellcheck disable=SC1091
+. "$_com_ws/.venv/bin/activate"
+if [ -f "$_com_ws/install/setup.bash" ]; then
+    # shellcheck disable=SC1091
+    . "$_com_ws/install/setup.bash"
+fi
+# DDS discovery stays on the loopback interface; a per-shell domain keeps parallel runs
+# apart. Both may be overridden before sourcing.
+export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
+export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$(( $$ % 100 + 1 ))}"
+unset _com_ws

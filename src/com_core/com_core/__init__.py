@@ -1,0 +1,1 @@
+"""ROS-free core: object mass and centre of mass from wrist force/torque wrenches."""

@@ -1,0 +1,205 @@
+"""Static windows: labelled runs of F/T samples reduced to a mean wrench and its covariance.
+
+A window holds the samples taken while the arm rests in one pose. It is reduced to its
+mean wrench and the covariance of that mean (N, N m; sensor frame). Windows whose
+samples are not finite, reached the sensor's range, or show motion are refused with
+the reason. Object windows are matched to tare windows (empty hand) of the same pose
+and the tare is subtracted pose by pose: the hand's own wrench changes with the
+orientation, so one constant tare is wrong after a tilt (the paper's W_HAND, eq. 2).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import MissingTareError, MotionError, NonFiniteError, SaturationError
+from .wrench_model import AXES, SensorModel
+
+__all__ = [
+    "MIN_SAMPLES_FOR_COVARIANCE",
+    "TARE_PREFIX",
+    "OBJECT_PREFIX",
+    "Window",
+    "pose_of_label",
+    "reduce_window",
+    "subtract_tare",
+    "window_from_mean",
+]
+
+MIN_SAMPLES_FOR_COVARIANCE = 30
+"""Below this many samples the covariance comes from the sensor model, not the samples."""
+
+TARE_PREFIX = "tare/"
+OBJECT_PREFIX = "object/"
+
+_MOTION_Z = 6.0
+"""Threshold (standard scores) of the motion tests; a false alarm < 1e-8 per axis."""
+
+
+@dataclass(frozen=True)
+class Window:
+    """A static window reduced to its mean.
+
+    Attributes
+    ----------
+    pose : pose name without the ``tare/`` or ``object/`` prefix, e.g. ``tilt_x+``.
+    mean : shape (6,); N and N m; sensor frame.
+    cov : shape (6, 6); covariance of ``mean`` (not of one sample).
+    n : number of samples averaged.
+    """
+
+    pose: str
+    mean: NDArray[np.float64]
+    cov: NDArray[np.float64]
+    n: int
+
+    @property
+    def force(self) -> NDArray[np.float64]:
+        """Mean force, shape (3,); N."""
+        return self.mean[:3]
+
+    @property
+    def torque(self) -> NDArray[np.float64]:
+        """Mean torque, shape (3,); N m."""
+        return self.mean[3:]
+
+
+def pose_of_label(label: str) -> tuple[str, str]:
+    """Split a window label into (kind, pose): ``tare/home`` -> ('tare', 'home').
+
+    A label without a known prefix is an object window.
+    """
+    for prefix in (TARE_PREFIX, OBJECT_PREFIX):
+        if label.startswith(prefix):
+            return prefix[:-1], label[len(prefix) :]
+    return OBJECT_PREFIX[:-1], label
+
+
+def window_from_mean(pose: str, mean: ArrayLike, cov: ArrayLike, n: int = 1) -> Window:
+    """Build a window from a known mean and covariance of the mean (validated)."""
+    mean_a = np.asarray(mean, dtype=np.float64)
+    cov_a = np.asarray(cov, dtype=np.float64)
+    if mean_a.shape != (6,) or cov_a.shape != (6, 6):
+        raise ValueError(f"window {pose!r}: mean (6,) and cov (6, 6), got {mean_a.shape}, "
+                         f"{cov_a.shape}")
+    if not (np.all(np.isfinite(mean_a)) and np.all(np.isfinite(cov_a))):
+        raise NonFiniteError(f"window {pose!r}: mean or covariance is not finite")
+    return Window(pose, mean_a, cov_a, int(n))
+
+
+def reduce_window(
+    pose: str,
+    samples: ArrayLike,
+    sensor: SensorModel | None = None,
+) -> Window:
+    """Reduce samples of one static pose to their mean wrench and its covariance.
+
+    Parameters
+    ----------
+    pose : pose name.
+    samples : shape (n, 6); N and N m; sensor frame, in time order.
+    sensor : the sensor's model. Its range finds saturated samples; its noise is the
+        covariance when there are fewer than ``MIN_SAMPLES_FOR_COVARIANCE`` samples and
+        the reference of the motion test on the variance.
+
+    Returns
+    -------
+    Window whose ``cov`` is the sample covariance / n (or the sensor's / n). Samples
+    are taken as white noise; correlated noise would make ``cov`` too small.
+
+    Raises
+    ------
+    NonFiniteError, SaturationError, MotionError (with the axis and the statistic), or
+    ValueError when the shape is wrong or the window is too short to have a covariance.
+    """
+    x = np.asarray(samples, dtype=np.float64)
+    if x.ndim != 2 or x.shape[1] != 6 or x.shape[0] == 0:
+        raise ValueError(f"window {pose!r}: samples must have shape (n, 6), got {x.shape}")
+    n = x.shape[0]
+    bad = ~np.isfinite(x)
+    if bad.any():
+        raise NonFiniteError(
+            f"window {pose!r}: {int(bad.any(axis=1).sum())} of {n} samples are NaN or inf"
+        )
+    if sensor is not None:
+        sat = sensor.saturated(x)
+        if sat.any():
+            axis = AXES[int(np.argmax(sat.any(axis=0)))]
+            raise SaturationError(
+                f"window {pose!r}: {int(sat.any(axis=1).sum())} samples at the sensor's range "
+                f"on {axis} (limit {sensor.limit[AXES.index(axis)]:g})"
+            )
+    mean = x.mean(axis=0)
+    if n >= MIN_SAMPLES_FOR_COVARIANCE:
+        sample_cov = np.cov(x, rowvar=False)
+        _check_static(pose, x, sample_cov, sensor)
+    elif sensor is not None:
+        sample_cov = sensor.sample_covariance()
+    else:
+        raise ValueError(
+            f"window {pose!r}: {n} samples are too few for a covariance "
+            f"(need {MIN_SAMPLES_FOR_COVARIANCE}) and no sensor model was given"
+        )
+    return Window(pose, mean, sample_cov / n, n)
+
+
+def _check_static(
+    pose: str, x: NDArray[np.float64], sample_cov: NDArray[np.float64], sensor: SensorModel | None
+) -> None:
+    """Raise MotionError if the window's samples show motion.
+
+    Two tests per axis, each at ``_MOTION_Z`` standard scores:
+    - drift: the means of the first and second half differ by more than their noise;
+    - excess variance (needs the sensor model): the sample variance exceeds the sensor's
+      by more than the chi-square spread, var/var0 > 1 + z sqrt(2 / (n - 1)).
+    """
+    n = x.shape[0]
+    var = np.diag(sample_cov)
+    half = n // 2
+    drift = x[half:].mean(axis=0) - x[:half].mean(axis=0)
+    drift_sd = np.sqrt(var * (1.0 / half + 1.0 / (n - half)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        drift_z = np.where(drift_sd > 0, np.abs(drift) / drift_sd, 0.0)
+    worst = int(np.argmax(drift_z))
+    if drift_z[worst] > _MOTION_Z:
+        raise MotionError(
+            f"window {pose!r}: motion, {AXES[worst]} drifts by {drift[worst]:.4g} between "
+            f"the halves of the window ({drift_z[worst]:.1f} sigma)"
+        )
+    if sensor is None:
+        return
+    var0 = np.diag(sensor.sample_covariance())
+    limit = 1.0 + _MOTION_Z * math.sqrt(2.0 / (n - 1))
+    ratio = np.divide(var, var0, out=np.zeros(6), where=var0 > 0)
+    worst = int(np.argmax(ratio))
+    if ratio[worst] > limit:
+        raise MotionError(
+            f"window {pose!r}: motion, variance of {AXES[worst]} is {ratio[worst]:.1f}x the "
+            f"sensor noise (limit {limit:.2f}x)"
+        )
+
+
+def subtract_tare(objects: Sequence[Window], tares: Iterable[Window]) -> list[Window]:
+    """Object windows minus the tare window of the same pose, covariances added.
+
+    The tare of each pose is the empty hand's wrench in that pose, so the result is the
+    object's wrench alone in every pose (the paper's W_E after removing W_HAND).
+
+    Raises MissingTareError naming every object pose without a tare.
+    """
+    by_pose = {t.pose: t for t in tares}
+    missing = [w.pose for w in objects if w.pose not in by_pose]
+    if missing:
+        have = ", ".join(sorted(by_pose)) or "none"
+        raise MissingTareError(
+            f"no tare for pose(s) {', '.join(missing)} (tare poses recorded: {have})"
+        )
+    return [
+        Window(w.pose, w.mean - by_pose[w.pose].mean, w.cov + by_pose[w.pose].cov, w.n)
+        for w in objects
+    ]

@@ -1,0 +1,163 @@
+"""The static gravity wrench of a grasped load and a model of the F/T sensor reading it.
+
+Convention (DESIGN.md): the wrench on the sensor is the wrench the load exerts on it,
+expressed in the sensor frame ``ft_sensor``. A load of mass ``m`` (kg) with centre of
+mass ``p`` (m, sensor frame) under gravity ``g_s`` (m/s^2, sensor frame) gives
+
+    f = m g_s,    tau = p x f                                   (N, N m)
+
+This is the paper's eq. 2 with W_HAND removed and R_COM = I, written with tau = P x f
+as in its eq. 10 (its eqs. 4-9 use the opposite sign; see ``estimators``).
+Wrench vectors are ordered (fx, fy, fz, tx, ty, tz).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "AXES",
+    "STANDARD_GRAVITY",
+    "SensorModel",
+    "as_vector",
+    "gravity_in_sensor",
+    "gravity_wrench",
+    "rotation_about",
+    "skew",
+]
+
+STANDARD_GRAVITY = 9.80665
+"""m/s^2; the simulator uses the same value."""
+
+AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
+
+_UNIT_AXES = {"x": np.array([1.0, 0, 0]), "y": np.array([0, 1.0, 0]), "z": np.array([0, 0, 1.0])}
+
+
+def as_vector(value: ArrayLike, size: int, name: str) -> NDArray[np.float64]:
+    """Return ``value`` as a float64 array of shape (size,), broadcasting a scalar.
+
+    Raises ValueError naming the shape it got.
+    """
+    array = np.asarray(value, dtype=np.float64)
+    if array.ndim == 0:
+        return np.full(size, float(array))
+    if array.shape != (size,):
+        raise ValueError(f"{name} must be a scalar or shape ({size},), got shape {array.shape}")
+    return array.copy()
+
+
+def skew(v: ArrayLike) -> NDArray[np.float64]:
+    """Cross-product matrix of ``v`` (the paper's v^X): ``skew(a) @ b == a x b``."""
+    x, y, z = as_vector(v, 3, "v")
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def rotation_about(axis: str | ArrayLike, angle: float) -> NDArray[np.float64]:
+    """Rotation matrix (3, 3) of ``angle`` rad about ``axis`` ('x', 'y', 'z' or a vector)."""
+    u = _UNIT_AXES[axis] if isinstance(axis, str) else as_vector(axis, 3, "axis")
+    u = u / np.linalg.norm(u)
+    k = skew(u)
+    return np.eye(3) + np.sin(angle) * k + (1.0 - np.cos(angle)) * (k @ k)
+
+
+def gravity_in_sensor(
+    R_world_sensor: ArrayLike, g: float = STANDARD_GRAVITY
+) -> NDArray[np.float64]:
+    """Gravity (m/s^2) expressed in the sensor frame, for world gravity (0, 0, -g).
+
+    ``R_world_sensor`` (3, 3) maps sensor-frame vectors to the world frame.
+    """
+    R = np.asarray(R_world_sensor, dtype=np.float64)
+    return R.T @ np.array([0.0, 0.0, -g])
+
+
+def gravity_wrench(mass: float, com: ArrayLike, g_sensor: ArrayLike) -> NDArray[np.float64]:
+    """Wrench the static load exerts on the sensor: f = m g_s, tau = p x f.
+
+    Parameters
+    ----------
+    mass : kg.
+    com : shape (3,); m; sensor frame.
+    g_sensor : shape (3,) or (n, 3); m/s^2; gravity in the sensor frame per pose.
+
+    Returns
+    -------
+    shape (6,) or (n, 6); N and N m; sensor frame.
+    """
+    p = as_vector(com, 3, "com")
+    g = np.asarray(g_sensor, dtype=np.float64)
+    f = mass * g
+    return np.concatenate([f, np.cross(p, f)], axis=-1)
+
+
+@dataclass(frozen=True)
+class SensorModel:
+    """A 6-axis F/T sensor: additive white Gaussian noise, bias, quantisation, range.
+
+    All arrays are shape (6,) in the order of ``AXES``; N for forces, N m for torques.
+    ``resolution`` 0 means no quantisation, ``limit`` inf means no saturation.
+    """
+
+    sigma: NDArray[np.float64] = field(default_factory=lambda: np.zeros(6))
+    bias: NDArray[np.float64] = field(default_factory=lambda: np.zeros(6))
+    resolution: NDArray[np.float64] = field(default_factory=lambda: np.zeros(6))
+    limit: NDArray[np.float64] = field(default_factory=lambda: np.full(6, np.inf))
+    rate_hz: float = 1000.0
+
+    def __post_init__(self) -> None:
+        for name in ("sigma", "bias", "resolution", "limit"):
+            object.__setattr__(self, name, as_vector(getattr(self, name), 6, name))
+        if np.any(self.sigma < 0) or np.any(self.resolution < 0) or np.any(self.limit <= 0):
+            raise ValueError("sigma and resolution must be >= 0 and limit > 0")
+        if not self.rate_hz > 0:
+            raise ValueError(f"rate_hz must be > 0, got {self.rate_hz}")
+
+    @classmethod
+    def from_scalars(
+        cls,
+        sigma_f: float = 0.0,
+        sigma_tau: float = 0.0,
+        *,
+        bias_f: float = 0.0,
+        bias_tau: float = 0.0,
+        resolution_f: float = 0.0,
+        resolution_tau: float = 0.0,
+        limit_f: float = np.inf,
+        limit_tau: float = np.inf,
+        rate_hz: float = 1000.0,
+    ) -> SensorModel:
+        """Same value on every force axis and on every torque axis."""
+
+        def pair(a: float, b: float) -> NDArray[np.float64]:
+            return np.array([a, a, a, b, b, b], dtype=np.float64)
+
+        return cls(
+            sigma=pair(sigma_f, sigma_tau),
+            bias=pair(bias_f, bias_tau),
+            resolution=pair(resolution_f, resolution_tau),
+            limit=pair(limit_f, limit_tau),
+            rate_hz=rate_hz,
+        )
+
+    def sample_covariance(self) -> NDArray[np.float64]:
+        """Covariance (6, 6) of one sample: noise plus quantisation (resolution^2 / 12)."""
+        return np.diag(self.sigma**2 + self.resolution**2 / 12.0)
+
+    def measure(self, wrench: ArrayLike, rng: np.random.Generator) -> NDArray[np.float64]:
+        """Readings of true wrenches ``wrench`` (n, 6) or (6,): bias, noise, quantise, clip.
+
+        A reading beyond the range is clipped to it, as an ADC does; ``saturated`` finds it.
+        """
+        w = np.asarray(wrench, dtype=np.float64)
+        reading = w + self.bias + rng.standard_normal(w.shape) * self.sigma
+        q = np.where(self.resolution > 0, self.resolution, 1.0)
+        reading = np.where(self.resolution > 0, np.round(reading / q) * q, reading)
+        return np.clip(reading, -self.limit, self.limit)
+
+    def saturated(self, reading: ArrayLike) -> NDArray[np.bool_]:
+        """Boolean mask, same shape as ``reading``: the value is at or beyond the range."""
+        return np.abs(np.asarray(reading, dtype=np.float64)) >= self.limit
