@@ -12,7 +12,7 @@ setup(
     ],
     install_requires=["setuptools"],
     zip_safe=True,
-    description="Estimator node for object mass and centre of mass from wrist F/T wrenches, and offline bag replay",
+    description="Estimator node for object mass and COM from wrist F/T wrenches; bag replay",
     license="Apache-2.0",
     entry_points={"console_scripts": []},
 )

@@ -12,7 +12,7 @@ setup(
     ],
     install_requires=["setuptools"],
     zip_safe=True,
-    description="Sequencer that tares, grasps and tilts the wrist to explore an object, and records each run",
+    description="Sequencer that tares, grasps and tilts to explore an object; records each run",
     license="Apache-2.0",
     entry_points={"console_scripts": []},
 )

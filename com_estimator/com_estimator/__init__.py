@@ -1,1 +1,1 @@
-"""Estimator node for object mass and centre of mass from wrist F/T wrenches, and offline bag replay"""
+"""Estimator node for object mass and COM from wrist F/T wrenches, and offline bag replay."""

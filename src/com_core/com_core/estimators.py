@@ -52,6 +52,7 @@ __all__ = [
     "Consistency",
     "Estimate",
     "check_consistency",
+    "check_windows",
     "crlb",
     "ml",
     "two_pose",
@@ -68,6 +69,8 @@ _COV_FLOOR = 1e-14
 finite; far below any real sensor's noise (1e-7 N standard deviation)."""
 
 _MAX_ITERATIONS = 60
+_CONVERGED_DECREMENT = 1e-10
+"""Gauss-Newton stops after a step shorter than 1e-5 standard deviations."""
 
 
 @dataclass(frozen=True)
@@ -136,30 +139,29 @@ def two_pose(
     - m = |f1| / g                                    (eq. 3; -f_z / g for a top grasp)
     - p_perp = f1 x tau1 / |f1|^2                      (eqs. 7, 8)
     - s = a . (tau2 - p_perp x f2) / |a|^2, a = u x f2  (eq. 11), p = p_perp + s u
-    The covariance is propagated to first order from the two windows' covariances;
-    chi2/dof/p_value are those of the ML fit to the same two windows (the method itself
-    has no residual).
+    The covariance is propagated to first order from the two windows' covariances.
+    The method fits no residual (chi2 and p_value are NaN, dof 0); ``check_consistency``
+    tests the same windows.
 
     Raises TooFewPosesError, NonPositiveMassError, IllConditionedError.
     """
     if len(windows) < 2:
         raise TooFewPosesError(f"two_pose needs 2 poses, got {len(windows)}")
     pair = list(windows[:2])
-    _check_windows(pair, min_tilt_sigmas)
+    check_windows(pair, min_tilt_sigmas)
     x0 = np.concatenate([pair[0].mean, pair[1].mean])
     theta = _two_pose_closed_form(x0, g)
     jac = _numeric_jacobian(lambda x: _two_pose_closed_form(x, g), x0)
     cov_x = np.zeros((12, 12))
     cov_x[:6, :6], cov_x[6:, 6:] = pair[0].cov, pair[1].cov
-    chi2, dof = _fit(pair, np.zeros(2, dtype=int), g).chi2_dof()
     return Estimate(
         method="two_pose",
         mass=float(theta[0]),
         com=theta[1:].copy(),
         cov=jac @ cov_x @ jac.T,
-        chi2=chi2,
-        dof=dof,
-        p_value=chi2_sf(chi2, dof),
+        chi2=math.nan,
+        dof=0,
+        p_value=math.nan,
         poses=tuple(w.pose for w in pair),
     )
 
@@ -169,9 +171,9 @@ def _two_pose_closed_form(x: NDArray[np.float64], g: float) -> NDArray[np.float6
     f1, t1, f2, t2 = x[0:3], x[3:6], x[6:9], x[9:12]
     f1_sq = float(f1 @ f1)
     u = f1 / math.sqrt(f1_sq)
-    p_perp = np.cross(f1, t1) / f1_sq
-    a = np.cross(u, f2)
-    s = float(a @ (t2 - np.cross(p_perp, f2))) / float(a @ a)
+    p_perp = _cross(f1, t1) / f1_sq
+    a = _cross(u, f2)
+    s = float(a @ (t2 - _cross(p_perp, f2))) / float(a @ a)
     return np.concatenate([[math.sqrt(f1_sq) / g], p_perp + s * u])
 
 
@@ -199,7 +201,7 @@ def ml(
 
     Raises TooFewPosesError, NonPositiveMassError, IllConditionedError.
     """
-    _check_windows(windows, min_tilt_sigmas)
+    check_windows(windows, min_tilt_sigmas)
     fit = _fit(windows, np.zeros(len(windows), dtype=int), g)
     info = fit.fisher()
     cov = _marginal_covariance(info, 4)
@@ -288,10 +290,10 @@ class _FitState:
         n, n_groups = len(self.dirs), len(self.coms)
         d, p = self.dirs, self.coms[self.groups]
         mg = self.mass * self.g
-        model = np.concatenate([mg * d, mg * np.cross(p, d)], axis=1)
+        model = np.concatenate([mg * d, mg * _cross(p, d)], axis=1)
         basis = _tangent_bases(d)  # (n, 3, 2)
         jac = np.zeros((n, 6, 1 + 3 * n_groups + 2 * n))
-        jac[:, :, 0] = self.g * np.concatenate([d, np.cross(p, d)], axis=1)
+        jac[:, :, 0] = self.g * np.concatenate([d, _cross(p, d)], axis=1)
         skew_d = _skew_batch(d)
         for i, grp in enumerate(self.groups):
             jac[i, 3:, 1 + 3 * grp : 4 + 3 * grp] = -mg * skew_d[i]
@@ -334,13 +336,14 @@ class _FitState:
 
 def _fit(windows: Sequence[Window], groups: NDArray[np.int_], g: float) -> _FitState:
     """Gauss-Newton (with step halving) for the wrench-only model; COM per group."""
-    means = np.array([w.mean for w in windows])
-    state = _initial_state(means, groups, g)
-    state.whiteners = _whiteners(np.array([w.cov for w in windows]))
+    whiteners = _whiteners(np.array([w.cov for w in windows]))
+    state = _initial_state(np.array([w.mean for w in windows]), whiteners, groups, g)
     r, jac = state.residual_and_jacobian()
     chi2 = float(r @ r)
     for _ in range(_MAX_ITERATIONS):
         step = np.linalg.lstsq(jac, r, rcond=None)[0]
+        jac_step = jac @ step
+        decrement = float(jac_step @ jac_step)  # squared step length in units of sigma
         for _halving in range(30):
             trial = state.updated(step)
             r_new, jac_new = trial.residual_and_jacobian()
@@ -350,17 +353,18 @@ def _fit(windows: Sequence[Window], groups: NDArray[np.int_], g: float) -> _FitS
             step = step / 2.0
         else:
             break
-        improvement = chi2 - chi2_new
         state, r, jac, chi2 = trial, r_new, jac_new, chi2_new
-        scale = np.concatenate([[abs(state.mass)], np.abs(state.coms).ravel(), [1.0]]).max()
-        if np.abs(step).max() < 1e-13 * max(scale, 1e-3) or (
-            improvement >= 0 and improvement < 1e-14 * max(chi2, 1e-30)
-        ):
+        if decrement < _CONVERGED_DECREMENT:
             break
     return state
 
 
-def _initial_state(means: NDArray[np.float64], groups: NDArray[np.int_], g: float) -> _FitState:
+def _initial_state(
+    means: NDArray[np.float64],
+    whiteners: NDArray[np.float64],
+    groups: NDArray[np.int_],
+    g: float,
+) -> _FitState:
     """Closed-form start: m from |f|, d from f / |f|, p per group by least squares."""
     f, tau = means[:, :3], means[:, 3:]
     norms = np.linalg.norm(f, axis=1)
@@ -376,7 +380,7 @@ def _initial_state(means: NDArray[np.float64], groups: NDArray[np.int_], g: floa
         coms=coms,
         dirs=f / norms[:, None],
         groups=groups,
-        whiteners=np.zeros((len(f), 6, 6)),
+        whiteners=whiteners,
         means=means,
         g=g,
     )
@@ -386,6 +390,13 @@ def _whiteners(covs: NDArray[np.float64]) -> NDArray[np.float64]:
     """U_i = L_i^-1 with L_i L_i^T = cov_i + floor, so U_i cov_i U_i^T = I."""
     lower = np.linalg.cholesky(covs + _COV_FLOOR * np.eye(6))
     return np.linalg.inv(lower)
+
+
+def _cross(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Row-wise cross product of (..., 3) arrays (numpy.cross is slow for small arrays)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 def _skew_batch(v: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -400,16 +411,16 @@ def _skew_batch(v: NDArray[np.float64]) -> NDArray[np.float64]:
 def _tangent_bases(d: NDArray[np.float64]) -> NDArray[np.float64]:
     """Orthonormal bases (n, 3, 2) of the planes perpendicular to the unit rows of d."""
     helper = np.where(np.abs(d[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
-    e1 = np.cross(d, helper)
+    e1 = _cross(d, helper)
     e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
-    e2 = np.cross(d, e1)
+    e2 = _cross(d, e1)
     return np.stack([e1, e2], axis=2)
 
 
 # --- checks shared by both estimators -----------------------------------------------
 
 
-def _check_windows(windows: Sequence[Window], min_tilt_sigmas: float) -> None:
+def check_windows(windows: Sequence[Window], min_tilt_sigmas: float = MIN_TILT_SIGMAS) -> None:
     """Raise if fewer than 2 poses, no load, or the gravity directions are not resolved.
 
     The largest angle between two poses' force directions must exceed both 1e-6 rad
@@ -422,9 +433,7 @@ def _check_windows(windows: Sequence[Window], min_tilt_sigmas: float) -> None:
         )
     forces = np.array([w.force for w in windows])
     norms = np.linalg.norm(forces, axis=1)
-    sd_perp = np.array(
-        [math.sqrt(max(np.trace(w.cov[:3, :3]), 0.0) / 3.0) for w in windows]
-    )
+    sd_perp = np.array([math.sqrt(max(np.trace(w.cov[:3, :3]), 0.0) / 3.0) for w in windows])
     weak = norms <= 3.0 * sd_perp
     if weak.any() or not np.all(norms > 0):
         i = int(np.argmax(weak | ~(norms > 0)))
@@ -452,13 +461,15 @@ def check_consistency(
     windows: Sequence[Window],
     alpha: float = DEFAULT_ALPHA,
     g: float = STANDARD_GRAVITY,
+    locate: bool = True,
 ) -> Consistency:
     """Chi-square test that one rigid (m, p) explains all windows; names a moved pose.
 
     The ML fit's residual chi-square (4n - 4 dof) is compared with its 1 - alpha
     quantile. When it fails, two families of alternatives, each giving some poses a COM
     of their own, are fitted: "pose k alone moved" and "the object moved at pose k
-    and stayed". The alternative with the smallest chi-square names pose k.
+    and stayed". The alternative with the smallest chi-square names pose k
+    (``locate=False`` skips this search).
     """
     if len(windows) < 2:
         raise TooFewPosesError(f"need at least 2 poses, got {len(windows)}")
@@ -468,15 +479,17 @@ def check_consistency(
     if p_value >= alpha:
         return Consistency(True, chi2, dof, p_value, alpha, None, "poses consistent")
     head = f"poses inconsistent (chi2 {chi2:.1f}, dof {dof}, p {p_value:.2g})"
-    if n == 2:
-        msg = (f"{head}: the object moved in the grasp between {windows[0].pose!r} and "
-               f"{windows[1].pose!r}")
+    if n == 2 or not locate:
+        msg = (
+            f"{head}: the object moved in the grasp between {windows[0].pose!r} and "
+            f"{windows[-1].pose!r}"
+        )
         return Consistency(False, chi2, dof, p_value, alpha, None, msg)
     best_chi2, suspect = math.inf, 0
     for k in range(n):
         alone = (np.arange(n) == k).astype(int)
         after = (np.arange(n) >= k).astype(int)
-        for groups in (alone, after) if k > 0 else (alone,):
+        for groups in (alone, after) if 0 < k < n - 1 else (alone,):
             alt = _fit(windows, groups, g).chi2()
             if alt < best_chi2:
                 best_chi2, suspect = alt, k

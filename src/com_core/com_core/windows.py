@@ -22,8 +22,8 @@ from .wrench_model import AXES, SensorModel
 
 __all__ = [
     "MIN_SAMPLES_FOR_COVARIANCE",
-    "TARE_PREFIX",
     "OBJECT_PREFIX",
+    "TARE_PREFIX",
     "Window",
     "pose_of_label",
     "reduce_window",
@@ -85,8 +85,9 @@ def window_from_mean(pose: str, mean: ArrayLike, cov: ArrayLike, n: int = 1) -> 
     mean_a = np.asarray(mean, dtype=np.float64)
     cov_a = np.asarray(cov, dtype=np.float64)
     if mean_a.shape != (6,) or cov_a.shape != (6, 6):
-        raise ValueError(f"window {pose!r}: mean (6,) and cov (6, 6), got {mean_a.shape}, "
-                         f"{cov_a.shape}")
+        raise ValueError(
+            f"window {pose!r}: mean (6,) and cov (6, 6), got {mean_a.shape}, {cov_a.shape}"
+        )
     if not (np.all(np.isfinite(mean_a)) and np.all(np.isfinite(cov_a))):
         raise NonFiniteError(f"window {pose!r}: mean or covariance is not finite")
     return Window(pose, mean_a, cov_a, int(n))

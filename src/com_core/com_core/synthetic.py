@@ -1,0 +1,97 @@
+"""Synthetic explorations from the wrench model: labelled samples or window means.
+
+Used by the Monte Carlo study, the tests and the scripted publisher, so they all see
+the same physics as the estimator assumes (``wrench_model``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .planner import Plan
+from .windows import OBJECT_PREFIX, TARE_PREFIX, Window
+from .wrench_model import STANDARD_GRAVITY, as_vector, gravity_wrench
+
+__all__ = ["Load", "exploration_samples", "object_windows"]
+
+
+@dataclass(frozen=True)
+class Load:
+    """A rigid load on the sensor: mass (kg) and COM (shape (3,), m, sensor frame)."""
+
+    mass: float
+    com: tuple[float, float, float]
+
+
+def _shifts(n: int, shift_sigma: float, rng: np.random.Generator) -> NDArray[np.float64]:
+    """COM shift per pose (n, 3), m: zero at home, N(0, shift_sigma^2 I) at each tilt.
+
+    The paper's reconfiguration: the object moves in the grasp when the hand tilts.
+    """
+    out = np.zeros((n, 3))
+    if shift_sigma > 0:
+        out[1:] = rng.normal(0.0, shift_sigma, size=(n - 1, 3))
+    return out
+
+
+def object_windows(
+    plan: Plan,
+    load: Load,
+    rng: np.random.Generator,
+    shift_sigma: float = 0.0,
+    noise: bool = True,
+    g: float = STANDARD_GRAVITY,
+) -> tuple[list[Window], NDArray[np.float64]]:
+    """Tare-subtracted windows of ``plan`` drawn as their means.
+
+    For white Gaussian noise the mean of N samples is exactly N(w, cov) with the plan's
+    window covariance, so drawing the mean is the same experiment as averaging samples.
+
+    Returns the windows and the true COM per pose (n, 3), m (differs from ``load.com``
+    only with ``shift_sigma`` > 0).
+    """
+    g_dirs = plan.gravity_directions()
+    n = len(g_dirs)
+    coms = np.asarray(load.com, dtype=np.float64) + _shifts(n, shift_sigma, rng)
+    cov = plan.window_cov()
+    chol = np.linalg.cholesky(cov) if noise else np.zeros((6, 6))
+    windows = []
+    for (pose, _), d, com in zip(plan.poses(), g_dirs, coms, strict=True):
+        mean = gravity_wrench(load.mass, com, g * d) + chol @ rng.standard_normal(6)
+        windows.append(Window(pose, mean, cov.copy(), plan.samples_per_window()))
+    return windows, coms
+
+
+def exploration_samples(
+    plan: Plan,
+    load: Load,
+    hand: Load,
+    rng: np.random.Generator,
+    shift_sigma: float = 0.0,
+    tare_dwell: float | None = None,
+    g: float = STANDARD_GRAVITY,
+) -> list[tuple[str, NDArray[np.float64]]]:
+    """Labelled raw samples of a whole exploration: tare pass, then object pass.
+
+    Returns (label, samples (N, 6)) in time order: ``tare/<pose>`` windows of the empty
+    hand, then ``object/<pose>`` windows of hand + object, each through ``plan.sensor``
+    (noise, bias, quantisation, saturation). N, N m; sensor frame.
+    """
+    g_dirs = g * plan.gravity_directions()
+    poses = [name for name, _ in plan.poses()]
+    coms = as_vector(load.com, 3, "com") + _shifts(len(poses), shift_sigma, rng)
+    hand_com = as_vector(hand.com, 3, "hand com")
+    n_obj = plan.samples_per_window()
+    dwell_tare = plan.dwell if tare_dwell is None else tare_dwell
+    n_tare = max(1, round(dwell_tare * plan.sensor.rate_hz))
+    out = []
+    for pose, g_s in zip(poses, g_dirs, strict=True):
+        hand_w = gravity_wrench(hand.mass, hand_com, g_s)
+        out.append((TARE_PREFIX + pose, plan.sensor.measure(np.tile(hand_w, (n_tare, 1)), rng)))
+    for pose, g_s, com in zip(poses, g_dirs, coms, strict=True):
+        w = gravity_wrench(hand.mass, hand_com, g_s) + gravity_wrench(load.mass, com, g_s)
+        out.append((OBJECT_PREFIX + pose, plan.sensor.measure(np.tile(w, (n_obj, 1)), rng)))
+    return out

@@ -1,0 +1,132 @@
+"""Wrench model, sensor model, static windows and the per-pose tare."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from com_core.errors import MissingTareError, MotionError, NonFiniteError, SaturationError
+from com_core.estimators import ml
+from com_core.planner import Plan
+from com_core.synthetic import Load, exploration_samples
+from com_core.windows import pose_of_label, reduce_window, subtract_tare
+from com_core.wrench_model import (
+    SensorModel,
+    gravity_in_sensor,
+    gravity_wrench,
+    rotation_about,
+    skew,
+)
+
+SENSOR = SensorModel.from_scalars(0.1, 0.005, limit_f=50.0, limit_tau=5.0)
+
+
+def test_core_never_imports_rclpy():
+    code = (
+        "import sys, com_core.study, com_core.estimators, com_core.planner, "
+        "com_core.synthetic, com_core.windows; "
+        "sys.exit('rclpy' in sys.modules)"
+    )
+    assert subprocess.run([sys.executable, "-c", code], check=False).returncode == 0
+
+
+def test_wrench_model_geometry():
+    rng = np.random.default_rng(0)
+    a, b = rng.normal(size=3), rng.normal(size=3)
+    assert_allclose(skew(a) @ b, np.cross(a, b))
+    R = rotation_about(a, 0.7)
+    assert_allclose(R @ R.T, np.eye(3), atol=1e-15)
+    assert_allclose(R @ a, a)
+    w = gravity_wrench(0.3, b, gravity_in_sensor(R))
+    assert_allclose(np.linalg.norm(w[:3]), 0.3 * 9.80665)
+    assert abs(w[:3] @ w[3:]) < 1e-12  # the torque of a force is perpendicular to it
+    with pytest.raises(ValueError, match=r"shape \(3,\), got shape \(2,\)"):
+        gravity_wrench(1.0, [1.0, 2.0], [0, 0, -9.8])
+
+
+def test_sensor_model_statistics_quantisation_saturation_and_seed():
+    sensor = SensorModel.from_scalars(
+        0.1,
+        0.005,
+        bias_f=0.3,
+        bias_tau=-0.02,
+        resolution_f=0.01,
+        resolution_tau=0.0005,
+        limit_f=20.0,
+        limit_tau=1.0,
+    )
+    true = np.array([1.0, -2.0, 3.0, 0.1, -0.2, 0.05])
+    n = 20000
+    x = sensor.measure(np.tile(true, (n, 1)), np.random.default_rng(1))
+    sd = np.sqrt(np.diag(sensor.sample_covariance()))
+    assert_allclose(x.mean(axis=0), true + sensor.bias, atol=5 * sd.max() / math.sqrt(n))
+    assert_allclose(x.std(axis=0), sd, rtol=5 / math.sqrt(2 * n))
+    assert_allclose(x[:, :3] / 0.01, np.round(x[:, :3] / 0.01), atol=1e-9)
+    assert_allclose(x, sensor.measure(np.tile(true, (n, 1)), np.random.default_rng(1)))
+    big = sensor.measure([25.0, 0, 0, 0, 0, 0], np.random.default_rng(2))
+    assert big[0] == 20.0 and sensor.saturated(big)[0]
+    with pytest.raises(ValueError):
+        SensorModel.from_scalars(-1.0, 0.0)
+
+
+def test_reduce_window_mean_covariance_and_bad_samples():
+    rng = np.random.default_rng(3)
+    w_true = gravity_wrench(0.5, (0.01, 0.02, 0.1), [0, 0, -9.8])
+    x = SENSOR.measure(np.tile(w_true, (1000, 1)), rng)
+    win = reduce_window("home", x, SENSOR)
+    assert_allclose(win.mean, x.mean(axis=0))
+    assert_allclose(win.cov, np.cov(x, rowvar=False) / 1000)
+    x_nan = x.copy()
+    x_nan[17, 4] = np.nan
+    with pytest.raises(NonFiniteError, match="1 of 1000 samples"):
+        reduce_window("home", x_nan, SENSOR)
+    x_sat = x.copy()
+    x_sat[5, 2] = 50.0
+    with pytest.raises(SaturationError, match="fz"):
+        reduce_window("home", x_sat, SENSOR)
+    with pytest.raises(ValueError, match="too few"):
+        reduce_window("home", x[:5])
+    assert_allclose(reduce_window("home", x[:5], SENSOR).cov, SENSOR.sample_covariance() / 5)
+
+
+def test_motion_inside_a_window_is_rejected_and_static_windows_are_not():
+    rng = np.random.default_rng(4)
+    w_true = gravity_wrench(0.5, (0.01, 0.02, 0.1), [0, 0, -9.8])
+    static = [SENSOR.measure(np.tile(w_true, (500, 1)), rng) for _ in range(300)]
+    for x in static:
+        reduce_window("home", x, SENSOR)  # no false alarm in 300 windows
+    drift = static[0] + np.linspace(0.0, 0.2, 500)[:, None] * [1, 0, 0, 0, 0, 0]
+    with pytest.raises(MotionError, match="fx drifts"):
+        reduce_window("home", drift)
+    shake = static[1] + 0.5 * np.sin(np.arange(500) * 0.9)[:, None] * [0, 0, 0, 0, 0.1, 0]
+    with pytest.raises(MotionError, match="variance of ty"):
+        reduce_window("home", shake, SENSOR)
+
+
+def test_per_pose_tare_with_a_heavy_off_axis_hand_and_a_constant_tare_is_wrong():
+    """A 1.2 kg hand with its COM 36 mm off-axis; the object is 0.1 kg."""
+    rng = np.random.default_rng(5)
+    plan = Plan(dwell=0.5, sensor=SENSOR, gravity_home=(0.0, 0.0, 1.0))
+    load, hand = Load(0.1, (0.005, -0.01, 0.12)), Load(1.2, (0.03, -0.02, 0.06))
+    labelled = exploration_samples(plan, load, hand, rng)
+    windows = [
+        (pose_of_label(lbl), reduce_window(pose_of_label(lbl)[1], x, SENSOR))
+        for lbl, x in labelled
+    ]
+    tares = [w for (kind, _), w in windows if kind == "tare"]
+    objects = [w for (kind, _), w in windows if kind == "object"]
+    est = ml(subtract_tare(objects, tares))
+    err = np.abs(est.com - load.com)
+    assert np.all(err < 4 * est.sigma_com)
+    assert abs(est.mass - load.mass) < 4 * est.sigma_mass
+    # the home tare subtracted from every pose leaves the hand's change of wrench in
+    constant = ml(subtract_tare(objects, [replace(t, mean=tares[0].mean) for t in tares]))
+    assert np.abs(constant.com - load.com).max() > 20 * est.sigma_com.max()
+    with pytest.raises(MissingTareError, match="tilt_y-"):
+        subtract_tare(objects, tares[:-1])
