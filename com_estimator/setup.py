@@ -14,5 +14,11 @@ setup(
     zip_safe=True,
     description="Estimator node for object mass and COM from wrist F/T wrenches; bag replay",
     license="Apache-2.0",
-    entry_points={"console_scripts": []},
+    entry_points={
+        "console_scripts": [
+            "estimator_node = com_estimator.estimator_node:main",
+            "replay = com_estimator.replay:main",
+            "synthetic_exploration = com_estimator.synthetic_exploration:main",
+        ]
+    },
 )

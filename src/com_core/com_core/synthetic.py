@@ -12,10 +12,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .planner import Plan
-from .windows import OBJECT_PREFIX, TARE_PREFIX, Window
+from .windows import DONE, MOVING, OBJECT_PREFIX, TARE_PREFIX, Window
 from .wrench_model import STANDARD_GRAVITY, as_vector, gravity_wrench
 
-__all__ = ["Load", "exploration_samples", "object_windows"]
+__all__ = ["Load", "Stream", "exploration_samples", "exploration_stream", "object_windows"]
 
 
 @dataclass(frozen=True)
@@ -65,6 +65,32 @@ def object_windows(
     return windows, coms
 
 
+def _exploration_truth(
+    plan: Plan,
+    load: Load,
+    hand: Load,
+    rng: np.random.Generator,
+    shift_sigma: float,
+    tare_dwell: float | None,
+    g: float,
+) -> list[tuple[str, NDArray[np.float64], int]]:
+    """(label, true wrench (6,), samples) per window: tare pass, then object pass."""
+    g_dirs = g * plan.gravity_directions()
+    poses = [name for name, _ in plan.poses()]
+    coms = as_vector(load.com, 3, "com") + _shifts(len(poses), shift_sigma, rng)
+    hand_com = as_vector(hand.com, 3, "hand com")
+    n_obj = plan.samples_per_window()
+    tare_s = plan.dwell if tare_dwell is None else tare_dwell
+    n_tare = max(1, round(tare_s * plan.sensor.rate_hz))
+    out = []
+    for pose, g_s in zip(poses, g_dirs, strict=True):
+        out.append((TARE_PREFIX + pose, gravity_wrench(hand.mass, hand_com, g_s), n_tare))
+    for pose, g_s, com in zip(poses, g_dirs, coms, strict=True):
+        w = gravity_wrench(hand.mass, hand_com, g_s) + gravity_wrench(load.mass, com, g_s)
+        out.append((OBJECT_PREFIX + pose, w, n_obj))
+    return out
+
+
 def exploration_samples(
     plan: Plan,
     load: Load,
@@ -80,18 +106,55 @@ def exploration_samples(
     hand, then ``object/<pose>`` windows of hand + object, each through ``plan.sensor``
     (noise, bias, quantisation, saturation). N, N m; sensor frame.
     """
-    g_dirs = g * plan.gravity_directions()
-    poses = [name for name, _ in plan.poses()]
-    coms = as_vector(load.com, 3, "com") + _shifts(len(poses), shift_sigma, rng)
-    hand_com = as_vector(hand.com, 3, "hand com")
-    n_obj = plan.samples_per_window()
-    dwell_tare = plan.dwell if tare_dwell is None else tare_dwell
-    n_tare = max(1, round(dwell_tare * plan.sensor.rate_hz))
-    out = []
-    for pose, g_s in zip(poses, g_dirs, strict=True):
-        hand_w = gravity_wrench(hand.mass, hand_com, g_s)
-        out.append((TARE_PREFIX + pose, plan.sensor.measure(np.tile(hand_w, (n_tare, 1)), rng)))
-    for pose, g_s, com in zip(poses, g_dirs, coms, strict=True):
-        w = gravity_wrench(hand.mass, hand_com, g_s) + gravity_wrench(load.mass, com, g_s)
-        out.append((OBJECT_PREFIX + pose, plan.sensor.measure(np.tile(w, (n_obj, 1)), rng)))
-    return out
+    truth = _exploration_truth(plan, load, hand, rng, shift_sigma, tare_dwell, g)
+    return [(label, plan.sensor.measure(np.tile(w, (n, 1)), rng)) for label, w, n in truth]
+
+
+@dataclass(frozen=True)
+class Stream:
+    """A stamped exploration as the sensor and the sequencer publish it.
+
+    stamps : (N,) ns; wrenches : (N, 6) N and N m, sensor frame; labels : (stamp ns,
+    label) with ``moving`` between windows and ``done`` at the end.
+    """
+
+    stamps: NDArray[np.int64]
+    wrenches: NDArray[np.float64]
+    labels: list[tuple[int, str]]
+
+
+def exploration_stream(
+    plan: Plan,
+    load: Load,
+    hand: Load,
+    rng: np.random.Generator,
+    shift_sigma: float = 0.0,
+    tare_dwell: float | None = None,
+    move_time: float = 0.2,
+    start_ns: int = 1_000_000_000,
+    g: float = STANDARD_GRAVITY,
+) -> Stream:
+    """The exploration of ``exploration_samples`` as one stamped stream.
+
+    Between windows the wrench ramps linearly from one pose's to the next over
+    ``move_time`` s, labelled ``moving``; ``done`` follows the last window and 50 ms of
+    samples follow ``done``, so a consumer sees the stream pass it.
+    """
+    truth = _exploration_truth(plan, load, hand, rng, shift_sigma, tare_dwell, g)
+    dt = 1e9 / plan.sensor.rate_hz
+    n_move = max(2, round(move_time * plan.sensor.rate_hz))
+    pieces, labels, t = [], [], 0
+    previous = truth[0][1]
+    for label, w, n in truth:
+        labels.append((start_ns + round(t * dt), MOVING))
+        pieces.append(np.linspace(previous, w, n_move))
+        t += n_move
+        labels.append((start_ns + round(t * dt), label))
+        pieces.append(np.tile(w, (n, 1)))
+        t += n
+        previous = w
+    labels.append((start_ns + round(t * dt), DONE))
+    pieces.append(np.tile(previous, (max(1, round(0.05 * plan.sensor.rate_hz)), 1)))
+    true = np.concatenate(pieces)
+    stamps = start_ns + np.round(np.arange(len(true)) * dt).astype(np.int64)
+    return Stream(stamps, plan.sensor.measure(true, rng), labels)

@@ -21,7 +21,9 @@ from .errors import MissingTareError, MotionError, NonFiniteError, SaturationErr
 from .wrench_model import AXES, SensorModel
 
 __all__ = [
+    "DONE",
     "MIN_SAMPLES_FOR_COVARIANCE",
+    "MOVING",
     "OBJECT_PREFIX",
     "TARE_PREFIX",
     "Window",
@@ -36,6 +38,10 @@ MIN_SAMPLES_FOR_COVARIANCE = 30
 
 TARE_PREFIX = "tare/"
 OBJECT_PREFIX = "object/"
+MOVING = "moving"
+DONE = "done"
+"""Labels: ``tare/<pose>`` and ``object/<pose>`` name static windows; ``moving`` marks
+motion between them; ``done`` ends an exploration."""
 
 _MOTION_Z = 6.0
 """Threshold (standard scores) of the motion tests; a false alarm < 1e-8 per axis."""

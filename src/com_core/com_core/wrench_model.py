@@ -115,6 +115,8 @@ class SensorModel:
             raise ValueError("sigma and resolution must be >= 0 and limit > 0")
         if not self.rate_hz > 0:
             raise ValueError(f"rate_hz must be > 0, got {self.rate_hz}")
+        object.__setattr__(self, "_quantised", bool(np.any(self.resolution > 0)))
+        object.__setattr__(self, "_limited", bool(np.any(np.isfinite(self.limit))))
 
     @classmethod
     def from_scalars(
@@ -153,10 +155,20 @@ class SensorModel:
         A reading beyond the range is clipped to it, as an ADC does; ``saturated`` finds it.
         """
         w = np.asarray(wrench, dtype=np.float64)
-        reading = w + self.bias + rng.standard_normal(w.shape) * self.sigma
-        q = np.where(self.resolution > 0, self.resolution, 1.0)
-        reading = np.where(self.resolution > 0, np.round(reading / q) * q, reading)
-        return np.clip(reading, -self.limit, self.limit)
+        return self.apply(w, rng.standard_normal(w.shape))
+
+    def apply(self, wrench: ArrayLike, normals: ArrayLike) -> NDArray[np.float64]:
+        """``measure`` with the standard normal draws given (same shape as ``wrench``).
+
+        For callers that draw their noise in blocks (one sample at a time at 1 kHz).
+        """
+        reading = np.asarray(wrench, dtype=np.float64) + self.bias + normals * self.sigma
+        if self._quantised:
+            q = np.where(self.resolution > 0, self.resolution, 1.0)
+            reading = np.where(self.resolution > 0, np.round(reading / q) * q, reading)
+        if self._limited:
+            reading = np.minimum(np.maximum(reading, -self.limit), self.limit)
+        return reading
 
     def saturated(self, reading: ArrayLike) -> NDArray[np.bool_]:
         """Boolean mask, same shape as ``reading``: the value is at or beyond the range."""

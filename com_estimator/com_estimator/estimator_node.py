@@ -1,0 +1,273 @@
+"""com_estimator node: object mass and COM from the wrist F/T stream and pose labels.
+
+Subscribes
+    /ft_sensor/wrench (geometry_msgs/WrenchStamped; best effort, depth 2000; raw CDR
+    decoded in batches), /exploration_sequencer/pose (std_msgs/Header: frame_id is the
+    label, stamp the sensor time from which it applies; reliable, transient local).
+Publishes
+    ~/estimate (geometry_msgs/InertiaStamped: m, com in ft_sensor; transient local),
+    /diagnostics (diagnostic_msgs/DiagnosticArray: status, reason, sigmas, chi-square).
+Services
+    ~/solve (std_srvs/Trigger): estimate now from what has arrived.
+    ~/reset (std_srvs/Trigger): forget the current exploration.
+The estimation is ``com_core.exploration``; this node only moves messages in and out.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import traceback
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import InertiaStamped, WrenchStamped
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.clock import Clock, ClockType
+from rclpy.executors import ExternalShutdownException
+from rclpy.experimental import EventsExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import Header
+from std_srvs.srv import Trigger
+
+from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC
+from com_core.cdr import decode_header, decode_wrench_batch
+from com_core.exploration import ERROR, METHODS, OK, WARN, Exploration, Solution, format_solution
+from com_core.rosenv import keep_dds_local
+from com_core.windows import DONE
+from com_core.wrench_model import SensorModel
+
+DEFAULTS = Exploration()
+LEVELS = {OK: DiagnosticStatus.OK, WARN: DiagnosticStatus.WARN, ERROR: DiagnosticStatus.ERROR}
+
+PARAMETERS = {
+    "method": (DEFAULTS.method, "'ml' (multi-pose maximum likelihood) or 'two_pose' (paper)"),
+    "alpha": (DEFAULTS.alpha, "false-alarm rate of the object-moved test, (0, 0.5)"),
+    "expected_frame": (DEFAULTS.expected_frame, "frame_id wrenches must carry; others dropped"),
+    "sigma_f": (0.0, "sensor force noise per sample, N (0: unknown; motion test by drift)"),
+    "sigma_tau": (0.0, "sensor torque noise per sample, N m (0: unknown)"),
+    "limit_f": (0.0, "sensor force range, N (0: no saturation check)"),
+    "limit_tau": (0.0, "sensor torque range, N m (0: no saturation check)"),
+    "min_tilt_sigmas": (DEFAULTS.min_tilt_sigmas, "refuse tilts below this many sigma of noise"),
+    "solve_timeout": (1.0, "s (wall) to wait after 'done' for samples up to its stamp"),
+}
+
+
+class EstimatorNode(Node):
+    """Thin adapter from messages to ``com_core.exploration.Exploration``."""
+
+    def __init__(self) -> None:
+        super().__init__("com_estimator")
+        for name, (default, text) in PARAMETERS.items():
+            self.declare_parameter(name, default, ParameterDescriptor(description=text))
+        self.add_on_set_parameters_callback(self.validate_parameters)
+        self._raw: list[bytes] = []
+        self._exploration = self._new_exploration()
+        self._done_stamp: int | None = None
+        self._done_wall = 0.0
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self._estimate_pub = self.create_publisher(InertiaStamped, "~/estimate", latched)
+        self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        wrench_qos = QoSProfile(depth=2000, reliability=ReliabilityPolicy.BEST_EFFORT)
+        self.create_subscription(
+            WrenchStamped, WRENCH_TOPIC, self.wrench_callback, wrench_qos, raw=True
+        )
+        pose_qos = QoSProfile(depth=100, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.create_subscription(Header, POSE_TOPIC, self.pose_callback, pose_qos, raw=True)
+        self.create_service(Trigger, "~/solve", self.solve_callback)
+        self.create_service(Trigger, "~/reset", self.reset_callback)
+        steady = Clock(clock_type=ClockType.STEADY_TIME)  # keeps running if /clock stops
+        self.create_timer(0.02, self.drain_callback, clock=steady)
+        self.get_logger().info(
+            f"estimating with method={self._param('method')}; waiting for {POSE_TOPIC} labels"
+        )
+
+    # --- parameters -----------------------------------------------------------------
+
+    def _param(self, name: str):
+        return self.get_parameter(name).value
+
+    def validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
+        checks = {
+            "method": lambda v: v in METHODS,
+            "alpha": lambda v: 0.0 < v < 0.5,
+            "expected_frame": lambda v: isinstance(v, str),
+            "min_tilt_sigmas": lambda v: v >= 0.0,
+            "solve_timeout": lambda v: v > 0.0,
+        }
+        for p in params:
+            ok = checks.get(p.name, lambda v: isinstance(v, float) and v >= 0.0)
+            try:
+                valid = ok(p.value)
+            except TypeError:
+                valid = False
+            if not valid:
+                reason = f"{p.name}={p.value!r} refused: {PARAMETERS[p.name][1]}"
+                self.get_logger().error(reason)
+                return SetParametersResult(successful=False, reason=reason)
+        return SetParametersResult(successful=True)
+
+    def _settings(self) -> dict:
+        """Exploration settings from the current parameters."""
+        sigma = (self._param("sigma_f"), self._param("sigma_tau"))
+        limits = (self._param("limit_f"), self._param("limit_tau"))
+        sensor = None
+        if any(s > 0 for s in sigma) or any(lim > 0 for lim in limits):
+            sensor = SensorModel.from_scalars(
+                *sigma,
+                limit_f=limits[0] or math.inf,
+                limit_tau=limits[1] or math.inf,
+            )
+        return {
+            "method": self._param("method"),
+            "expected_frame": self._param("expected_frame"),
+            "sensor": sensor,
+            "alpha": self._param("alpha"),
+            "min_tilt_sigmas": self._param("min_tilt_sigmas"),
+        }
+
+    def _new_exploration(self) -> Exploration:
+        return Exploration(**self._settings())
+
+    def _solve(self, until_ns: int) -> Solution:
+        """Solve the current exploration with the parameters in force now."""
+        for key, value in self._settings().items():
+            setattr(self._exploration, key, value)
+        try:
+            solution = self._exploration.solve(until_ns=until_ns)
+        except Exception as exc:  # a defect must not kill the node: report it as ERROR
+            self.get_logger().error(f"solve failed: {traceback.format_exc()}")
+            solution = Solution(ERROR, f"internal error: {exc!r}", self._param("method"))
+        self._publish(solution, until_ns)
+        return solution
+
+    # --- input --------------------------------------------------------------------
+
+    def wrench_callback(self, raw: bytes) -> None:
+        self._raw.append(raw)
+
+    def pose_callback(self, raw: bytes) -> None:
+        self._drain()
+        stamp, label = decode_header(raw)
+        self._exploration.add_label(stamp, label)
+        self.get_logger().info(f"pose {label!r} from t={stamp * 1e-9:.3f} s")
+        if label == DONE and self._done_stamp is None:
+            self._done_stamp, self._done_wall = stamp, time.monotonic()
+
+    def _drain(self) -> None:
+        if not self._raw:
+            return
+        raws, self._raw = self._raw, []
+        try:
+            stamps, wrenches, frames = decode_wrench_batch(raws)
+        except (ValueError, IndexError) as exc:  # malformed bytes: drop the batch, say so
+            self.get_logger().error(f"dropped {len(raws)} undecodable wrench messages: {exc}")
+            return
+        self._exploration.add_samples(stamps, wrenches, frames)
+
+    def drain_callback(self) -> None:
+        self._drain()
+        if self._done_stamp is None:
+            return
+        arrived = self._exploration.samples()[0]
+        caught_up = arrived.size > 0 and arrived[-1] >= self._done_stamp
+        if caught_up or time.monotonic() - self._done_wall > self._param("solve_timeout"):
+            self._solve(self._done_stamp)
+            self._exploration, self._done_stamp = self._new_exploration(), None
+
+    # --- services -----------------------------------------------------------------
+
+    def solve_callback(self, request: Trigger.Request, response: Trigger.Response):
+        self._drain()
+        stamps = self._exploration.samples()[0]
+        until = (
+            self._done_stamp
+            if self._done_stamp is not None
+            else (int(stamps[-1]) + 1 if stamps.size else 0)
+        )
+        solution = self._solve(until)
+        response.success = solution.status != ERROR
+        response.message = format_solution(solution)
+        return response
+
+    def reset_callback(self, request: Trigger.Request, response: Trigger.Response):
+        self._drain()
+        n = self._exploration.sample_count
+        self._exploration, self._done_stamp = self._new_exploration(), None
+        response.success, response.message = True, f"cleared {n} samples"
+        self.get_logger().info(response.message)
+        return response
+
+    # --- output -------------------------------------------------------------------
+
+    def _publish(self, solution: Solution, stamp_ns: int) -> None:
+        for window in solution.windows:
+            f = window.force
+            self.get_logger().info(
+                f"window {window.pose!r}: {window.n} samples, |f| = {math.hypot(*f):.4f} N"
+            )
+        summary = format_solution(solution)
+        if solution.status == OK:  # one call site per severity (rclpy requires it)
+            self.get_logger().info(summary)
+        elif solution.status == WARN:
+            self.get_logger().warning(summary)
+        else:
+            self.get_logger().error(summary)
+        header = Header(frame_id=self._param("expected_frame") or "ft_sensor")
+        header.stamp.sec, header.stamp.nanosec = divmod(max(stamp_ns, 0), 1_000_000_000)
+        if solution.estimate is not None:
+            msg = InertiaStamped(header=header)
+            msg.inertia.m = solution.estimate.mass
+            msg.inertia.com.x, msg.inertia.com.y, msg.inertia.com.z = (
+                float(c) for c in solution.estimate.com
+            )
+            self._estimate_pub.publish(msg)
+        values = [KeyValue(key=k, value=_text(v)) for k, v in _flatten(solution.as_dict())]
+        values.append(KeyValue(key="samples", value=str(self._exploration.sample_count)))
+        status = DiagnosticStatus(
+            level=LEVELS[solution.status],
+            name="com_estimator: exploration",
+            message=solution.reason,
+            hardware_id=header.frame_id,
+            values=values,
+        )
+        self._diag_pub.publish(DiagnosticArray(header=header, status=[status]))
+
+
+def _flatten(d: dict) -> list[tuple[str, object]]:
+    out: list[tuple[str, object]] = []
+    for key, value in d.items():
+        if key in ("com", "sigma_com"):
+            out += [(f"{key}_{axis}", v) for axis, v in zip("xyz", value, strict=True)]
+        elif key not in ("reason", "notes"):
+            out.append((key, value))
+    return out
+
+
+def _text(value: object) -> str:
+    """Floats as repr: the shortest text that reads back to the same double."""
+    if isinstance(value, list):
+        return ",".join(map(str, value))
+    return repr(value) if isinstance(value, float) else str(value)
+
+
+def main(args: list[str] | None = None) -> None:
+    keep_dds_local()
+    rclpy.init(args=args)
+    node = EstimatorNode()
+    executor = EventsExecutor()
+    executor.add_node(node)
+    try:
+        while rclpy.ok():
+            executor.spin_once(timeout_sec=0.1)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == "__main__":
+    main()

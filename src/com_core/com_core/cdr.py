@@ -1,0 +1,91 @@
+"""Decode the two messages the estimator reads straight from their CDR bytes.
+
+Decoding with numpy costs ~0.1 us per message in batches, against 24-36 us for
+``rclpy.serialization.deserialize_message``; the node (raw subscription) and the
+offline replay (raw bag records) use the same functions, so both see the same doubles.
+
+Layouts (XCDR1, little endian; 4-byte encapsulation header, body offsets below):
+- geometry_msgs/WrenchStamped: int32 sec @0, uint32 nanosec @4, uint32 len @8,
+  frame_id (len bytes incl. NUL) @12, then 6 float64 aligned to 8 (force xyz, torque
+  xyz): their offset depends on the frame_id's length.
+- std_msgs/Header: sec, nanosec, len, frame_id as above.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["decode_header", "decode_wrench_batch", "encode_header", "encode_wrench_stamped"]
+
+_ENCAPSULATION = b"\x00\x01\x00\x00"  # CDR little endian
+
+
+def _frame_end(raw: bytes) -> tuple[int, str]:
+    (length,) = struct.unpack_from("<I", raw, 12)
+    return 16 + length, raw[16 : 16 + length - 1].decode("utf-8", "replace")
+
+
+def decode_header(raw: bytes) -> tuple[int, str]:
+    """(stamp in ns, frame_id) of a serialized std_msgs/Header."""
+    sec, nanosec = struct.unpack_from("<iI", raw, 4)
+    return sec * 1_000_000_000 + nanosec, _frame_end(raw)[1]
+
+
+def decode_wrench_batch(
+    raws: Sequence[bytes],
+) -> tuple[NDArray[np.int64], NDArray[np.float64], list[str]]:
+    """Stamps (n,) ns, wrenches (n, 6) N and N m, frame_id per message, in input order.
+
+    Messages are grouped by byte length (equal length = equal layout) and each group
+    is decoded with one numpy view.
+    """
+    n = len(raws)
+    stamps = np.empty(n, dtype=np.int64)
+    wrenches = np.empty((n, 6), dtype=np.float64)
+    frames: list[str] = [""] * n
+    by_length: dict[int, list[int]] = {}
+    for i, raw in enumerate(raws):
+        by_length.setdefault(len(raw), []).append(i)
+    for length, idx in by_length.items():
+        first = raws[idx[0]]
+        end, _ = _frame_end(first)
+        offset = 4 + ((end - 4 + 7) & ~7)
+        if offset + 48 > length:
+            raise ValueError(f"not a WrenchStamped: {length} bytes")
+        block = np.frombuffer(b"".join(raws[i] for i in idx), dtype=np.uint8).reshape(-1, length)
+        sec = block[:, 4:8].copy().view("<i4")[:, 0].astype(np.int64)
+        nanosec = block[:, 8:12].copy().view("<u4")[:, 0].astype(np.int64)
+        stamps[idx] = sec * 1_000_000_000 + nanosec
+        wrenches[idx] = block[:, offset : offset + 48].copy().view("<f8")
+        # frame_ids of equal length may still differ: compare the bytes once per group
+        names = {bytes(row[16:end]) for row in block} if len(idx) > 1 else {first[16:end]}
+        if len(names) == 1:
+            name = _frame_end(first)[1]
+            for i in idx:
+                frames[i] = name
+        else:
+            for i in idx:
+                frames[i] = _frame_end(raws[i])[1]
+    return stamps, wrenches, frames
+
+
+def _encode_frame(stamp_ns: int, frame_id: str) -> bytes:
+    sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
+    name = frame_id.encode() + b"\x00"
+    return _ENCAPSULATION + struct.pack("<iII", sec, nanosec, len(name)) + name
+
+
+def encode_header(stamp_ns: int, frame_id: str) -> bytes:
+    """Serialized std_msgs/Header (for tests and tools without rclpy)."""
+    return _encode_frame(stamp_ns, frame_id)
+
+
+def encode_wrench_stamped(stamp_ns: int, frame_id: str, wrench: Sequence[float]) -> bytes:
+    """Serialized geometry_msgs/WrenchStamped (for tests and tools without rclpy)."""
+    head = _encode_frame(stamp_ns, frame_id)
+    pad = (-(len(head) - 4)) % 8
+    return head + b"\x00" * pad + struct.pack("<6d", *wrench)

@@ -1,0 +1,214 @@
+"""Shared, launch-free fixtures: a private ROS domain, node processes, an rclpy context.
+
+- ``ros_domain_id()`` claims a ROS_DOMAIN_ID in 1..100 that no other test session on this
+  machine holds (an exclusive lock file per id, starting from a pid-derived offset).
+- ``ros_env``: the environment for child processes: os.environ plus
+  ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and the test's own ROS_DOMAIN_ID.
+- ``start_node(executable, package, params=None, args=None, name=None)`` starts
+  install/<package>/lib/<package>/<executable> as a process (as ``ros2 run`` would), logging
+  to a file under tmp_path; every node is stopped at teardown (SIGINT, then SIGTERM, then
+  SIGKILL), and its log tail is printed when the test failed.
+- ``rclpy_context``: an rclpy Context on the same domain, shut down at teardown;
+  ``wait_for_messages`` and ``spin_until`` wait on it with a timeout.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import itertools
+import os
+import signal
+import subprocess
+import tempfile
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+# Nothing in the test process may talk DDS beyond this machine.
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+
+WORKSPACE = Path(__file__).resolve().parents[1]
+INSTALL = WORKSPACE / "install"
+_LOCK_DIR = Path(tempfile.gettempdir()) / "ros_domain_id_locks"
+_held_locks: dict[int, Any] = {}
+_counter = itertools.count()
+_LOG_TAIL_LINES = 40
+
+
+def ros_domain_id() -> int:
+    """Claim a ROS_DOMAIN_ID in 1..100 unused by any other test session on this machine.
+
+    Tries ids from an offset derived from the pid and a per-session counter, taking an
+    exclusive non-blocking lock on a file per id; the lock is held until
+    ``release_domain_id`` (or the end of the process).
+    """
+    _LOCK_DIR.mkdir(exist_ok=True)
+    start = os.getpid() * 7 + next(_counter)
+    for k in range(100):
+        domain = (start + k) % 100 + 1
+        if domain in _held_locks:
+            continue
+        handle = open(_LOCK_DIR / f"{domain}.lock", "w")  # noqa: SIM115 - held while in use
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.close()
+            continue
+        _held_locks[domain] = handle
+        return domain
+    raise RuntimeError("all ROS domain ids 1..100 are in use by other test sessions")
+
+
+def release_domain_id(domain: int) -> None:
+    """Release a domain id claimed by ``ros_domain_id``."""
+    handle = _held_locks.pop(domain, None)
+    if handle is not None:
+        handle.close()
+
+
+@pytest.hookimpl(tryfirst=True, hookwrapper=True)
+def pytest_runtest_makereport(item: pytest.Item, call: pytest.CallInfo) -> Iterator[None]:
+    """Remember each phase's report on the item, so fixtures know whether the test failed."""
+    outcome = yield
+    report = outcome.get_result()
+    setattr(item, f"rep_{report.when}", report)
+
+
+@pytest.fixture
+def ros_env() -> Iterator[dict[str, str]]:
+    """Environment for child processes: localhost-only discovery and this test's domain."""
+    domain = ros_domain_id()
+    env = dict(os.environ)
+    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    env["ROS_DOMAIN_ID"] = str(domain)
+    env["PYTHONUNBUFFERED"] = "1"
+    env["RCUTILS_LOGGING_BUFFERED_STREAM"] = "0"
+    yield env
+    release_domain_id(domain)
+
+
+def _parameter_text(value: Any) -> str:
+    """A parameter value as ``--ros-args -p name:=<text>`` expects it (YAML)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_parameter_text(v) for v in value) + "]"
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def _stop(process: subprocess.Popen) -> None:
+    """SIGINT (clean DDS shutdown), then SIGTERM, then SIGKILL."""
+    for sig, wait in ((signal.SIGINT, 10.0), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
+        if process.poll() is not None:
+            return
+        process.send_signal(sig)
+        try:
+            process.wait(timeout=wait)
+        except subprocess.TimeoutExpired:
+            continue
+
+
+def log_tail(path: Path, lines: int = _LOG_TAIL_LINES) -> str:
+    """The last ``lines`` lines of a log file."""
+    try:
+        return "\n".join(path.read_text(errors="replace").splitlines()[-lines:])
+    except OSError as error:
+        return f"(no log: {error})"
+
+
+@pytest.fixture
+def start_node(
+    ros_env: dict[str, str], tmp_path: Path, request: pytest.FixtureRequest
+) -> Iterator[Callable[..., subprocess.Popen]]:
+    """Callable that starts a node's console script as a process; all are stopped at teardown.
+
+    ``start_node(executable, package, params=None, args=None, name=None)``: ``params`` become
+    ``-p name:=value`` (pass ``{"use_sim_time": True}`` to ask for sim time), ``args`` are
+    extra command-line arguments placed before ``--ros-args``, ``name`` remaps the node name.
+    The process's ``log_path`` attribute is its stdout+stderr log.
+    """
+    started: list[tuple[subprocess.Popen, Path]] = []
+
+    def start(
+        executable: str,
+        package: str,
+        params: dict[str, Any] | None = None,
+        args: list[str] | None = None,
+        name: str | None = None,
+    ) -> subprocess.Popen:
+        path = INSTALL / package / "lib" / package / executable
+        if not path.exists():
+            raise FileNotFoundError(f"{path} not found: build the workspace (make setup)")
+        command = [str(path), *(args or []), "--ros-args"]
+        if name:
+            command += ["-r", f"__node:={name}"]
+        for key, value in (params or {}).items():
+            command += ["-p", f"{key}:={_parameter_text(value)}"]
+        log_path = tmp_path / f"{name or executable}-{len(started)}.log"
+        with open(log_path, "w") as log:
+            process = subprocess.Popen(
+                command, env=ros_env, stdout=log, stderr=subprocess.STDOUT, cwd=tmp_path
+            )
+        process.log_path = log_path  # type: ignore[attr-defined]
+        started.append((process, log_path))
+        return process
+
+    yield start
+    for process, _ in reversed(started):
+        _stop(process)
+    failed = any(
+        getattr(getattr(request.node, f"rep_{when}", None), "failed", False)
+        for when in ("setup", "call")
+    )
+    if failed:
+        for process, log_path in started:
+            print(f"\n----- {log_path.name} (exit code {process.returncode}), last lines -----")
+            print(log_tail(log_path))
+
+
+@pytest.fixture
+def rclpy_context(ros_env: dict[str, str]) -> Iterator[Any]:
+    """An rclpy Context initialised on the test's ROS_DOMAIN_ID; shut down at teardown."""
+    import rclpy
+    from rclpy.context import Context
+
+    context = Context()
+    rclpy.init(context=context, domain_id=int(ros_env["ROS_DOMAIN_ID"]))
+    yield context
+    rclpy.try_shutdown(context=context)
+
+
+def spin_until(node: Any, predicate: Callable[[], bool], timeout: float) -> bool:
+    """Spin ``node`` until ``predicate()`` is true or ``timeout`` s (wall) passed."""
+    from rclpy.executors import SingleThreadedExecutor
+
+    executor = SingleThreadedExecutor(context=node.context)
+    executor.add_node(node)
+    deadline = time.monotonic() + timeout
+    try:
+        while not predicate():
+            if time.monotonic() > deadline:
+                return False
+            executor.spin_once(timeout_sec=0.05)
+        return True
+    finally:
+        executor.remove_node(node)
+        executor.shutdown(timeout_sec=0.0)
+
+
+def wait_for_messages(
+    node: Any, msg_type: Any, topic: str, count: int = 1, timeout: float = 10.0, qos: Any = 10
+) -> list[Any]:
+    """Subscribe to ``topic`` and return the first ``count`` messages (fewer on timeout)."""
+    received: list[Any] = []
+    subscription = node.create_subscription(msg_type, topic, received.append, qos)
+    try:
+        spin_until(node, lambda: len(received) >= count, timeout)
+    finally:
+        node.destroy_subscription(subscription)
+    return received[:count]

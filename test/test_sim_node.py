@@ -1,0 +1,261 @@
+"""The sim node as a process: topics, a commanded tilt, and bad commands that change nothing.
+
+Starts install/wrench_sim/lib/wrench_sim/sim_node (no launch file), subscribes to its topics,
+grasps the object and tilts the wrist through the ros2_control-style command topics, and
+compares the mean static wrench with the analytic gravity wrench of hand + object from the
+ground-truth topics and the orientation from the published joint states.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+
+import numpy as np
+import pybullet
+import pybullet_data
+import pytest
+from conftest import log_tail, spin_until
+
+from com_core.wrench_model import gravity_in_sensor, gravity_wrench
+
+rclpy = pytest.importorskip("rclpy")
+
+from builtin_interfaces.msg import Duration  # noqa: E402
+from geometry_msgs.msg import InertiaStamped, WrenchStamped  # noqa: E402
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy  # noqa: E402
+from rosgraph_msgs.msg import Clock  # noqa: E402
+from sensor_msgs.msg import JointState  # noqa: E402
+from std_msgs.msg import Float64MultiArray, String  # noqa: E402
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint  # noqa: E402
+
+from wrench_sim.physics import ARM_JOINT_NAMES, HOME_JOINTS, PICK_JOINTS  # noqa: E402
+
+SIGMA_F, SIGMA_TAU, RATE = 0.05, 0.002, 250.0
+PARAMS = {
+    "object": "box",
+    "object_mass": 0.1,
+    "object_com_offset": [0.01, -0.005, 0.02],
+    "seed": 4,
+    "sigma_f": SIGMA_F,
+    "sigma_tau": SIGMA_TAU,
+    "rate": RATE,
+    "real_time_factor": 4.0,
+}
+LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+SENSOR_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT)
+
+
+def stamp_ns(stamp) -> int:
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
+def sensor_rotation(arm_positions: list[float]) -> np.ndarray:
+    """R_world_sensor of panda_hand (ft_sensor) from the arm joints, by pybullet FK."""
+    client = pybullet.connect(pybullet.DIRECT)
+    try:
+        robot = pybullet.loadURDF(
+            f"{pybullet_data.getDataPath()}/franka_panda/panda.urdf",
+            useFixedBase=True,
+            physicsClientId=client,
+        )
+        for joint, q in enumerate(arm_positions):
+            pybullet.resetJointState(robot, joint, q, physicsClientId=client)
+        orientation = pybullet.getLinkState(
+            robot, 8, computeForwardKinematics=True, physicsClientId=client
+        )[5]
+        return np.array(pybullet.getMatrixFromQuaternion(orientation)).reshape(3, 3)
+    finally:
+        pybullet.disconnect(client)
+
+
+class Client:
+    """The test's view of the sim: latest messages per topic and a command interface."""
+
+    def __init__(self, context) -> None:
+        self.node = rclpy.create_node("sim_node_test", context=context)
+        self.truth: list[InertiaStamped] = []
+        self.hand_truth: list[InertiaStamped] = []
+        self.objects: list[str] = []
+        self.joint_state: JointState | None = None
+        self.wrenches: list[tuple[int, np.ndarray]] = []
+        node = self.node
+        node.create_subscription(
+            InertiaStamped, "/wrench_sim/ground_truth", self.truth.append, LATCHED
+        )
+        node.create_subscription(
+            InertiaStamped, "/wrench_sim/hand_ground_truth", self.hand_truth.append, LATCHED
+        )
+        node.create_subscription(
+            String, "/wrench_sim/object", lambda m: self.objects.append(m.data), LATCHED
+        )
+        node.create_subscription(JointState, "/joint_states", self._joint_state_callback, 10)
+        node.create_subscription(
+            WrenchStamped, "/ft_sensor/wrench", self._wrench_callback, SENSOR_QOS
+        )
+        self.arm = node.create_publisher(
+            JointTrajectory, "/panda_arm_controller/joint_trajectory", 10
+        )
+        self.gripper = node.create_publisher(
+            Float64MultiArray, "/panda_hand_controller/commands", 10
+        )
+
+    def _joint_state_callback(self, msg: JointState) -> None:
+        self.joint_state = msg
+
+    def _wrench_callback(self, msg: WrenchStamped) -> None:
+        f, t = msg.wrench.force, msg.wrench.torque
+        wrench = np.array([f.x, f.y, f.z, t.x, t.y, t.z])
+        self.wrenches.append((stamp_ns(msg.header.stamp), wrench))
+
+    def spin_until(self, predicate, timeout: float) -> bool:
+        return spin_until(self.node, predicate, timeout)
+
+    @property
+    def sim_time(self) -> float:
+        return stamp_ns(self.joint_state.header.stamp) * 1e-9 if self.joint_state else 0.0
+
+    def arm_positions(self) -> np.ndarray:
+        return np.array(self.joint_state.position[:7])
+
+    def send_trajectory(self, names, points: list[tuple[float, list[float]]]) -> None:
+        msg = JointTrajectory(joint_names=list(names))
+        for t, positions in points:
+            sec = math.floor(t)
+            msg.points.append(
+                JointTrajectoryPoint(
+                    positions=positions,
+                    time_from_start=Duration(sec=sec, nanosec=round((t - sec) * 1e9)),
+                )
+            )
+        self.arm.publish(msg)
+
+    def move(self, goal: list[float], duration: float, timeout: float = 20.0) -> None:
+        self.send_trajectory(ARM_JOINT_NAMES, [(duration, list(goal))])
+
+        def arrived() -> bool:
+            state = self.joint_state
+            return (
+                state is not None
+                and np.abs(np.array(state.position[:7]) - goal).max() < 2e-3
+                and np.abs(np.array(state.velocity[:7])).max() < 1e-2
+            )
+
+        assert self.spin_until(arrived, timeout), f"arm did not reach {goal}"
+
+    def wait_sim(self, seconds: float, timeout: float = 20.0) -> None:
+        end = self.sim_time + seconds
+        assert self.spin_until(lambda: self.sim_time >= end, timeout)
+
+
+@pytest.fixture
+def sim(start_node, rclpy_context):
+    process = start_node("sim_node", "wrench_sim", PARAMS)
+    client = Client(rclpy_context)
+    ready = client.spin_until(
+        lambda: client.truth and client.hand_truth and client.objects and client.joint_state,
+        timeout=40.0,
+    )
+    assert ready, f"sim did not come up:\n{log_tail(process.log_path)}"
+    yield process, client
+    client.node.destroy_node()
+
+
+def test_clock_runs_in_sim_time(sim, rclpy_context):
+    process, client = sim
+    clocks: list[int] = []
+    subscription = client.node.create_subscription(
+        Clock, "/clock", lambda m: clocks.append(stamp_ns(m.clock)), 10
+    )
+    assert client.spin_until(lambda: len(clocks) >= 20, 10.0)
+    client.node.destroy_subscription(subscription)
+    assert all(b > a for a, b in itertools.pairwise(clocks))
+    # Real-time factor 4: sim time runs ~4x the wall clock (loosely: the machine is shared).
+    start_sim, start_wall = client.sim_time, time.monotonic()
+    client.wait_sim(2.0)
+    factor = (client.sim_time - start_sim) / (time.monotonic() - start_wall)
+    assert 1.0 < factor < 4.5
+    # Wrenches at `rate` in sim time, frame ft_sensor.
+    stamps = [s for s, _ in client.wrenches[-100:]]
+    assert np.median(np.diff(stamps)) == pytest.approx(1e9 / RATE)
+    hand = client.hand_truth[-1]
+    assert hand.header.frame_id == "ft_sensor"
+    assert hand.inertia.m == pytest.approx(1.01)
+    assert client.objects[-1].startswith("shape=box")
+    assert process.poll() is None
+
+
+def test_commanded_tilt_gives_the_gravity_wrench_of_hand_and_object(sim):
+    process, client = sim
+    client.move(list(PICK_JOINTS), 3.0)
+    client.gripper.publish(Float64MultiArray(data=[0.0]))
+    assert client.spin_until(lambda: "state=held" in client.objects[-1], 20.0), client.objects
+    client.move(list(HOME_JOINTS), 3.0)
+    tilt = np.array(HOME_JOINTS)
+    tilt[5] += 0.4  # joint 6: about hand y
+    tilt[4] -= 0.3  # joint 5: about an axis in the hand's x-z plane
+    client.move(tilt.tolist(), 2.0)
+    client.wait_sim(0.3)
+    start = round(client.sim_time * 1e9)
+    client.wait_sim(1.0)
+    window = np.array([w for s, w in client.wrenches if s > start])
+    assert len(window) > 0.8 * RATE
+
+    g_sensor = gravity_in_sensor(sensor_rotation(client.arm_positions().tolist()))
+    hand, load = client.hand_truth[-1].inertia, client.truth[-1].inertia
+    assert client.truth[-1].header.frame_id == "ft_sensor"
+    assert load.m == pytest.approx(0.1)
+    expected = gravity_wrench(hand.m, [hand.com.x, hand.com.y, hand.com.z], g_sensor)
+    expected += gravity_wrench(load.m, [load.com.x, load.com.y, load.com.z], g_sensor)
+    error = window.mean(axis=0) - expected
+    n = len(window)
+    assert np.abs(error[:3]).max() < 5 * SIGMA_F / n**0.5 + 2e-3, error
+    assert np.abs(error[3:]).max() < 5 * SIGMA_TAU / n**0.5 + 2e-4, error
+    assert window[:, :3].std(axis=0) == pytest.approx([SIGMA_F] * 3, rel=0.3)
+    assert process.poll() is None
+
+
+def test_malformed_commands_are_logged_and_ignored(sim):
+    process, client = sim
+    goal_before = client.arm_positions()
+    nan = float("nan")
+    client.send_trajectory(["panda_joint1", "elbow"], [(1.0, [0.0, 0.0])])
+    client.send_trajectory(["panda_joint1"], [(1.0, [nan])])
+    client.send_trajectory(["panda_joint4"], [(1.0, [1.0])])  # beyond its upper limit 0
+    client.send_trajectory(["panda_joint1"], [(1.0, [0.1]), (0.5, [0.2])])
+    client.send_trajectory(["panda_joint1"], [(1.0, [0.1, 0.2])])
+    client.gripper.publish(Float64MultiArray(data=[0.01, 0.01]))
+    client.gripper.publish(Float64MultiArray(data=[0.3]))
+    client.wait_sim(1.0)
+    assert process.poll() is None
+    assert np.abs(client.arm_positions() - goal_before).max() < 1e-3
+    log = process.log_path.read_text()
+    assert log.count("rejected joint trajectory") == 5, log_tail(process.log_path)
+    assert log.count("rejected gripper command") == 2, log_tail(process.log_path)
+    # Still obeys a good command afterwards.
+    goal = goal_before.copy()
+    goal[0] += 0.1
+    client.move(goal.tolist(), 1.0)
+
+
+def test_invalid_parameter_is_refused_with_a_message(start_node):
+    process = start_node("sim_node", "wrench_sim", {"object": "sphere"})
+    assert process.wait(timeout=30) != 0
+    assert "object must be one of" in process.log_path.read_text()
+
+
+def test_saturation_clips_and_is_logged_once_per_episode(start_node, rclpy_context):
+    # The hand alone weighs 9.9 N: a 5 N force range saturates fz from the start.
+    process = start_node(
+        "sim_node", "wrench_sim", {"limit_f": 5.0, "rate": 100.0, "real_time_factor": 4.0}
+    )
+    client = Client(rclpy_context)
+    try:
+        assert client.spin_until(lambda: len(client.wrenches) >= 100, 40.0)
+        forces = np.array([w[:3] for _, w in client.wrenches])
+        assert np.all(np.abs(forces) <= 5.0)
+        assert np.any(np.abs(forces) == 5.0)
+        assert process.log_path.read_text().count("F/T sensor saturated") == 1
+    finally:
+        client.node.destroy_node()

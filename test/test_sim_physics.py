@@ -1,0 +1,284 @@
+"""The simulated F/T sensor against the analytic gravity wrench, without ROS.
+
+Drives ``wrench_sim.physics.PandaWorld`` directly: grasp the object from its stand, hold the
+arm still at several orientations and compare the sensed wrench with
+``com_core.wrench_model.gravity_wrench`` of hand (+ object) from the ground truth.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from com_core.wrench_model import SensorModel, gravity_wrench
+from wrench_sim.physics import (
+    ARM_JOINT_NAMES,
+    HOME_JOINTS,
+    PICK_JOINTS,
+    PandaWorld,
+    SimConfig,
+)
+from wrench_sim.sensor import WrenchSensor, random_streams
+
+FORCE_TOL = 1e-3  # N
+TORQUE_TOL = 1e-4  # N m
+# Friction mode (real prismatic fingers): measured error of the static wrench, documented in
+# the README. Gravity across the finger axis: <= 0.08 N, 0.02 N m; along it, Bullet adds the
+# finger joints' motor/gear forces, ~0.11 kg x the gravity component along the finger axis.
+FRICTION_ACROSS = (0.08, 0.02)
+FRICTION_ANY = (1.2, 0.13)
+COM_OFFSET = (0.01, -0.005, 0.02)
+
+
+def tilted(joint: int, angle: float, turn: float = 0.0) -> list[float]:
+    """HOME_JOINTS with joint 7 turned by ``turn`` and ``joint`` (0-based) moved by ``angle``."""
+    q = np.array(HOME_JOINTS)
+    q[6] += turn
+    q[joint] += angle
+    return q.tolist()
+
+
+# Gravity in ft_sensor: along z at home; joint 6 tilts about hand y, joint 5 about an axis in
+# the hand's x-z plane; joint 7 turned by -pi/2 then joint 6 by +-pi/2 puts gravity along
+# -+y, the finger axis.
+POSES = {
+    "home": list(HOME_JOINTS),
+    "j6+0.5": tilted(5, 0.5),
+    "j6-0.5": tilted(5, -0.5),
+    "j5+0.5": tilted(4, 0.5),
+    "j5-0.8": tilted(4, -0.8),
+    "fingers-down": tilted(5, np.pi / 2, -np.pi / 2),
+    "fingers-up": tilted(5, -np.pi / 2, -np.pi / 2),
+    "mixed": [0.3, 0.1, -0.4, -2.0, 0.9, 2.3, -0.5],
+}
+ACROSS_FINGERS = ("home", "j6+0.5", "j6-0.5")
+
+
+def grasp(world: PandaWorld) -> None:
+    """Pick the object from its stand and lift it to the home pose."""
+    world.move_arm(PICK_JOINTS, 3.0)
+    world.command_gripper(0.0)
+    world.run(0.5)
+    assert world.object_held, world.events
+    world.move_arm(HOME_JOINTS, 3.0)
+
+
+def hold_and_compare(world: PandaWorld, q: list[float], steps: int = 20) -> np.ndarray:
+    """Move to ``q``, hold still; sensed minus analytic wrench over ``steps`` steps, (n, 6)."""
+    world.move_arm(q, 4.0)
+    world.run(0.2)
+    errors = []
+    for _ in range(steps):
+        world.step()
+        g_sensor = world.gravity_in_sensor()
+        expected = gravity_wrench(*world.hand_ground_truth(), g_sensor)
+        if world.object_held:
+            expected = expected + gravity_wrench(*world.object_ground_truth(), g_sensor)
+        errors.append(world.wrench - expected)
+    return np.array(errors)
+
+
+@pytest.fixture(scope="module")
+def rigid_world():
+    world = PandaWorld(SimConfig(object_shape="box", object_com_offset=COM_OFFSET))
+    yield world
+    world.close()
+
+
+def test_hand_ground_truth_comes_from_the_urdf(rigid_world):
+    mass, com = rigid_world.hand_ground_truth()
+    # panda_hand 0.81 kg at (0, 0, 0.04); fingers 0.1 kg each at (0, +-0.05, 0.0784), open.
+    assert mass == pytest.approx(1.01)
+    assert_allclose(com, [0.0, 0.0, (0.81 * 0.04 + 0.2 * 0.0784) / 1.01], atol=1e-7)
+
+
+def test_hand_only_matches_gravity_wrench_at_every_orientation(rigid_world):
+    assert not rigid_world.object_held
+    for name, q in POSES.items():
+        errors = hold_and_compare(rigid_world, q)
+        assert np.abs(errors[:, :3]).max() < FORCE_TOL, name
+        assert np.abs(errors[:, 3:]).max() < TORQUE_TOL, name
+    rigid_world.move_arm(HOME_JOINTS, 4.0)
+
+
+def test_rigid_grasp_matches_gravity_wrench_at_every_orientation(rigid_world):
+    grasp(rigid_world)
+    mass, com = rigid_world.object_ground_truth()
+    # Box centre 0.115 m below the flange; object frame (x, y, z) = hand (x, -y, -z) at home.
+    assert mass == pytest.approx(0.1)
+    offset = np.array(COM_OFFSET) * [1, -1, -1]
+    assert_allclose(com, np.array([0.0, 0.0, 0.115]) + offset, atol=2e-3)
+    gravity_directions = []
+    for name, q in POSES.items():
+        errors = hold_and_compare(rigid_world, q)
+        assert np.abs(errors[:, :3]).max() < FORCE_TOL, name
+        assert np.abs(errors[:, 3:]).max() < TORQUE_TOL, name
+        gravity_directions.append(rigid_world.gravity_in_sensor() / 9.80665)
+    # The poses include gravity along the finger axis (hand y), both ways.
+    assert max(g[1] for g in gravity_directions) > 0.999
+    assert min(g[1] for g in gravity_directions) < -0.999
+
+
+@pytest.mark.parametrize("shape", ["cylinder", "mug"])
+def test_every_shape_is_grasped_and_measured_exactly(shape):
+    world = PandaWorld(SimConfig(object_shape=shape, object_mass=0.3, seed=3))
+    try:
+        grasp(world)
+        for name in ("j6+0.5", "fingers-down"):
+            errors = hold_and_compare(world, POSES[name])
+            assert np.abs(errors[:, :3]).max() < FORCE_TOL, (shape, name)
+            assert np.abs(errors[:, 3:]).max() < TORQUE_TOL, (shape, name)
+        world.command_gripper(0.04)
+        world.run(0.5)
+        assert not world.object_held
+        assert any("released" in event for event in world.events)
+    finally:
+        world.close()
+
+
+def test_hand_mass_override_scales_the_hand():
+    world = PandaWorld(SimConfig(hand_mass=2.0))
+    try:
+        mass, com = world.hand_ground_truth()
+        assert mass == pytest.approx(2.0)
+        assert_allclose(com, [0.0, 0.0, (0.81 * 0.04 + 0.2 * 0.0784) / 1.01], atol=1e-7)
+        errors = hold_and_compare(world, POSES["j5+0.5"])
+        assert np.abs(errors[:, :3]).max() < FORCE_TOL
+        assert np.abs(errors[:, 3:]).max() < TORQUE_TOL
+    finally:
+        world.close()
+
+
+def test_friction_mode_error_stays_within_the_documented_bound():
+    world = PandaWorld(
+        SimConfig(object_shape="box", grasp_mode="friction", object_com_offset=COM_OFFSET)
+    )
+    try:
+        grasp(world)
+        report = []
+        for name in ("home", "j6+0.5", "j6-0.5", "j5+0.5", "fingers-down", "fingers-up"):
+            error = np.abs(hold_and_compare(world, POSES[name], steps=50).mean(axis=0))
+            report.append(f"{name}: {error[:3].max():.3f} N, {error[3:].max():.4f} N m")
+            assert world.object_held, name
+            bound = FRICTION_ACROSS if name in ACROSS_FINGERS else FRICTION_ANY
+            assert error[:3].max() < bound[0], report
+            assert error[3:].max() < bound[1], report
+        print("friction-mode static wrench error:", "; ".join(report))
+    finally:
+        world.close()
+
+
+def test_slip_sigma_shifts_the_object_at_each_new_tilt():
+    world = PandaWorld(SimConfig(object_com_offset=COM_OFFSET, slip_sigma=0.002, seed=11))
+    try:
+        grasp(world)
+        world.run(0.3)
+        before = world.object_ground_truth()[1]
+        assert not any("shifted" in event for event in world.events)
+        coms = [before]
+        for name in ("j6+0.5", "home"):
+            errors = hold_and_compare(world, POSES[name])
+            coms.append(world.object_ground_truth()[1])
+            # Still exact: the shifted object is what the sensor carries.
+            assert np.abs(errors[:, :3]).max() < FORCE_TOL
+            assert np.abs(errors[:, 3:]).max() < TORQUE_TOL
+        shifts = [np.linalg.norm(b - a) for a, b in itertools.pairwise(coms)]
+        assert all(1e-4 < s < 0.02 for s in shifts), shifts
+        assert sum("shifted" in event for event in world.events) == 2
+    finally:
+        world.close()
+
+
+def run_readings(seed: int, com_offset=None) -> tuple[np.ndarray, tuple]:
+    world = PandaWorld(SimConfig(seed=seed, object_com_offset=com_offset))
+    sensor = WrenchSensor(SensorModel.from_scalars(0.1, 0.005), random_streams(seed)["sensor"])
+    try:
+        world.command_arm(ARM_JOINT_NAMES, [0.5], [POSES["j6+0.5"]])
+        readings = []
+        for _ in range(600):
+            world.step()
+            readings.append(sensor.read(world.wrench))
+        return np.array(readings), world.object.com_offset
+    finally:
+        world.close()
+
+
+def test_same_seed_gives_identical_readings():
+    first, offset_first = run_readings(7)
+    second, offset_second = run_readings(7)
+    other, offset_other = run_readings(8)
+    assert offset_first == offset_second
+    assert np.array_equal(first, second)
+    assert offset_other != offset_first
+    assert not np.array_equal(first, other)
+
+
+def test_sensor_noise_statistics_match_the_sensor_model(rigid_world):
+    model = SensorModel.from_scalars(0.1, 0.005, bias_f=0.2, bias_tau=-0.01)
+    sensor = WrenchSensor(model, np.random.default_rng(3))
+    truth, readings = [], []
+    for _ in range(4000):
+        rigid_world.step()
+        truth.append(rigid_world.wrench)
+        readings.append(sensor.read(rigid_world.wrench))
+    noise = np.array(readings) - np.array(truth)
+    n = len(noise)
+    assert_allclose(noise.mean(axis=0), model.bias, atol=float(5 * model.sigma.max() / n**0.5))
+    assert_allclose(noise.std(axis=0), model.sigma, rtol=0.05)
+
+
+def test_sensor_reads_exactly_what_sensor_model_measure_gives():
+    model = SensorModel(
+        sigma=[0.1, 0.1, 0.1, 0.005, 0.005, 0.005],
+        bias=0.3,
+        resolution=[0.01, 0.0, 0.02, 0.001, 0.0, 0.0],
+        limit=[2.0, 2.0, 2.0, 0.5, 0.5, 0.5],
+    )
+    wrenches = np.random.default_rng(1).normal(0.0, 2.0, (2500, 6))
+    sensor = WrenchSensor(model, np.random.default_rng(5))
+    reference = np.random.default_rng(5)
+    ours = np.array([sensor.read(w) for w in wrenches])
+    expected = np.array([model.measure(w, reference) for w in wrenches])
+    assert np.array_equal(ours, expected)
+    assert np.all(np.abs(ours) <= model.limit)
+    sensor.read(np.full(6, 10.0))
+    assert sensor.saturated
+
+
+@pytest.mark.parametrize(
+    ("names", "times", "positions", "message"),
+    [
+        (["panda_joint9"], [1.0], [[0.0]], "unknown joint"),
+        (["panda_joint1"], [1.0], [[float("nan")]], "NaN"),
+        (["panda_joint1", "panda_joint2"], [1.0], [[0.0]], "positions for 2 joint"),
+        (["panda_joint1"], [1.0, 0.5], [[0.1], [0.2]], "strictly increasing"),
+        (["panda_joint4"], [2.0], [[0.5]], "outside its limits"),
+        (["panda_joint1"], [0.1], [[2.0]], "velocity limit"),
+        (["panda_joint1"], [], [], "no points"),
+    ],
+)
+def test_malformed_arm_commands_are_refused(rigid_world, names, times, positions, message):
+    with pytest.raises(ValueError, match=message):
+        rigid_world.command_arm(names, times, positions)
+    assert rigid_world.arm_idle
+    rigid_world.step()
+
+
+def test_bad_gripper_commands_are_refused(rigid_world):
+    for opening in (-0.01, 0.05, float("nan")):
+        with pytest.raises(ValueError, match="finger opening"):
+            rigid_world.command_gripper(opening)
+
+
+def test_invalid_scene_is_refused():
+    with pytest.raises(ValueError, match="object must be one of"):
+        SimConfig(object_shape="sphere")
+    with pytest.raises(ValueError, match="grasp_mode"):
+        SimConfig(grasp_mode="glue")
+    with pytest.raises(ValueError, match="slip_sigma applies"):
+        SimConfig(grasp_mode="friction", slip_sigma=0.001)
+    with pytest.raises(ValueError, match="outside the box"):
+        PandaWorld(SimConfig(object_com_offset=(0.0, 0.0, 0.5)))

@@ -1,0 +1,72 @@
+"""The sim node's parameters: names, defaults, descriptions, and why a value is refused."""
+
+from __future__ import annotations
+
+import math
+
+from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from wrench_sim.objects import SHAPES
+from wrench_sim.physics import GRASP_MODES, HOME_JOINTS, PICK_JOINTS
+
+__all__ = ["PARAMETERS", "SENSOR_PARAMETERS", "check_parameter", "declare_parameters"]
+
+_START = "read at start-up"
+PARAMETERS = [  # name, default, description, read-only, lower bound of a float
+    ("object", "box", f"shape: {sorted(SHAPES)}; {_START}", True, None),
+    ("object_mass", 0.1, f"object mass, kg; {_START}", True, 1e-6),
+    ("object_com_offset", Parameter.Type.DOUBLE_ARRAY, "COM minus geometric centre, 3 values, m, "
+     f"object frame; unset: drawn from the seed; {_START}", True, None),
+    ("seed", 0, f"seeds the COM draw, sensor noise and grasp shifts; {_START}", True, None),
+    ("grasp_mode", "rigid", f"rigid | friction; {_START}", True, None),
+    ("slip_sigma", 0.0, "rigid mode: sigma of the object's shift at each new tilt, m", False, 0.0),
+    ("hand_mass", 0.0, f"hand + fingers mass, kg; 0 = URDF's 1.01 kg; {_START}", True, 0.0),
+    ("grip_force", 5.0, f"friction mode: force limit per finger, N; {_START}", True, 1e-6),
+    ("home_joints", list(HOME_JOINTS), f"initial arm joints, rad; {_START}", True, None),
+    ("pick_joints", list(PICK_JOINTS), "arm joints that grasp the object on its stand, rad "
+     "(information)", True, None),
+    ("gui", False, f"open the pybullet window; {_START}", True, None),
+    ("sigma_f", 0.0, "sensor noise sigma per force axis, N", False, 0.0),
+    ("sigma_tau", 0.0, "sensor noise sigma per torque axis, N m", False, 0.0),
+    ("bias_f", 0.0, "sensor bias on each force axis, N", False, None),
+    ("bias_tau", 0.0, "sensor bias on each torque axis, N m", False, None),
+    ("resolution_f", 0.0, "force quantisation step, N; 0 = none", False, 0.0),
+    ("resolution_tau", 0.0, "torque quantisation step, N m; 0 = none", False, 0.0),
+    ("limit_f", 0.0, "force range (saturation), N; 0 = none", False, 0.0),
+    ("limit_tau", 0.0, "torque range (saturation), N m; 0 = none", False, 0.0),
+    ("rate", 1000.0, "wrench publish rate, Hz; must divide 1000", False, 1.0),
+    ("real_time_factor", 0.0, "sim s per wall s; 0 = as fast as possible", False, 0.0),
+]  # fmt: skip
+SENSOR_PARAMETERS = tuple(
+    entry[0] for entry in PARAMETERS if entry[0].startswith(("sigma", "bias", "resolution", "lim"))
+)
+
+
+def check_parameter(parameter: Parameter) -> str | None:
+    """Reason why a parameter value is refused, or None when it is fine."""
+    name, value = parameter.name, parameter.value
+    if name == "object" and value not in SHAPES:
+        return f"object must be one of {sorted(SHAPES)}"
+    if name == "grasp_mode" and value not in GRASP_MODES:
+        return f"grasp_mode must be one of {list(GRASP_MODES)}"
+    if name == "object_com_offset" and value is not None and len(value) != 3:
+        return "object_com_offset must be 3 values (m), or unset to draw it from the seed"
+    if name in ("home_joints", "pick_joints") and len(value) != 7:
+        return f"{name} must be 7 values (rad)"
+    if name == "rate" and not (0.0 < value <= 1000.0 and abs(1000.0 / value % 1) < 1e-9):
+        return "rate must divide the 1000 Hz physics rate (1000, 500, 250, 200, 100, ... Hz)"
+    if isinstance(value, float) and not math.isfinite(value):
+        return f"{name} must be finite"
+    return None
+
+
+def declare_parameters(node: Node) -> None:
+    """Declare every parameter of ``PARAMETERS`` on ``node`` with its descriptor."""
+    for name, default, description, read_only, low in PARAMETERS:
+        ranges = [FloatingPointRange(from_value=low, to_value=math.inf)] if low is not None else []
+        descriptor = ParameterDescriptor(
+            description=description, read_only=read_only, floating_point_range=ranges
+        )
+        node.declare_parameter(name, default, descriptor)

@@ -1,0 +1,309 @@
+"""ROS 2 node around ``physics.PandaWorld``: sim time, wrenches, joint states, ground truth.
+
+The node does not spin on a timer: ``run`` steps the physics at 1 kHz as fast as it can (or at
+``real_time_factor``), publishes /clock every step and the wrench every ``1000 / rate`` steps,
+and services its subscriptions every 50 steps with ``spin_once(timeout_sec=0)``.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import rclpy
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import InertiaStamped, WrenchStamped
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.exceptions import ParameterUninitializedException
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSProfile
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray, String
+from trajectory_msgs.msg import JointTrajectory
+
+from com_core.rosenv import keep_dds_local
+from wrench_sim.parameters import SENSOR_PARAMETERS, check_parameter, declare_parameters
+from wrench_sim.physics import TIME_STEP, PandaWorld, SimConfig
+from wrench_sim.sensor import WrenchSensor, random_streams, sensor_model_from_parameters
+
+SENSOR_FRAME = "ft_sensor"
+_SPIN_EVERY = 50  # steps between spin_once calls (50 ms of sim time; one costs ~0.2 ms)
+_JOINT_STATE_EVERY = 10  # steps: 100 Hz
+_REPORT_EVERY = 50  # steps between checks of events, saturation and ground truth
+_TRUTH_MOVE = 5e-5  # m; republish the ground truth when a COM moved more than this
+_LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+class SimNode(Node):
+    """The simulated Panda: publishes what a real arm with a wrist F/T sensor would."""
+
+    def __init__(self) -> None:
+        super().__init__("wrench_sim")
+        self.add_on_set_parameters_callback(self.parameters_callback)
+        declare_parameters(self)
+        parameter = self.get_parameter
+        try:
+            offset = parameter("object_com_offset").value
+        except ParameterUninitializedException:
+            offset = None  # drawn from the seed
+        self.world = PandaWorld(
+            SimConfig(
+                object_shape=parameter("object").value,
+                object_mass=parameter("object_mass").value,
+                object_com_offset=tuple(offset) if offset is not None else None,
+                seed=parameter("seed").value,
+                grasp_mode=parameter("grasp_mode").value,
+                slip_sigma=parameter("slip_sigma").value,
+                hand_mass=parameter("hand_mass").value,
+                grip_force=parameter("grip_force").value,
+                home_joints=tuple(parameter("home_joints").value),
+                gui=parameter("gui").value,
+            )
+        )
+        self.sensor = WrenchSensor(
+            self._sensor_model(), random_streams(self.world.config.seed)["sensor"]
+        )
+        self._real_time_factor = parameter("real_time_factor").value
+        self._publish_every = round(1000.0 / parameter("rate").value)
+        self._pace_origin: tuple[float, float] | None = None
+
+        self.clock_publisher = self.create_publisher(Clock, "/clock", 10)
+        self.wrench_publisher = self.create_publisher(WrenchStamped, "/ft_sensor/wrench", 1000)
+        self.joint_state_publisher = self.create_publisher(JointState, "/joint_states", 100)
+        self.truth_publisher = self.create_publisher(
+            InertiaStamped, "/wrench_sim/ground_truth", _LATCHED
+        )
+        self.hand_truth_publisher = self.create_publisher(
+            InertiaStamped, "/wrench_sim/hand_ground_truth", _LATCHED
+        )
+        self.object_publisher = self.create_publisher(String, "/wrench_sim/object", _LATCHED)
+        self.create_subscription(
+            JointTrajectory, "/panda_arm_controller/joint_trajectory", self.trajectory_callback, 10
+        )
+        self.create_subscription(
+            Float64MultiArray, "/panda_hand_controller/commands", self.gripper_callback, 10
+        )
+        self.executor_ = SingleThreadedExecutor(context=self.context)
+        self.executor_.add_node(self)
+
+        self._wrench = WrenchStamped()
+        self._wrench.header.frame_id = SENSOR_FRAME
+        self._clock = Clock()
+        self._joint_state = JointState()
+        self._saturated = False  # in a saturation episode
+        self._saturated_readings = 0  # since the last report
+        self._published_object: tuple[bool, np.ndarray] | None = None
+        self._published_hand: np.ndarray | None = None
+        self._publish_truth(force=True)
+        spec = self.world.object
+        offset_mm = ", ".join(f"{1e3 * v:.1f}" for v in spec.com_offset)
+        self.get_logger().info(
+            f"ready: {spec.shape} {spec.mass:.3f} kg, COM offset ({offset_mm}) mm, grasp "
+            f"{self.world.config.grasp_mode}, seed {self.world.config.seed}, wrench at "
+            f"{1.0 / (self._publish_every * TIME_STEP):.0f} Hz, real-time factor "
+            f"{self._real_time_factor or 'max'}"
+        )
+
+    def _sensor_model(self, overrides: dict | None = None):
+        values = {name: self.get_parameter(name).value for name in (*SENSOR_PARAMETERS, "rate")}
+        values.update(overrides or {})
+        rate = values.pop("rate")
+        return sensor_model_from_parameters(**values, rate_hz=rate)
+
+    def parameters_callback(self, parameters: list[Parameter]) -> SetParametersResult:
+        """Refuse invalid values with a reason; apply sensor and timing changes at run time."""
+        for parameter in parameters:
+            reason = check_parameter(parameter)
+            if reason is not None:
+                return SetParametersResult(successful=False, reason=reason)
+        if not hasattr(self, "world"):
+            return SetParametersResult(successful=True)  # still declaring
+        changes = {p.name: p.value for p in parameters}
+        if set(changes) & {*SENSOR_PARAMETERS, "rate"}:
+            try:
+                self.sensor.model = self._sensor_model(changes)
+            except ValueError as error:
+                return SetParametersResult(successful=False, reason=str(error))
+            self._publish_every = round(1000.0 / self.sensor.model.rate_hz)
+        if "real_time_factor" in changes:
+            self._real_time_factor = changes["real_time_factor"]
+            self._pace_origin = None
+        if "slip_sigma" in changes:
+            if changes["slip_sigma"] > 0.0 and self.world.config.grasp_mode != "rigid":
+                return SetParametersResult(successful=False, reason="slip_sigma needs rigid mode")
+            self.world.set_slip_sigma(changes["slip_sigma"])
+        for name, value in changes.items():
+            self.get_logger().info(f"parameter {name} set to {value}")
+        return SetParametersResult(successful=True)
+
+    # ------------------------------------------------------------------ commands
+    def trajectory_callback(self, msg: JointTrajectory) -> None:
+        """Follow a joint trajectory; a malformed or unreachable one is logged and ignored."""
+        try:
+            times = [p.time_from_start.sec + 1e-9 * p.time_from_start.nanosec for p in msg.points]
+            positions = [list(p.positions) for p in msg.points]
+            end = self.world.command_arm(list(msg.joint_names), times, positions)
+        except Exception as error:  # a bad command must never stop the sim
+            self.get_logger().error(f"rejected joint trajectory: {error}")
+            return
+        self.get_logger().info(
+            f"following a {len(msg.points)}-point trajectory until t = {end:.3f} s (sim)"
+        )
+
+    def gripper_callback(self, msg: Float64MultiArray) -> None:
+        """Move the fingers: one value, the opening per finger in m (0 closed, 0.04 open)."""
+        try:
+            if len(msg.data) != 1:
+                raise ValueError(f"expected 1 value (opening per finger, m), got {len(msg.data)}")
+            self.world.command_gripper(float(msg.data[0]))
+        except Exception as error:
+            self.get_logger().error(f"rejected gripper command: {error}")
+            return
+        self.get_logger().info(f"gripper to {msg.data[0]:.4f} m per finger")
+
+    # ------------------------------------------------------------------ loop
+    def run(self, duration: float | None = None, publish: bool = True) -> None:
+        """Step and publish until shutdown, or for ``duration`` s of sim time.
+
+        ``publish=False`` skips the DDS publishing (for the benchmark's comparison).
+        """
+        world, sensor = self.world, self.sensor
+        end_steps = None if duration is None else round(duration / TIME_STEP)
+        steps = 0
+        self._pace_origin = None
+        while end_steps is None or steps < end_steps:
+            world.step()
+            steps += 1
+            now = world.time_ns
+            reading = None
+            if steps % self._publish_every == 0:
+                reading = sensor.read(world.wrench)
+                self._saturated_readings += sensor.saturated
+            if publish:
+                self._publish_clock(now)
+                if reading is not None:
+                    self._publish_wrench(now, reading)
+            if publish and steps % _JOINT_STATE_EVERY == 0:
+                self._publish_joint_state(now)
+            if steps % _REPORT_EVERY == 0:
+                self._report()
+            if steps % _SPIN_EVERY == 0:
+                if not rclpy.ok(context=self.context):
+                    break
+                self._pace()
+
+    def _pace(self) -> None:
+        """Service subscriptions; sleep (while spinning) to hold the real-time factor."""
+        self.executor_.spin_once(timeout_sec=0)
+        if self._real_time_factor <= 0.0:
+            return
+        if self._pace_origin is None:
+            self._pace_origin = (time.perf_counter(), self.world.time)
+        wall0, sim0 = self._pace_origin
+        ahead = wall0 + (self.world.time - sim0) / self._real_time_factor - time.perf_counter()
+        if ahead > 0.0:
+            self.executor_.spin_once(timeout_sec=ahead)
+            remaining = wall0 + (self.world.time - sim0) / self._real_time_factor
+            time.sleep(max(0.0, remaining - time.perf_counter()))
+
+    def _publish_clock(self, now: int) -> None:
+        self._clock.clock.sec, self._clock.clock.nanosec = divmod(now, 1_000_000_000)
+        self.clock_publisher.publish(self._clock)
+
+    def _publish_wrench(self, now: int, reading: np.ndarray) -> None:
+        msg = self._wrench
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(now, 1_000_000_000)
+        fx, fy, fz, tx, ty, tz = reading.tolist()
+        force, torque = msg.wrench.force, msg.wrench.torque
+        force.x, force.y, force.z = fx, fy, fz
+        torque.x, torque.y, torque.z = tx, ty, tz
+        self.wrench_publisher.publish(msg)
+
+    def _publish_joint_state(self, now: int) -> None:
+        msg = self._joint_state
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(now, 1_000_000_000)
+        msg.name, msg.position, msg.velocity, msg.effort = self.world.joint_state()
+        self.joint_state_publisher.publish(msg)
+
+    def _report(self) -> None:
+        """Log the world's events and saturation; republish ground truth that moved."""
+        for event in self.world.events:
+            self.get_logger().info(event)
+        self.world.events.clear()
+        saturated, self._saturated_readings = self._saturated_readings, 0
+        if saturated and not self._saturated:
+            self.get_logger().warning(
+                f"t = {self.world.time:.3f} s: F/T sensor saturated, readings clipped to its range"
+            )
+        elif self._saturated and not saturated:
+            self.get_logger().info(f"t = {self.world.time:.3f} s: F/T sensor back in range")
+        self._saturated = bool(saturated)
+        self._publish_truth()
+
+    def _publish_truth(self, force: bool = False) -> None:
+        """Publish the object's and the hand's ground truth if forced, or if it changed.
+
+        The object's is republished when it is grasped or released and, while held, when its
+        COM moved in ``ft_sensor`` by more than 0.05 mm (a slip or a grasp shift).
+        """
+        world = self.world
+        stamp = Time()
+        stamp.sec, stamp.nanosec = divmod(world.time_ns, 1_000_000_000)
+        held = world.object_held
+        last = self._published_object
+        changed = force or last is None or held != last[0]
+        if changed or held:
+            mass, com = world.object_ground_truth()
+            if changed or np.max(np.abs(com - last[1])) > _TRUTH_MOVE:
+                self.truth_publisher.publish(_inertia(stamp, mass, com))
+                self._published_object = (held, com)
+            if changed:
+                state = "held" if held else "not_held"
+                description = (
+                    f"shape={world.object.shape} mass={mass:.4f} "
+                    f"grasp_mode={world.config.grasp_mode} state={state}"
+                )
+                self.object_publisher.publish(String(data=description))
+        hand_mass, hand_com = world.hand_ground_truth()
+        last_hand = self._published_hand
+        if force or last_hand is None or np.max(np.abs(hand_com - last_hand)) > _TRUTH_MOVE:
+            self.hand_truth_publisher.publish(_inertia(stamp, hand_mass, hand_com))
+            self._published_hand = hand_com
+
+    def close(self) -> None:
+        """Release pybullet and the executor."""
+        self.executor_.shutdown(timeout_sec=0.0)
+        self.world.close()
+
+
+def _inertia(stamp, mass: float, com: np.ndarray) -> InertiaStamped:
+    msg = InertiaStamped()
+    msg.header.stamp = stamp
+    msg.header.frame_id = SENSOR_FRAME
+    msg.inertia.m = float(mass)
+    msg.inertia.com.x, msg.inertia.com.y, msg.inertia.com.z = (float(v) for v in com)
+    return msg
+
+
+def main(args: list[str] | None = None) -> int:
+    """Console script ``sim_node``."""
+    keep_dds_local()
+    rclpy.init(args=args)
+    try:
+        node = SimNode()
+    except Exception as error:  # report a bad parameter, exit cleanly
+        rclpy.logging.get_logger("wrench_sim").fatal(f"cannot start: {error}")
+        rclpy.try_shutdown()
+        return 1
+    try:
+        node.run()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        node.close()
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
