@@ -16,40 +16,18 @@ import os
 import subprocess
 import sys
 import time
-
-os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"  # DDS stays on this machine
+from pathlib import Path
 
 import numpy as np
 import rclpy
 
+from com_core.rosenv import keep_dds_local
 from wrench_sim.physics import ARM_JOINT_NAMES, HOME_JOINTS, PandaWorld, SimConfig
 from wrench_sim.sim_node import SimNode
 
 TARGET = 5.0
 
-_SUBSCRIBER = """
-import sys, time, rclpy
-from rclpy.experimental import EventsExecutor
-from geometry_msgs.msg import WrenchStamped
-from rclpy.qos import QoSProfile, ReliabilityPolicy
-rclpy.init()
-node = rclpy.create_node("sim_rate_subscriber")
-count = [0]
-def take(raw):
-    count[0] += 1
-qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT)
-node.create_subscription(WrenchStamped, "/ft_sensor/wrench", take, qos, raw=True)
-executor = EventsExecutor()
-executor.add_node(node)
-print("ready", flush=True)
-end = time.monotonic() + float(sys.argv[1])
-try:
-    while time.monotonic() < end:
-        executor.spin_once(timeout_sec=0.1)
-except KeyboardInterrupt:
-    pass
-print(count[0], flush=True)
-"""
+BARE_SUBSCRIBER = Path(__file__).with_name("bare_subscriber.py")
 
 
 def scenario(world: PandaWorld, run) -> float:
@@ -77,29 +55,32 @@ def main() -> int:
     parser.add_argument("--subscriber", action="store_true", help="also run a wrench reader")
     parser.add_argument("--domain-id", type=int, default=None, help="ROS_DOMAIN_ID (else env)")
     options = parser.parse_args()
-    domain = options.domain_id or int(os.environ.get("ROS_DOMAIN_ID", 150 + os.getpid() % 50))
-    os.environ["ROS_DOMAIN_ID"] = str(domain)
+    if options.domain_id is not None:
+        os.environ["ROS_DOMAIN_ID"] = str(options.domain_id)
+    keep_dds_local(own_domain=True)
     repeats = max(1, round(options.seconds / 6.0))
 
     world = PandaWorld(SimConfig())
     physics = timed(repeats, world, world.run)
     world.close()
 
-    rclpy.init(
-        args=["--ros-args", "-p", "sigma_f:=0.1", "-p", "sigma_tau:=0.005"], domain_id=domain
-    )
+    rclpy.init(args=["--ros-args", "-p", "sigma_f:=0.1", "-p", "sigma_tau:=0.005"])
     node = SimNode()
     quiet = timed(repeats, node.world, lambda d: node.run(d, publish=False))
     reader = None
     if options.subscriber:
         reader = subprocess.Popen(
-            [sys.executable, "-c", _SUBSCRIBER, "600"],
+            [sys.executable, str(BARE_SUBSCRIBER)],
             stdout=subprocess.PIPE,
             text=True,
             env=os.environ.copy(),
         )
         reader.stdout.readline()
-        time.sleep(2.0)  # discovery
+        deadline = time.monotonic() + 30.0  # discovery: wait until the reader is matched
+        while node.wrench_publisher.get_subscription_count() == 0:
+            if time.monotonic() > deadline:
+                raise RuntimeError("the wrench reader never subscribed")
+            time.sleep(0.05)
     published = timed(repeats, node.world, lambda d: node.run(d, publish=True))
     node.close()
     node.destroy_node()
@@ -123,7 +104,7 @@ def main() -> int:
             reader.kill()
             received = []
         sent = round(6.0 * repeats * 1000)
-        got = int(received[-1]) if received else 0
+        got = int(received[-1]) if received else 0  # its last line: "received N"
         print(f"wrench reader (EventsExecutor, raw)  : received {got} of {sent} wrenches")
     verdict = "PASS" if published >= TARGET else "FAIL"
     print(f"target >= {TARGET:.0f}x real time with publishing: {verdict}")

@@ -37,8 +37,8 @@ def decode_header(raw: bytes) -> tuple[int, str]:
 
 def decode_wrench_batch(
     raws: Sequence[bytes],
-) -> tuple[NDArray[np.int64], NDArray[np.float64], list[str]]:
-    """Stamps (n,) ns, wrenches (n, 6) N and N m, frame_id per message, in input order.
+) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.object_]]:
+    """Stamps (n,) ns, wrenches (n, 6) N and N m, frame_id (n,) per message, in input order.
 
     Messages are grouped by byte length (equal length = equal layout) and each group
     is decoded with one numpy view.
@@ -46,13 +46,13 @@ def decode_wrench_batch(
     n = len(raws)
     stamps = np.empty(n, dtype=np.int64)
     wrenches = np.empty((n, 6), dtype=np.float64)
-    frames: list[str] = [""] * n
+    frames = np.empty(n, dtype=object)
     by_length: dict[int, list[int]] = {}
     for i, raw in enumerate(raws):
         by_length.setdefault(len(raw), []).append(i)
     for length, idx in by_length.items():
         first = raws[idx[0]]
-        end, _ = _frame_end(first)
+        end, name = _frame_end(first)
         offset = 4 + ((end - 4 + 7) & ~7)
         if offset + 48 > length:
             raise ValueError(f"not a WrenchStamped: {length} bytes")
@@ -61,15 +61,11 @@ def decode_wrench_batch(
         nanosec = block[:, 8:12].copy().view("<u4")[:, 0].astype(np.int64)
         stamps[idx] = sec * 1_000_000_000 + nanosec
         wrenches[idx] = block[:, offset : offset + 48].copy().view("<f8")
-        # frame_ids of equal length may still differ: compare the bytes once per group
-        names = {bytes(row[16:end]) for row in block} if len(idx) > 1 else {first[16:end]}
-        if len(names) == 1:
-            name = _frame_end(first)[1]
-            for i in idx:
-                frames[i] = name
+        # frame_ids of equal length may still differ
+        if np.all(block[:, 16:end] == block[0, 16:end]):
+            frames[idx] = name
         else:
-            for i in idx:
-                frames[i] = _frame_end(raws[i])[1]
+            frames[idx] = [_frame_end(raws[i])[1] for i in idx]
     return stamps, wrenches, frames
 
 

@@ -150,7 +150,7 @@ class Exploration:
         return list(self._labels)
 
     def add_samples(
-        self, stamps_ns: ArrayLike, wrenches: ArrayLike, frames: Sequence[str] | str
+        self, stamps_ns: ArrayLike, wrenches: ArrayLike, frames: ArrayLike | str
     ) -> int:
         """Add samples in arrival order; returns how many were kept.
 
@@ -163,18 +163,12 @@ class Exploration:
             raise ValueError(f"{len(stamps)} stamps for {len(w)} wrenches")
         keep = np.ones(len(stamps), dtype=bool)
         if self.expected_frame:
-            if isinstance(frames, str):
-                frame_ok = np.full(len(stamps), frames == self.expected_frame)
-            else:
-                frame_ok = np.array([f == self.expected_frame for f in frames], dtype=bool)
+            frame_ids = np.asarray(frames, dtype=object)
+            frame_ok = np.broadcast_to(frame_ids == self.expected_frame, keep.shape)
             if not frame_ok.all():
-                names = (
-                    {frames}
-                    if isinstance(frames, str)
-                    else {f for f, ok in zip(frames, frame_ok, strict=True) if not ok}
-                )
+                names = sorted(set(np.broadcast_to(frame_ids, keep.shape)[~frame_ok]))
                 self._count(
-                    f"in frame {'/'.join(sorted(names))!r}, not {self.expected_frame!r}",
+                    f"in frame {'/'.join(names)!r}, not {self.expected_frame!r}",
                     int((~frame_ok).sum()),
                 )
             keep &= frame_ok
