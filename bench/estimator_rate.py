@@ -127,22 +127,35 @@ def main() -> int:
     args = parser.parse_args()
     keep_dds_local(own_domain=True)
     bench = Bench()
-    bare = measure(bench, [sys.executable, str(Path(__file__).with_name("bare_subscriber.py"))],
-                   "/bare_subscriber/reset", args.seconds)
-    node = measure(bench, [str(INSTALL / "com_estimator/lib/com_estimator/estimator_node")],
-                   "/com_estimator/reset", args.seconds)
+    bare = measure(
+        bench,
+        [sys.executable, str(Path(__file__).with_name("bare_subscriber.py"))],
+        "/bare_subscriber/reset",
+        args.seconds,
+    )
+    node = measure(
+        bench,
+        [str(INSTALL / "com_estimator/lib/com_estimator/estimator_node")],
+        "/com_estimator/reset",
+        args.seconds,
+    )
     print(f"{'rate Hz':>8} {'sent/s':>8} {'bare got':>9} {'node got':>9} {'sent':>7}")
-    for (rate, achieved, sent, got_bare), row in zip(bare["rows"], node["rows"] + [None] * 20,
-                                                     strict=False):
+    for (rate, achieved, sent, got_bare), row in zip(
+        bare["rows"], node["rows"] + [None] * 20, strict=False
+    ):
         got_node = "-" if row is None else row[3]
         print(f"{rate:8d} {achieved:8.0f} {got_bare:9d} {got_node!s:>9} {sent:7d}")
     ratio = node["lossless"] / bare["lossless"] if bare["lossless"] else float("nan")
     five_khz = next((r for r in node["rows"] if r[0] == 5000), None)
-    print(f"lossless up to: bare {bare['lossless']} Hz, node {node['lossless']} Hz "
-          f"-> node / bare = {ratio:.2f} (target >= 0.9)")
+    print(
+        f"lossless up to: bare {bare['lossless']} Hz, node {node['lossless']} Hz "
+        f"-> node / bare = {ratio:.2f} (target >= 0.9)"
+    )
     print(f"loss at 5 kHz: node {five_khz[2] - five_khz[3] if five_khz else 'n/a'} (target 0)")
-    print(f"CPU at 1 kHz: node {node['cpu_1khz']:.1%} of a core, bare {bare['cpu_1khz']:.1%} "
-          f"(target < 15 %)")
+    print(
+        f"CPU at 1 kHz: node {node['cpu_1khz']:.1%} of a core, bare {bare['cpu_1khz']:.1%} "
+        f"(target < 15 %)"
+    )
     return 0
 
 

@@ -30,9 +30,12 @@ from com_estimator.replay import main as replay_main
 
 
 def write_bag(path: Path, dwell: float) -> int:
-    stream = exploration_stream(Plan(dwell=dwell, gravity_home=(0, 0, 1)),
-                                Load(0.1, (0.01, -0.02, 0.1)), Load(0.73, (0, 0, 0.04)),
-                                np.random.default_rng(0))
+    stream = exploration_stream(
+        Plan(dwell=dwell, gravity_home=(0, 0, 1)),
+        Load(0.1, (0.01, -0.02, 0.1)),
+        Load(0.73, (0, 0, 0.04)),
+        np.random.default_rng(0),
+    )
     labels = iter(sorted(stream.labels))
     label = next(labels, None)
     with BagWriter(path) as bag:
@@ -40,8 +43,12 @@ def write_bag(path: Path, dwell: float) -> int:
             while label is not None and label[0] <= stamp:
                 bag.write(POSE_TOPIC, "std_msgs/msg/Header", label[0], encode_header(*label))
                 label = next(labels, None)
-            bag.write(WRENCH_TOPIC, "geometry_msgs/msg/WrenchStamped", stamp,
-                      encode_wrench_stamped(stamp, "ft_sensor", wrench))
+            bag.write(
+                WRENCH_TOPIC,
+                "geometry_msgs/msg/WrenchStamped",
+                stamp,
+                encode_wrench_stamped(stamp, "ft_sensor", wrench),
+            )
         if label is not None:
             bag.write(POSE_TOPIC, "std_msgs/msg/Header", label[0], encode_header(*label))
         return bag.count

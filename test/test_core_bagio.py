@@ -14,20 +14,29 @@ LOAD, HAND = Load(0.1, (0.01, -0.02, 0.1)), Load(0.73, (0.0, 0.0, 0.04))
 
 
 def write_stream(path, stream, labels=True) -> None:
-    messages = [(int(s), WRENCH_TOPIC, "geometry_msgs/msg/WrenchStamped",
-                 encode_wrench_stamped(int(s), "ft_sensor", w))
-                for s, w in zip(stream.stamps, stream.wrenches, strict=True)]
+    messages = [
+        (
+            int(s),
+            WRENCH_TOPIC,
+            "geometry_msgs/msg/WrenchStamped",
+            encode_wrench_stamped(int(s), "ft_sensor", w),
+        )
+        for s, w in zip(stream.stamps, stream.wrenches, strict=True)
+    ]
     if labels:
-        messages += [(s, POSE_TOPIC, "std_msgs/msg/Header", encode_header(s, lbl))
-                     for s, lbl in stream.labels]
+        messages += [
+            (s, POSE_TOPIC, "std_msgs/msg/Header", encode_header(s, lbl))
+            for s, lbl in stream.labels
+        ]
     with BagWriter(path) as bag:
         for stamp, topic, msgtype, raw in sorted(messages, key=lambda m: m[0]):
             bag.write(topic, msgtype, stamp, raw)
 
 
 def test_bag_round_trip_and_replay_equal_the_direct_feed(tmp_path):
-    stream = exploration_stream(Plan(dwell=0.3, gravity_home=(0, 0, 1)), LOAD, HAND,
-                                np.random.default_rng(2))
+    stream = exploration_stream(
+        Plan(dwell=0.3, gravity_home=(0, 0, 1)), LOAD, HAND, np.random.default_rng(2)
+    )
     write_stream(tmp_path / "run", stream)
     assert (tmp_path / "run" / "metadata.yaml").exists()
     topics = {t for t, *_ in read_raw(tmp_path / "run", (WRENCH_TOPIC, POSE_TOPIC))}
@@ -45,8 +54,9 @@ def test_bag_round_trip_and_replay_equal_the_direct_feed(tmp_path):
 
 
 def test_unlabelled_stream_is_cut_into_its_static_windows(tmp_path):
-    stream = exploration_stream(Plan(dwell=0.5, gravity_home=(0, 0, 1)), LOAD, HAND,
-                                np.random.default_rng(3))
+    stream = exploration_stream(
+        Plan(dwell=0.5, gravity_home=(0, 0, 1)), LOAD, HAND, np.random.default_rng(3)
+    )
     found = label_static_windows(stream.stamps, stream.wrenches)
     starts = [s for s, lbl in found if lbl != "moving"]
     truth = [s for s, lbl in stream.labels if "/" in lbl]
@@ -64,3 +74,12 @@ def test_unlabelled_stream_is_cut_into_its_static_windows(tmp_path):
     solution = ex.solve()
     # tare and object windows together are not one rigid load: flagged, not silent
     assert solution.status == WARN and "no tare" in " ".join(solution.notes)
+
+
+def test_late_samples_are_dropped_but_a_restarted_clock_is_not():
+    ex = Exploration()
+    ex.add_samples([1, 2, 3, 8_000_000_000, 8_000_000_001], np.zeros((5, 6)), "ft_sensor")
+    late_and_restarted = [1_000_000_000, 1_000_000_001, 999_000_000, 1_000_000_002]
+    assert ex.add_samples(late_and_restarted, np.zeros((4, 6)), "ft_sensor") == 3
+    assert ex.dropped == {"out of time order": 1}
+    assert ex.time_resets == 1

@@ -101,7 +101,12 @@ def test_estimate_is_within_its_sigma_band_and_replay_matches_to_the_bit(
         check=True,
     )
     offline = json.loads(replay.stdout)
-    assert offline["status"] == "OK" and offline["messages"] == 7050
+    assert offline["status"] == "OK" and offline["messages"] == 8050  # 1 s lead-in + run
+    node_windows = {
+        k.split(" ", 1)[1]: int(v) for k, v in values.items() if k.startswith("samples ")
+    }
+    assert node_windows == offline["window_samples"], "the node lost messages in a window"
+    assert set(node_windows.values()) == {500}
     assert offline["mass"] == estimate.m  # bit for bit
     assert offline["com"] == [estimate.com.x, estimate.com.y, estimate.com.z]
     assert offline["sigma_mass"] == float(values["sigma_mass"])

@@ -165,7 +165,10 @@ class EstimatorNode(Node):
         except (ValueError, IndexError) as exc:  # malformed bytes: drop the batch, say so
             self.get_logger().error(f"dropped {len(raws)} undecodable wrench messages: {exc}")
             return
+        resets = self._exploration.time_resets
         self._exploration.add_samples(stamps, wrenches, frames)
+        if self._exploration.time_resets > resets:
+            self.get_logger().warning("sensor time jumped back by more than 1 s: restarted clock")
 
     def drain_callback(self) -> None:
         self._drain()
@@ -241,6 +244,8 @@ def _flatten(d: dict) -> list[tuple[str, object]]:
     for key, value in d.items():
         if key in ("com", "sigma_com"):
             out += [(f"{key}_{axis}", v) for axis, v in zip("xyz", value, strict=True)]
+        elif key == "window_samples":
+            out += [(f"samples {label}", n) for label, n in value.items()]
         elif key not in ("reason", "notes"):
             out.append((key, value))
     return out

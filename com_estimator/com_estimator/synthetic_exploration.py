@@ -101,6 +101,17 @@ def main(argv: list[str] | None = None) -> int:
         plan, load, Load(args.hand_mass, tuple(args.hand_com)), rng, shift_sigma=args.shift_sigma
     )
     stream, frames = inject(stream, args.fault, args.dwell, args.rate)
+    # 1 s of rest before the first label, as a sensor streams before an exploration: the
+    # writer sees the reader before the reader has matched it, and a best-effort reader
+    # drops what arrives before; those first samples are in no window
+    lead = round(args.rate)
+    lead_stamps = stream.stamps[0] - np.arange(lead, 0, -1) * round(1e9 / args.rate)
+    stream = Stream(
+        np.concatenate([lead_stamps, stream.stamps]),
+        np.concatenate([np.tile(stream.wrenches[0], (lead, 1)), stream.wrenches]),
+        stream.labels,
+    )
+    frames = [""] * lead + frames
 
     keep_dds_local()
     rclpy.init(args=argv)

@@ -13,7 +13,8 @@ topics:
   from the labels up to it;
 - samples are kept in arrival order; one whose stamp is not after the previous one's
   is dropped and counted (out of time order), as are non-finite samples and samples in
-  another frame than the expected one.
+  another frame than the expected one; a jump back by more than 1 s is a restarted
+  clock, not a late sample (``time_resets``).
 
 Statuses: ERROR (no estimate: too few poses, ill-conditioned, no tare, no load),
 WARN (an estimate, but: the object moved in the grasp, or input was dropped), OK.
@@ -60,6 +61,8 @@ __all__ = [
 ]
 
 OK, WARN, ERROR = "OK", "WARN", "ERROR"
+TIME_RESET_NS = 1_000_000_000
+"""A sample stamped this much before its predecessor starts a new clock, not a late one."""
 METHODS = {"ml": ml, "two_pose": two_pose}
 
 
@@ -78,6 +81,7 @@ class Solution:
     consistency: Consistency | None = None
     windows: tuple[Window, ...] = ()
     notes: tuple[str, ...] = ()
+    window_samples: Mapping[str, int] = field(default_factory=dict)
 
     def as_dict(self) -> dict:
         """JSON-ready summary: mass (kg), com (m, sensor frame), their sigmas, status."""
@@ -87,6 +91,7 @@ class Solution:
             "method": self.method,
             "poses": [w.pose for w in self.windows],
             "notes": list(self.notes),
+            "window_samples": dict(self.window_samples),
         }
         if self.estimate is not None:
             e = self.estimate
@@ -135,6 +140,7 @@ class Exploration:
     _labels: list[tuple[int, str]] = field(default_factory=list, repr=False)
     _last_stamp: int = field(default=-(2**62), repr=False)
     dropped: dict[str, int] = field(default_factory=dict)
+    time_resets: int = 0
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -181,9 +187,12 @@ class Exploration:
             s = stamps[kept_idx]
             prior = np.maximum.accumulate(np.concatenate([[self._last_stamp], s[:-1]]))
             late = s <= prior
+            if late.any():
+                late = self._resolve_order(s)
+            else:
+                self._last_stamp = int(s[-1])
             self._count("out of time order", int(late.sum()))
             keep[kept_idx[late]] = False
-            self._last_stamp = max(self._last_stamp, int(s.max()))
         self._stamps.append(stamps[keep])
         self._wrenches.append(w[keep])
         return int(keep.sum())
@@ -193,6 +202,22 @@ class Exploration:
         if not self._stamps:
             return np.empty(0, np.int64), np.empty((0, 6))
         return np.concatenate(self._stamps), np.concatenate(self._wrenches)
+
+    def _resolve_order(self, s: NDArray[np.int64]) -> NDArray[np.bool_]:
+        """Late samples of ``s``, in order; a jump back by more than ``TIME_RESET_NS`` is a
+        restarted clock (a restarted simulator, a looped bag): counted in
+        ``time_resets``, and the samples after it are kept."""
+        late = np.zeros(len(s), dtype=bool)
+        last = self._last_stamp
+        for i, t in enumerate(s.tolist()):
+            if t <= last - TIME_RESET_NS:
+                self.time_resets += 1
+            elif t <= last:
+                late[i] = True
+                continue
+            last = t
+        self._last_stamp = last
+        return late
 
     def add_label(self, stamp_ns: int, label: str) -> None:
         """A pose label applying from ``stamp_ns`` (see module)."""
@@ -232,7 +257,9 @@ class Exploration:
         notes = [f"dropped {n} samples {what}" for what, n in self.dropped.items()]
         tares = dict(self.tares)
         objects: list[Window] = []
-        for label, samples in self.segments(until_ns):
+        segments = self.segments(until_ns)
+        counts = {label: len(samples) for label, samples in segments}
+        for label, samples in segments:
             kind, pose = label.split("/", 1)
             if len(samples) == 0:
                 notes.append(f"window {label!r} has no samples")
@@ -264,14 +291,21 @@ class Exploration:
             consistency = check_consistency(windows, alpha=self.alpha, g=self.g)
         except EstimationError as exc:
             reason = str(exc) + ("; " + "; ".join(notes) if notes else "")
-            return Solution(ERROR, reason, self.method, notes=tuple(notes))
+            return Solution(ERROR, reason, self.method, notes=tuple(notes), window_samples=counts)
         status, reason = OK, _summary(estimate)
         if not consistency.consistent:
             status, reason = WARN, consistency.message
         elif notes:
             status, reason = WARN, "; ".join(notes)
         return Solution(
-            status, reason, self.method, estimate, consistency, tuple(windows), tuple(notes)
+            status,
+            reason,
+            self.method,
+            estimate,
+            consistency,
+            tuple(windows),
+            tuple(notes),
+            window_samples=counts,
         )
 
 
