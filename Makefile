@@ -26,6 +26,9 @@ $(BUILD_STAMP): $(VENV_STAMP) $(PACKAGE_FILES)
 	touch $@
 
 demo: setup
+	$(IN_ENV) python -m exploration_sequencer.demo $(ARGS)
+
+study: setup
 	$(IN_ENV) python -m com_core.study $(ARGS)
 
 test: setup lint

@@ -14,5 +14,10 @@ setup(
     zip_safe=True,
     description="Sequencer that tares, grasps and tilts to explore an object; records each run",
     license="Apache-2.0",
-    entry_points={"console_scripts": []},
+    entry_points={
+        "console_scripts": [
+            "sequencer_node = exploration_sequencer.sequencer_node:main",
+            "demo = exploration_sequencer.demo:main",
+        ]
+    },
 )

@@ -36,6 +36,7 @@ from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC
 from com_core.cdr import decode_header, decode_wrench_batch
 from com_core.exploration import ERROR, METHODS, OK, WARN, Exploration, Solution, format_solution
 from com_core.rosenv import keep_dds_local
+from com_core.tare_cache import load_tares
 from com_core.windows import DONE
 from com_core.wrench_model import SensorModel
 
@@ -52,6 +53,7 @@ PARAMETERS = {
     "limit_tau": (0.0, "sensor torque range, N m (0: no saturation check)"),
     "min_tilt_sigmas": (DEFAULTS.min_tilt_sigmas, "refuse tilts below this many sigma of noise"),
     "solve_timeout": (1.0, "s (wall) to wait after 'done' for samples up to its stamp"),
+    "tare_cache": ("", "file of cached tare windows for poses without a fresh tare ('': none)"),
 }
 
 
@@ -91,6 +93,7 @@ class EstimatorNode(Node):
 
     def validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
         checks = {
+            "tare_cache": lambda v: isinstance(v, str),
             "method": lambda v: v in METHODS,
             "alpha": lambda v: 0.0 < v < 0.5,
             "expected_frame": lambda v: isinstance(v, str),
@@ -120,7 +123,9 @@ class EstimatorNode(Node):
                 limit_f=limits[0] or math.inf,
                 limit_tau=limits[1] or math.inf,
             )
+        cache = load_tares(self._param("tare_cache")) if self._param("tare_cache") else None
         return {
+            "tares": cache.windows if cache else {},
             "method": self._param("method"),
             "expected_frame": self._param("expected_frame"),
             "sensor": sensor,

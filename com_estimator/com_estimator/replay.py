@@ -10,7 +10,8 @@ A bag without pose labels is cut into static windows by
 ``com_core.exploration.label_static_windows`` (blocks of 50 ms whose spread is at the
 noise level, joined while their means agree within 6 standard errors, kept when longer
 than 0.3 s); with no tare windows the estimate is then of the whole load beyond the
-sensor (hand + object), and the output says which it did.
+sensor (hand + object), and the output says which it did. Tare windows of poses the bag
+has no fresh tare for come from the run's cached tare, BAG/tare.json (``--tare``).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from pathlib import Path
 
 from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC, feed_bag
 from com_core.exploration import ERROR, Exploration, format_solution, label_static_windows
+from com_core.tare_cache import BAG_TARE_FILE, load_tares
 from com_core.wrench_model import SensorModel
 
 DEFAULTS = Exploration()
@@ -46,6 +48,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--min-tilt-sigmas", type=float, default=DEFAULTS.min_tilt_sigmas)
     parser.add_argument("--wrench-topic", default=WRENCH_TOPIC)
     parser.add_argument("--pose-topic", default=POSE_TOPIC)
+    parser.add_argument(
+        "--tare",
+        type=Path,
+        default=None,
+        help=f"cached tare windows (default: BAG/{BAG_TARE_FILE} if present)",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     return parser
 
@@ -63,12 +71,14 @@ def main(argv: list[str] | None = None) -> int:
             limit_f=args.limit_f or math.inf,
             limit_tau=args.limit_tau or math.inf,
         )
+    cache = load_tares(args.tare or args.bag / BAG_TARE_FILE)
     exploration = Exploration(
         method=args.method,
         expected_frame=args.expected_frame,
         sensor=sensor,
         alpha=args.alpha,
         min_tilt_sigmas=args.min_tilt_sigmas,
+        tares=cache.windows if cache else {},
     )
     n_wrench, n_label = feed_bag(args.bag, exploration, args.wrench_topic, args.pose_topic)
     if n_label:

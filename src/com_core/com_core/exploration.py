@@ -224,8 +224,14 @@ class Exploration:
         self._labels.append((int(stamp_ns), label))
 
     def done_stamp(self) -> int | None:
-        """Stamp of the first ``done`` label, or None."""
-        return next((s for s, lbl in self._labels if lbl == DONE), None)
+        """Stamp of the first ``done`` after the first window label, or None.
+
+        A ``done`` before any window ends an earlier exploration (a latched label a
+        recorder replays at the start of the next run), not this one.
+        """
+        starts = [s for s, lbl in self._labels if lbl.startswith((TARE_PREFIX, OBJECT_PREFIX))]
+        begin = min(starts) if starts else -(2**62)
+        return min((s for s, lbl in self._labels if lbl == DONE and s > begin), default=None)
 
     def _count(self, what: str, n: int) -> None:
         if n:

@@ -1,0 +1,223 @@
+"""The demo: simulator, estimator and sequencer as processes, one exploration, a summary.
+
+    python -m exploration_sequencer.demo [--object mug] [--seed 3] [...]   (make demo)
+
+Finds each node's executable the way ``ros2 run`` does (ament_index: <prefix>/lib/<pkg>/),
+starts the three with matching parameters (no launch files), calls
+/exploration_sequencer/explore, prints the sequencer's progress and a final summary
+(estimate, sigma, truth, error, time, bag and report paths), and stops the nodes with
+SIGINT. Logs of the simulator and the estimator go to <bag-dir>/logs/.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from com_core.rosenv import keep_dds_local
+
+ESTIMATOR_STATUS = "com_estimator: exploration"
+
+
+def executable(package: str, name: str) -> str:
+    """<prefix>/lib/<package>/<name>, as ``ros2 run`` resolves it."""
+    from ament_index_python.packages import get_package_prefix
+
+    path = Path(get_package_prefix(package)) / "lib" / package / name
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: build the workspace (make setup)")
+    return str(path)
+
+
+def ros_args(params: dict[str, object]) -> list[str]:
+    out = ["--ros-args"]
+    for key, value in params.items():
+        text = (
+            str(value).lower()
+            if isinstance(value, bool)
+            else repr(value)
+            if isinstance(value, float)
+            else str(value)
+        )
+        out += ["-p", f"{key}:={text}"]
+    return out
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="demo", description=__doc__.split("\n\n")[0])
+    p.add_argument("--object", choices=("box", "cylinder", "mug"), default="box")
+    p.add_argument("--mass", type=float, default=0.1, help="kg")
+    p.add_argument("--seed", type=int, default=0, help="draws the COM offset and the noise")
+    p.add_argument("--grasp-mode", choices=("rigid", "friction"), default="rigid")
+    p.add_argument(
+        "--slip-sigma",
+        type=float,
+        default=0.0,
+        help="m; random COM shift at each tilt (the paper's reconfiguration)",
+    )
+    p.add_argument("--sigma-f", type=float, default=0.1, help="N per sample")
+    p.add_argument("--sigma-tau", type=float, default=0.005, help="N m per sample")
+    p.add_argument("--tilt", type=float, default=math.pi / 6, help="rad")
+    p.add_argument("--axes", default="x,y", help="tilt axes, e.g. 'x' for the paper's one")
+    p.add_argument("--one-way", action="store_true", help="tilt one direction only (paper)")
+    p.add_argument("--dwell", type=float, default=0.8, help="s per window")
+    p.add_argument("--target-sigma", type=float, default=0.0, help="m; adaptive dwell")
+    p.add_argument("--method", choices=("ml", "two_pose"), default="ml")
+    p.add_argument("--real-time-factor", type=float, default=5.0, help="0: as fast as possible")
+    p.add_argument("--bag-dir", type=Path, default=Path("bags"))
+    p.add_argument("--timeout", type=float, default=300.0, help="s for the whole exploration")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    keep_dds_local(own_domain=True)
+    args.bag_dir.mkdir(parents=True, exist_ok=True)
+    logs = args.bag_dir / "logs"
+    logs.mkdir(exist_ok=True)
+    sim_params = {
+        "object": args.object,
+        "object_mass": args.mass,
+        "seed": args.seed,
+        "grasp_mode": args.grasp_mode,
+        "slip_sigma": args.slip_sigma,
+        "sigma_f": args.sigma_f,
+        "sigma_tau": args.sigma_tau,
+        "real_time_factor": args.real_time_factor,
+    }
+    estimator_params = {
+        "use_sim_time": True,
+        "method": args.method,
+        "sigma_f": args.sigma_f,
+        "sigma_tau": args.sigma_tau,
+    }
+    sequencer_params = {
+        "use_sim_time": True,
+        "tilt": args.tilt,
+        "dwell": args.dwell,
+        "tilt_axes": "[" + ",".join(f"'{a}'" for a in args.axes.split(",")) + "]",
+        "both_directions": not args.one_way,
+        "target_com_sigma": args.target_sigma,
+        "sigma_f": args.sigma_f,
+        "sigma_tau": args.sigma_tau,
+        "mass_guess": args.mass,
+        "bag_dir": str(args.bag_dir.resolve()),
+    }
+    started = time.monotonic()
+    procs: list[subprocess.Popen] = []
+    try:
+        for package, name, params, log in (
+            ("wrench_sim", "sim_node", sim_params, logs / "wrench_sim.log"),
+            ("com_estimator", "estimator_node", estimator_params, logs / "com_estimator.log"),
+            ("exploration_sequencer", "sequencer_node", sequencer_params, None),
+        ):
+            out = open(log, "w") if log else None  # noqa: SIM115 - closed with the process
+            procs.append(
+                subprocess.Popen(
+                    [executable(package, name), *ros_args(params)],
+                    stdout=out,
+                    stderr=subprocess.STDOUT if out else None,
+                )
+            )
+            print(f"started {package}/{name}" + (f" (log: {log})" if log else ""), flush=True)
+        return run_exploration(args, started)
+    finally:
+        for proc in reversed(procs):
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
+        for proc in reversed(procs):
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+
+
+def run_exploration(args: argparse.Namespace, started: float) -> int:
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticArray
+    from geometry_msgs.msg import InertiaStamped
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import DurabilityPolicy, QoSProfile
+    from std_srvs.srv import Trigger
+
+    rclpy.init()
+    node = rclpy.create_node("demo")
+    latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    truths: list[InertiaStamped] = []
+    estimates: list[InertiaStamped] = []
+    statuses: list = []
+    node.create_subscription(InertiaStamped, "/wrench_sim/ground_truth", truths.append, latched)
+    node.create_subscription(InertiaStamped, "/com_estimator/estimate", estimates.append, latched)
+    node.create_subscription(
+        DiagnosticArray,
+        "/diagnostics",
+        lambda m: statuses.extend(s for s in m.status if s.name == ESTIMATOR_STATUS),
+        10,
+    )
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    try:
+        client = node.create_client(Trigger, "/exploration_sequencer/explore")
+        if not client.wait_for_service(timeout_sec=60.0):
+            print("demo: the sequencer did not come up", file=sys.stderr)
+            return 1
+        print("calling /exploration_sequencer/explore", flush=True)
+        future = client.call_async(Trigger.Request())
+        executor.spin_until_future_complete(future, timeout_sec=args.timeout)
+        if not future.done():
+            print(f"demo: no answer within {args.timeout:g} s", file=sys.stderr)
+            return 1
+        end = time.monotonic() + 2.0
+        while time.monotonic() < end and not estimates:
+            executor.spin_once(timeout_sec=0.1)
+        result = future.result()
+        print_summary(result, estimates, truths, statuses, time.monotonic() - started)
+        return 0 if result.success else 1
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+def print_summary(result, estimates, truths, statuses, wall: float) -> None:
+    print("\n=== summary ===")
+    print(f"explore: {'success' if result.success else 'FAILED'}: {result.message}")
+    values = {kv.key: kv.value for kv in statuses[-1].values} if statuses else {}
+    if estimates:
+        e = estimates[-1]
+        stamp = e.header.stamp.sec * 10**9 + e.header.stamp.nanosec
+        held = [t for t in truths if t.header.stamp.sec * 10**9 + t.header.stamp.nanosec <= stamp]
+        com = [e.inertia.com.x, e.inertia.com.y, e.inertia.com.z]
+        sig = [float(values.get(f"sigma_com_{a}", "nan")) * 1e3 for a in "xyz"]
+        print(
+            f"estimate: mass {e.inertia.m * 1e3:.2f} +- "
+            f"{float(values.get('sigma_mass', 'nan')) * 1e3:.2f} g, COM "
+            f"({', '.join(f'{c * 1e3:.2f}' for c in com)}) +- "
+            f"({', '.join(f'{s:.2f}' for s in sig)}) mm in ft_sensor"
+        )
+        if held:
+            t = held[-1].inertia
+            truth = [t.com.x, t.com.y, t.com.z]
+            err = [(a - b) * 1e3 for a, b in zip(com, truth, strict=True)]
+            print(
+                f"truth:    mass {t.m * 1e3:.2f} g, COM "
+                f"({', '.join(f'{c * 1e3:.2f}' for c in truth)}) mm"
+            )
+            print(
+                f"error:    mass {(e.inertia.m - t.m) / t.m:+.2%}, COM "
+                f"({', '.join(f'{x:+.2f}' for x in err)}) mm, |e| = "
+                f"{math.sqrt(sum(x * x for x in err)):.2f} mm"
+            )
+    print(f"time:     {wall:.1f} s wall in all")
+    if " bag " in result.message:
+        bag = Path(result.message.rsplit(" bag ", 1)[1].strip())
+        print(f"bag:      {bag}")
+        print(f"report:   {bag / 'report.png'}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,505 @@
+"""exploration_sequencer node: tare, grasp, tilt, release; one recorded bag per run.
+
+Service ``~/explore`` (std_srvs/Trigger) runs one exploration and answers with a one-line
+summary (mass, COM, sigma, predicted sigma, bag path); a second call while one runs is
+refused. Pose labels go out on ``~/pose`` (std_msgs/Header: frame_id = label, stamp =
+the sim time from which it applies; transient local) only once the arm has settled.
+Every run is recorded to ``<bag_dir>/<run-id>/`` (rosbag2, MCAP) with a PNG report.
+
+Threads: the high-rate subscriptions (recording, joint states, sim clock) live on a
+second node, ``exploration_sequencer_io``, spun by an EventsExecutor in the main thread;
+this node is spun by a MultiThreadedExecutor in another thread, so a running exploration
+(which blocks its service callback) never stalls the recording.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import threading
+import time
+import traceback
+from collections.abc import Callable
+from datetime import datetime
+from pathlib import Path
+
+import rclpy
+from builtin_interfaces.msg import Duration
+from diagnostic_msgs.msg import DiagnosticArray
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.srv import GetParameters
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.experimental import EventsExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSProfile
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray, Header
+from std_srvs.srv import Trigger
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from com_core.bagio import WRENCH_TOPIC
+from com_core.cdr import decode_wrench_batch
+from com_core.errors import WindowError
+from com_core.exploration import Exploration
+from com_core.planner import Plan, dwell_for_target, predict
+from com_core.rosenv import keep_dds_local
+from com_core.tare_cache import BAG_TARE_FILE, drift, load_tares, save_tares
+from com_core.windows import (
+    DONE,
+    MIN_SAMPLES_FOR_COVARIANCE,
+    MOVING,
+    OBJECT_PREFIX,
+    TARE_PREFIX,
+    Window,
+    reduce_window,
+)
+from com_core.wrench_model import SensorModel
+from exploration_sequencer.choreography import motion_time, pose_joints
+from exploration_sequencer.recorder import Recorder
+
+ARM_JOINTS = [f"panda_joint{i}" for i in range(1, 8)]
+FINGER_OPEN, FINGER_CLOSED = 0.04, 0.0
+ESTIMATOR_STATUS = "com_estimator: exploration"
+
+PARAMETERS: dict[str, tuple[object, str]] = {
+    "tilt": (math.pi / 6, "rad; wrist tilt from home about each axis"),
+    "tilt_axes": (["x", "y"], "sensor axes to tilt about (x and/or y)"),
+    "both_directions": (True, "tilt +tilt and -tilt about each axis (false: the paper's one)"),
+    "dwell": (0.9, "s of samples per object window"),
+    "tare_dwell": (3.0, "s of samples per tare window (empty hand)"),
+    "settle": (0.3, "s to wait after a motion before a window starts"),
+    "speed": (1.35, "rad/s mean joint speed, capped per joint by the Panda's limits"),
+    "max_tilt": (math.pi / 6, "rad; the largest tilt the object allows (a full mug: small)"),
+    "target_com_sigma": (0.0, "m; extend dwell until the predicted COM sigma meets it (0: off)"),
+    "max_object_time": (20.0, "s (sim) the object pass may take when meeting target_com_sigma"),
+    "sigma_f": (0.1, "N; the sensor's force noise per sample (for the prediction)"),
+    "sigma_tau": (0.005, "N m; the sensor's torque noise per sample (for the prediction)"),
+    "rate": (1000.0, "Hz; the sensor's rate (for the prediction)"),
+    "mass_guess": (0.1, "kg; a guess of the object's mass (for the prediction)"),
+    "com_guess": ([0.0, 0.0, 0.1], "m; a guess of the COM in ft_sensor (fingers: 0.1 m out)"),
+    "gravity_home": ([0.0, 0.0, 1.0], "gravity direction in ft_sensor at home (prediction)"),
+    "home_joints": ([0.0], "rad; 7 joints of the arm at home ([0.0]: ask /wrench_sim)"),
+    "pick_joints": ([0.0], "rad; 7 joints with the fingers around the object ([0.0]: ask sim)"),
+    "sim_timeout": (5.0, "s (wall) without /joint_states before a run fails"),
+    "estimate_timeout": (10.0, "s (wall) to wait for the estimator's answer after 'done'"),
+    "bag_dir": ("bags", "directory that receives one rosbag2 directory per run"),
+    "tare_cache": ("", "file of the cached tare pass ('': <bag_dir>/tare_cache.json)"),
+    "tare_max_age": (3600.0, "s; a cached tare older than this is taken again"),
+    "drift_dwell": (0.5, "s of the fresh tare window at home that checks the cache"),
+    "hand_id": ("panda_hand", "names the hand: a cached tare serves this hand only"),
+}
+DRIFT_ALPHA = 1e-3  # false-alarm rate of the tare drift test
+
+
+class RunError(RuntimeError):
+    """An exploration cannot go on; the message says why."""
+
+
+class TimeoutRunError(RunError):
+    """Something the sim answers did not happen in time (e.g. the arm was blocked)."""
+
+
+class IoNode(Node):
+    """High-rate inputs: joint states, the estimator's answers, the sim clock, recording."""
+
+    def __init__(self) -> None:
+        super().__init__("exploration_sequencer_io")
+        self.joints: dict[str, tuple[float, float]] = {}
+        self.joints_wall = -math.inf
+        self.diagnostics: list = []
+        self.create_subscription(JointState, "/joint_states", self.joint_state_callback, 100)
+        self.create_subscription(DiagnosticArray, "/diagnostics", self.diagnostics_callback, 10)
+        self.recorder = Recorder(self)
+
+    def joint_state_callback(self, msg: JointState) -> None:
+        velocities = msg.velocity if len(msg.velocity) == len(msg.name) else [0.0] * len(msg.name)
+        self.joints = dict(zip(msg.name, zip(msg.position, velocities, strict=True), strict=True))
+        self.joints_wall = time.monotonic()
+
+    def diagnostics_callback(self, msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            if status.name == ESTIMATOR_STATUS:
+                stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+                self.diagnostics.append((stamp, status))
+
+    def now_ns(self) -> int:
+        """Sim time, ns."""
+        return self.get_clock().now().nanoseconds
+
+
+class SequencerNode(Node):
+    """Runs explorations on request; see module."""
+
+    def __init__(self, io: IoNode) -> None:
+        super().__init__("exploration_sequencer")
+        for name, (default, text) in PARAMETERS.items():
+            self.declare_parameter(name, default, ParameterDescriptor(description=text))
+        self.add_on_set_parameters_callback(self.validate_parameters)
+        self.io = io
+        latched = QoSProfile(depth=100, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.pose_pub = self.create_publisher(Header, "~/pose", latched)
+        self.arm_pub = self.create_publisher(
+            JointTrajectory, "/panda_arm_controller/joint_trajectory", 10
+        )
+        self.hand_pub = self.create_publisher(
+            Float64MultiArray, "/panda_hand_controller/commands", 10
+        )
+        self._lock = threading.Lock()
+        self._running: str | None = None
+        self._labels: list[tuple[int, str]] = []  # this run's labels
+        group = ReentrantCallbackGroup()
+        self.create_service(Trigger, "~/explore", self.explore_callback, callback_group=group)
+        self._sim_params = self.create_client(
+            GetParameters, "/wrench_sim/get_parameters", callback_group=group
+        )
+        self.get_logger().info("ready: call ~/explore to run an exploration")
+
+    # --- parameters ------------------------------------------------------------------
+
+    def p(self, name: str):
+        return self.get_parameter(name).value
+
+    def validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
+        for prm in params:
+            v, bad = prm.value, None
+            if prm.name in ("tilt", "max_tilt") and not 0.0 < v < math.pi / 2:
+                bad = "must be in (0, pi/2) rad"
+            elif prm.name == "tilt_axes" and (not v or any(a not in ("x", "y") for a in v)):
+                bad = "must be a non-empty list of 'x' and 'y'"
+            elif prm.name in ("home_joints", "pick_joints") and len(v) not in (1, 7):
+                bad = "must hold 7 joint positions (or [0.0] to read them from /wrench_sim)"
+            elif prm.name in ("dwell", "tare_dwell", "speed", "rate", "mass_guess") and v <= 0:
+                bad = "must be > 0"
+            elif prm.name in ("settle", "target_com_sigma", "sigma_f", "sigma_tau") and v < 0:
+                bad = "must be >= 0"
+            if bad:
+                reason = f"{prm.name}={v!r} refused: {bad}"
+                self.get_logger().error(reason)
+                return SetParametersResult(successful=False, reason=reason)
+        return SetParametersResult(successful=True)
+
+    def plan(self) -> Plan:
+        return Plan(
+            tilt=min(self.p("tilt"), self.p("max_tilt")),
+            axes=tuple(self.p("tilt_axes")),
+            both_directions=self.p("both_directions"),
+            dwell=self.p("dwell"),
+            tare_dwell=self.p("tare_dwell"),
+            settle=self.p("settle"),
+            move_time=1.0,
+            sensor=SensorModel.from_scalars(
+                self.p("sigma_f"), self.p("sigma_tau"), rate_hz=self.p("rate")
+            ),
+            mass_guess=self.p("mass_guess"),
+            com_guess=tuple(self.p("com_guess")),
+            gravity_home=tuple(self.p("gravity_home")),
+        )
+
+    # --- the service ---------------------------------------------------------------------
+
+    def explore_callback(self, request: Trigger.Request, response: Trigger.Response):
+        if not self._lock.acquire(blocking=False):
+            response.success = False
+            response.message = f"refused: exploration {self._running} is still running"
+            self.get_logger().warning(response.message)
+            return response
+        run_id = datetime.now().strftime("%Y%m%d-%H%M%S-%f")[:-3]
+        self._running = run_id
+        try:
+            response.success, response.message = self.explore(run_id)
+        except Exception as exc:  # a run error, or a defect: the call fails, the node lives
+            text = str(exc) if isinstance(exc, RunError) else f"internal error {exc!r}"
+            response.success, response.message = False, f"run {run_id} failed: {text}"
+            self.get_logger().error(response.message)
+            if not isinstance(exc, RunError):
+                self.get_logger().error(traceback.format_exc())
+            self._stop_recording()
+        finally:
+            self._running = None
+            self._lock.release()
+        return response
+
+    def explore(self, run_id: str) -> tuple[bool, str]:
+        """One exploration; returns (success, summary). Raises RunError."""
+        log = self.get_logger()
+        self._wait(lambda: self.io.joints, "waiting for /joint_states", wall_timeout=None)
+        home, pick = self._joint_sets()
+        plan = self.plan()
+        target = self.p("target_com_sigma")
+        if target > 0:
+            advice = dwell_for_target(
+                plan, target, max_tilt=self.p("max_tilt"), max_time=self.p("max_object_time")
+            )
+            if not advice.feasible:
+                raise RunError(f"target COM sigma cannot be met: {advice.reason}")
+            plan = advice.plan
+            log.info(f"target COM sigma {target * 1e3:.3g} mm: dwell {plan.dwell:.3g} s per pose")
+        prediction = predict(plan)
+        log.info(
+            f"run {run_id}: plan {[n for n, _ in plan.poses()]}, tilt {plan.tilt:.3f} rad, "
+            f"dwell {plan.dwell:g} s; predicted {prediction}"
+        )
+        bag = Path(self.p("bag_dir")).resolve() / run_id
+        self._labels = []
+        self.io.recorder.start(bag)
+        poses = pose_joints(plan, home)
+
+        self._gripper(FINGER_OPEN)
+        self._tare(plan, poses, bag)
+        log.info("phase 2/4: grasp and lift")
+        self._move(home, "home")
+        self._move(pick, "the object")
+        self._gripper(FINGER_CLOSED, wait=0.6)
+        self._move(home, "lifting")
+        log.info("phase 3/4: object pass")
+        start = self.io.now_ns()
+        self._pass(OBJECT_PREFIX, poses, plan.dwell)
+        done = self.io.now_ns()
+        self._label(done, DONE)
+        object_time = (done - start) * 1e-9
+        log.info("phase 4/4: return and release")
+        self._move(home, "home")
+        self._move(pick, "the stand", must_arrive=False)  # a shifted object may hit it
+        self._gripper(FINGER_OPEN, wait=0.6)
+        self._move(home, "home")
+        status = self._estimator_answer(done)
+        counts = self._stop_recording()
+        summary = _summary(status, prediction, object_time, bag)
+        log.info(f"run {run_id}: {summary} ({sum(counts.values())} messages recorded)")
+        self._write_report(bag)
+        return status is not None and status.level != b"\x02", summary
+
+    # --- steps ------------------------------------------------------------------------
+
+    def _tare(self, plan: Plan, poses: list[tuple[str, list[float]]], bag: Path) -> None:
+        """Phase 1: reuse the cached tare pass if still valid, else take a new one.
+
+        Valid: same hand and plan (signature), younger than ``tare_max_age``, and a fresh
+        ``drift_dwell`` window at home agrees with the cached one (chi-square, 6 dof, at
+        false-alarm rate DRIFT_ALPHA). A reused cache is copied beside the bag.
+        """
+        log = self.get_logger()
+        path = Path(self.p("tare_cache") or Path(self.p("bag_dir")) / "tare_cache.json")
+        signature = (
+            f"{self.p('hand_id')}|tilt {plan.tilt:.6f}|axes {','.join(plan.axes)}"
+            f"|both {plan.both_directions}|home {[round(q, 4) for q in poses[0][1]]}"
+        )
+        try:
+            cache = load_tares(path)
+        except (ValueError, KeyError, OSError) as exc:
+            log.warning(f"tare cache {path} unreadable ({exc}): taking a new tare")
+            cache = None
+        home_name, home = poses[0]
+        if (
+            cache is not None
+            and cache.signature == signature
+            and cache.age() < self.p("tare_max_age")
+            and {name for name, _ in poses} <= cache.windows.keys()
+        ):
+            log.info(f"phase 1/4: drift check of the cached tare ({cache.age():.0f} s old)")
+            self._move(home, "home")
+            fresh = self._captured_windows(
+                TARE_PREFIX, [(home_name, home)], self.p("drift_dwell")
+            ).get(home_name)
+            chi2, p = drift(cache.windows[home_name], fresh) if fresh else (math.inf, 0.0)
+            if p >= DRIFT_ALPHA:
+                shutil.copyfile(path, bag / BAG_TARE_FILE)
+                log.info(f"tare: reusing the cache (drift chi2 {chi2:.1f}, 6 dof, p {p:.2g})")
+                return
+            log.warning(f"tare drifted (chi2 {chi2:.1f}, 6 dof, p {p:.2g}): new tare pass")
+        log.info("phase 1/4: tare pass with the empty hand")
+        windows = self._captured_windows(TARE_PREFIX, poses, plan.tare_dwell or plan.dwell)
+        if len(windows) == len(poses):
+            save_tares(path, signature, windows)
+            log.info(f"tare: saved to {path}")
+
+    def _captured_windows(
+        self, prefix: str, poses: list[tuple[str, list[float]]], dwell: float
+    ) -> dict[str, Window]:
+        """Run a pass and reduce its windows from the wrenches the recorder saw."""
+        kept = self.io.recorder.capture(WRENCH_TOPIC)
+        try:
+            self._pass(prefix, poses, dwell)
+            end = self._labels[-1][0]  # the stream must reach the last window's end
+
+            def caught_up() -> bool:
+                return bool(kept) and decode_wrench_batch(kept[-1:])[0][0] >= end
+
+            self._wait(caught_up, "waiting for the wrenches of the tare", wall_timeout=10.0)
+        finally:
+            raws = self.io.recorder.release(WRENCH_TOPIC)
+        exploration = Exploration()
+        if raws:
+            exploration.add_samples(*decode_wrench_batch(raws))
+        for stamp, label in self._labels:
+            exploration.add_label(stamp, label)
+        windows = {}
+        for label, samples in exploration.segments(until_ns=self._labels[-1][0]):
+            if label.startswith(prefix) and len(samples) >= MIN_SAMPLES_FOR_COVARIANCE:
+                pose = label[len(prefix) :]
+                try:
+                    windows[pose] = reduce_window(pose, samples)
+                except WindowError as exc:
+                    self.get_logger().warning(f"{label} not usable: {exc}")
+        self.get_logger().info(f"{prefix}: {len(windows)} windows from {len(raws)} wrenches")
+        return windows
+
+    def _pass(self, prefix: str, poses: list[tuple[str, list[float]]], dwell: float) -> None:
+        for name, q in poses:
+            self._move(q, name)
+            self._window(prefix + name, dwell)
+
+    def _move(self, goal: list[float], what: str, must_arrive: bool = True) -> None:
+        """Move the arm to ``goal`` (rad), wait until it rests there, then ``settle`` s.
+
+        The wait ends after 5 s + 2x the motion's time (wall; a sim runs at least real
+        time); then RunError, or with ``must_arrive`` False a warning and the arm stays.
+        """
+
+        def settled() -> bool:
+            state = [self.io.joints[j] for j in ARM_JOINTS]
+            return all(
+                abs(q - g) < 5e-3 and abs(v) < 5e-3 for (q, v), g in zip(state, goal, strict=True)
+            )
+
+        if settled():
+            return  # already resting there
+        start = [self.io.joints[j][0] for j in ARM_JOINTS]
+        duration = motion_time(start, goal, self.p("speed"))
+        secs, nsecs = divmod(round(duration * 1e9), 1_000_000_000)
+        point = JointTrajectoryPoint(
+            positions=[float(v) for v in goal], time_from_start=Duration(sec=secs, nanosec=nsecs)
+        )
+        self.arm_pub.publish(JointTrajectory(joint_names=ARM_JOINTS, points=[point]))
+        try:
+            self._wait(settled, f"moving to {what}", wall_timeout=5.0 + 2.0 * duration)
+        except TimeoutRunError as exc:
+            if must_arrive:
+                raise
+            self.get_logger().warning(f"{exc}: going on from where the arm is")
+            return
+        self._sleep(self.p("settle"), f"settling at {what}")
+
+    def _gripper(self, opening: float, wait: float = 0.0) -> None:
+        self.hand_pub.publish(Float64MultiArray(data=[opening]))
+        self._sleep(wait, "moving the fingers")
+
+    def _window(self, label: str, dwell: float) -> None:
+        """Label a static window: it covers [t0, t0 + dwell) of sensor time exactly."""
+        t0 = self.io.now_ns()
+        self._label(t0, label)
+        end = t0 + round(dwell * 1e9)
+        self._wait(lambda: self.io.now_ns() >= end, f"recording {label}", wall_timeout=None)
+        self._label(end, MOVING)
+
+    def _label(self, stamp_ns: int, label: str) -> None:
+        header = Header(frame_id=label)
+        header.stamp.sec, header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
+        self.pose_pub.publish(header)
+        self._labels.append((stamp_ns, label))
+        if label != MOVING:
+            self.get_logger().info(f"window {label} from t={stamp_ns * 1e-9:.3f} s")
+
+    def _sleep(self, seconds: float, what: str) -> None:
+        end = self.io.now_ns() + round(seconds * 1e9)
+        self._wait(lambda: self.io.now_ns() >= end, what, wall_timeout=None)
+
+    def _wait(self, done: Callable[[], object], what: str, wall_timeout: float | None) -> None:
+        """Poll ``done`` until true; RunError when the sim stops answering or on timeout."""
+        start = time.monotonic()
+        while not done():
+            age = time.monotonic() - self.io.joints_wall
+            if age > self.p("sim_timeout") and time.monotonic() - start > self.p("sim_timeout"):
+                raise RunError(
+                    f"wrench_sim stopped answering (no /joint_states for {age:.1f} s) while {what}"
+                )
+            if wall_timeout is not None and time.monotonic() - start > wall_timeout:
+                raise TimeoutRunError(f"timed out after {wall_timeout:g} s while {what}")
+            if not rclpy.ok():
+                raise RunError("shutting down")
+            time.sleep(0.002)
+
+    def _joint_sets(self) -> tuple[list[float], list[float]]:
+        """home_joints and pick_joints: the parameters, else /wrench_sim's."""
+        home, pick = self.p("home_joints"), self.p("pick_joints")
+        if len(home) == 7 and len(pick) == 7:
+            return list(home), list(pick)
+        if not self._sim_params.wait_for_service(timeout_sec=self.p("sim_timeout")):
+            raise RunError("home_joints/pick_joints unset and /wrench_sim does not answer")
+        future = self._sim_params.call_async(
+            GetParameters.Request(names=["home_joints", "pick_joints"])
+        )
+        self._wait(future.done, "reading /wrench_sim's joint sets", wall_timeout=10.0)
+        values = [list(v.double_array_value) for v in future.result().values]
+        return (
+            list(home) if len(home) == 7 else values[0],
+            list(pick) if len(pick) == 7 else values[1],
+        )
+
+    def _estimator_answer(self, done_ns: int):
+        """The estimator's diagnostics status for this run's 'done', or None."""
+
+        def answered():
+            return next((s for stamp, s in self.io.diagnostics if stamp == done_ns), None)
+
+        try:
+            self._wait(
+                answered, "waiting for the estimator", wall_timeout=self.p("estimate_timeout")
+            )
+        except RunError as exc:
+            self.get_logger().error(f"no estimate: {exc}")
+            return None
+        return answered()
+
+    def _stop_recording(self) -> dict[str, int]:
+        if self.io.recorder.recording:
+            return self.io.recorder.stop()
+        return {}
+
+    def _write_report(self, bag: Path) -> None:
+        try:
+            from com_core.report import write_report
+
+            self.get_logger().info(f"report: {write_report(bag)}")
+        except Exception as exc:  # a report must never fail a run
+            self.get_logger().error(f"report not written: {exc!r}")
+
+
+def _summary(status, prediction, object_time: float, bag: Path) -> str:
+    if status is None:
+        head = "[ERROR] the estimator did not answer"
+    else:
+        level = {b"\x00": "OK", b"\x01": "WARN"}.get(status.level, "ERROR")
+        head = f"[{level}] {status.message}"
+    return f"{head}; predicted {prediction}; object pass {object_time:.1f} s (sim); bag {bag}"
+
+
+def main(args: list[str] | None = None) -> None:
+    keep_dds_local()
+    rclpy.init(args=args)
+    io = IoNode()
+    node = SequencerNode(io)
+    io_executor = EventsExecutor()
+    io_executor.add_node(io)
+    executor = MultiThreadedExecutor(num_threads=3)
+    executor.add_node(node)
+    worker = threading.Thread(target=executor.spin, daemon=True)
+    worker.start()
+    try:
+        while rclpy.ok():
+            io_executor.spin_once(timeout_sec=0.1)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if io.recorder.recording:
+            io.recorder.stop()
+        executor.shutdown(timeout_sec=1.0)
+        node.destroy_node()
+        io.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,823 @@
+"""A PNG report of one exploration run, read from its bag: what happened, and how well.
+
+``write_report(bag)`` writes ``<bag>/report.png`` (one figure, 1600 x 1100 px):
+
+- left: force and torque against sim time (s, the wrenches' header stamps; N and N m,
+  ``ft_sensor``), under a strip of the labelled windows: ``tare/<pose>`` and
+  ``object/<pose>`` static windows shaded in two colours, ``moving`` unshaded, ``done``
+  marked (label semantics as in ``com_core.exploration``);
+- right: the estimate against the ground truth, estimate minus truth (0 = truth) for
+  the mass (g) and each COM axis (mm, ``ft_sensor``) with 1-sigma (thick) and 3-sigma
+  (thin) error bars; without ground truth the estimate itself with its error bars; with
+  no estimate (ERROR) the reason, large; under it a table of every number, the status,
+  reason, method, chi-square, poses, and which topics the bag lacks.
+
+Any topic may be missing: the report is still written and says what is missing.
+
+Ground truth: ``/wrench_sim/ground_truth`` is republished whenever the object is grasped,
+released, or moves in the grasp (slip). The report compares with the last one published
+while the object was held, at or before the ``done`` label (the state the estimate
+describes). "Held" comes from ``/wrench_sim/object`` (``state=held``/``state=not_held``),
+published together with the truth message it pairs with (nearest by log time); a truth
+message without a description is a republish while held. Without descriptions every
+truth message counts as held. If none qualifies, the last truth message is used and the
+report says so. If the truth moved while held before ``done`` (a slip), the report
+gives by how much.
+
+The core never imports rclpy: messages are decoded from their CDR bytes with
+``com_core.cdr`` (wrenches, labels) and the rosbags type store (the rest).
+"""
+
+from __future__ import annotations
+
+import math
+import textwrap
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .bagio import POSE_TOPIC, WRENCH_TOPIC, read_raw
+from .cdr import decode_header, decode_wrench_batch
+from .windows import DONE, OBJECT_PREFIX, TARE_PREFIX
+
+__all__ = [
+    "DIAGNOSTICS_TOPIC",
+    "DIAGNOSTIC_NAME",
+    "ESTIMATE_TOPIC",
+    "HAND_TRUTH_TOPIC",
+    "OBJECT_TOPIC",
+    "TRUTH_TOPIC",
+    "Inertia",
+    "RunData",
+    "read_run",
+    "write_report",
+]
+
+ESTIMATE_TOPIC = "/com_estimator/estimate"
+DIAGNOSTICS_TOPIC = "/diagnostics"
+TRUTH_TOPIC = "/wrench_sim/ground_truth"
+HAND_TRUTH_TOPIC = "/wrench_sim/hand_ground_truth"
+OBJECT_TOPIC = "/wrench_sim/object"
+DIAGNOSTIC_NAME = "com_estimator: exploration"
+
+_TOPICS = (
+    WRENCH_TOPIC,
+    POSE_TOPIC,
+    ESTIMATE_TOPIC,
+    DIAGNOSTICS_TOPIC,
+    TRUTH_TOPIC,
+    HAND_TRUTH_TOPIC,
+    OBJECT_TOPIC,
+)
+_BATCH = 16384
+_LEVELS = {0: "OK", 1: "WARN", 2: "ERROR", 3: "STALE"}
+_STATUS_COLOURS = {
+    "OK": "#2e7d32",
+    "WARN": "#ef6c00",
+    "ERROR": "#c62828",
+    "STALE": "#616161",
+    "UNKNOWN": "#616161",
+}
+_TARE_COLOUR, _OBJECT_COLOUR = "#6baed6", "#fd8d3c"
+_AXIS_COLOURS = ("#d62728", "#2ca02c", "#1f77b4")  # x, y, z
+_SIGMA = "\u03c3"
+_TRUTH_MOVE_M = 5e-5  # the simulator republishes the truth on a 0.05 mm move
+_MAX_TRACE_POINTS = 4000  # per trace; min/max envelope beyond (about 2 points per pixel)
+
+
+@dataclass(frozen=True)
+class Inertia:
+    """One geometry_msgs/InertiaStamped: mass (kg) and COM (shape (3,), m, ``ft_sensor``).
+
+    ``stamp_ns`` is the header stamp (sim time), ``log_ns`` the bag's log time.
+    """
+
+    stamp_ns: int
+    log_ns: int
+    mass: float
+    com: NDArray[np.float64]
+
+
+@dataclass
+class RunData:
+    """What the report shows of one run bag.
+
+    Attributes
+    ----------
+    name : run id (the bag directory's name).
+    stamps : shape (n,); ns, sim time (header stamps), sorted.
+    wrenches : shape (n, 6); N and N m; ``ft_sensor``.
+    labels : (stamp ns, label) sorted by stamp.
+    estimate : the last ``/com_estimator/estimate``, or None.
+    diagnostic : level (int), message (str) and values (dict of str) of the last
+        ``com_estimator: exploration`` status on ``/diagnostics``, or None.
+    truth : the object's ground truth chosen as the module says, or None.
+    truth_note : how ``truth`` was chosen (one line).
+    hand : the last ``/wrench_sim/hand_ground_truth``, or None.
+    object_text : the last ``/wrench_sim/object`` description with ``state=held`` (else
+        the last one), or None.
+    counts : messages read per topic.
+    notes : problems met while reading (unreadable bag, undecodable messages).
+    """
+
+    name: str
+    stamps: NDArray[np.int64] = field(default_factory=lambda: np.empty(0, np.int64))
+    wrenches: NDArray[np.float64] = field(default_factory=lambda: np.empty((0, 6)))
+    labels: list[tuple[int, str]] = field(default_factory=list)
+    estimate: Inertia | None = None
+    diagnostic: dict | None = None
+    truth: Inertia | None = None
+    truth_note: str = ""
+    hand: Inertia | None = None
+    object_text: str | None = None
+    counts: dict[str, int] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def missing(self) -> list[str]:
+        """Topics of a run bag with no message in this one."""
+        return [t for t in _TOPICS if not self.counts.get(t)]
+
+    @property
+    def done_ns(self) -> int | None:
+        """Stamp of the first ``done`` label, or None."""
+        return next((s for s, lbl in self.labels if lbl == DONE), None)
+
+    @property
+    def status(self) -> str:
+        """OK, WARN, ERROR (from the diagnostics), or UNKNOWN without them."""
+        if self.diagnostic is None:
+            return "UNKNOWN"
+        return _LEVELS.get(self.diagnostic["level"], f"LEVEL {self.diagnostic['level']}")
+
+
+# --- reading ------------------------------------------------------------------------------
+
+
+def read_run(bag: Path | str) -> RunData:
+    """Read everything the report shows from a run bag (rosbag2 directory, MCAP).
+
+    A bag that cannot be read to its end gives what was read before the failure and a
+    note saying why.
+    """
+    from rosbags.typesys import Stores, get_typestore
+
+    bag = Path(bag)
+    typestore = get_typestore(Stores.ROS2_JAZZY)
+    run = RunData(name=bag.resolve().name)
+    raws: list[bytes] = []
+    stamp_parts: list[NDArray[np.int64]] = []
+    wrench_parts: list[NDArray[np.float64]] = []
+    other_frames: dict[str, int] = {}
+    truths: list[Inertia] = []
+    states: list[tuple[int, bool]] = []  # (log ns, held) from /wrench_sim/object
+
+    def flush() -> None:
+        if not raws:
+            return
+        try:
+            stamps, wrenches, frames = decode_wrench_batch(raws)
+        except (ValueError, IndexError) as exc:
+            run.notes.append(f"{len(raws)} undecodable wrench messages dropped ({exc})")
+        else:
+            stamp_parts.append(stamps)
+            wrench_parts.append(wrenches)
+            for name in set(frames.tolist()) - {"ft_sensor"}:
+                other_frames[name] = other_frames.get(name, 0) + int((frames == name).sum())
+        raws.clear()
+
+    def inertia(raw: bytes, log_ns: int) -> Inertia:
+        msg = typestore.deserialize_cdr(raw, "geometry_msgs/msg/InertiaStamped")
+        c = msg.inertia.com
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        return Inertia(stamp, log_ns, float(msg.inertia.m), np.array([c.x, c.y, c.z]))
+
+    try:
+        for topic, msgtype, log_ns, raw in read_raw(bag, _TOPICS):
+            run.counts[topic] = run.counts.get(topic, 0) + 1
+            try:
+                if topic == WRENCH_TOPIC:
+                    raws.append(raw)
+                    if len(raws) >= _BATCH:
+                        flush()
+                elif topic == POSE_TOPIC:
+                    if msgtype != "std_msgs/msg/Header":
+                        run.notes.append(f"labels of type {msgtype} ignored")
+                        continue
+                    run.labels.append(decode_header(raw))
+                elif topic == ESTIMATE_TOPIC:
+                    run.estimate = inertia(raw, log_ns)
+                elif topic == TRUTH_TOPIC:
+                    truths.append(inertia(raw, log_ns))
+                elif topic == HAND_TRUTH_TOPIC:
+                    run.hand = inertia(raw, log_ns)
+                elif topic == OBJECT_TOPIC:
+                    text = typestore.deserialize_cdr(raw, msgtype).data
+                    held = "state=held" in text.split()
+                    if held or not any(h for _, h in states):
+                        run.object_text = text  # the last one while held, if ever held
+                    if "state=" in text:
+                        states.append((log_ns, held))
+                elif topic == DIAGNOSTICS_TOPIC:
+                    msg = typestore.deserialize_cdr(raw, msgtype)
+                    for status in msg.status:
+                        if status.name == DIAGNOSTIC_NAME:
+                            run.diagnostic = {
+                                "level": int(status.level),
+                                "message": status.message,
+                                "values": {kv.key: kv.value for kv in status.values},
+                            }
+            except Exception as exc:  # one bad message must not cost the report
+                run.notes.append(f"undecodable message on {topic}: {exc}")
+    except Exception as exc:  # a truncated bag (crashed recorder): report what was read
+        run.notes.append(f"bag not read to the end: {exc}")
+    flush()
+    if stamp_parts:
+        stamps, wrenches = np.concatenate(stamp_parts), np.concatenate(wrench_parts)
+        order = np.argsort(stamps, kind="stable")
+        run.stamps, run.wrenches = stamps[order], wrenches[order]
+    for name, n in other_frames.items():
+        run.notes.append(f"{n} wrench samples in frame {name!r}, not 'ft_sensor'")
+    run.labels.sort(key=lambda sl: sl[0])
+    until = run.done_ns
+    if until is None and run.estimate is not None:
+        until = run.estimate.stamp_ns
+    run.truth, run.truth_note = _choose_truth(truths, states, until)
+    return run
+
+
+def _choose_truth(
+    truths: list[Inertia], states: list[tuple[int, bool]], until_ns: int | None
+) -> tuple[Inertia | None, str]:
+    """The last truth published while held at or before ``until_ns`` (see module)."""
+    if not truths:
+        return None, "no ground truth"
+    held = [True] * len(truths)
+    log_times = np.array([t.log_ns for t in truths])
+    for log_ns, is_held in states:  # each description pairs with its truth message
+        held[int(np.argmin(np.abs(log_times - log_ns)))] = is_held
+    candidates = [
+        t
+        for t, h in zip(truths, held, strict=True)
+        if h and (until_ns is None or t.stamp_ns <= until_ns)
+    ]
+    n = len(truths)
+    if not candidates:
+        return truths[-1], f"the last of {n} published (none while held before done)"
+    chosen = candidates[-1]
+    note = f"t = {chosen.stamp_ns * 1e-9:.3f} s, the last of {n} published while held"
+    note += " before done" if until_ns is not None else ""
+    moved = max(float(np.linalg.norm(t.com - chosen.com)) for t in candidates)
+    if moved > _TRUTH_MOVE_M:
+        note += f"; moved {moved * 1e3:.2f} mm in the grasp"
+    return chosen, note
+
+
+# --- the numbers --------------------------------------------------------------------------
+
+
+def _value(values: dict, key: str) -> float | None:
+    try:
+        v = float(values[key])
+    except (KeyError, ValueError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+@dataclass(frozen=True)
+class _Row:
+    """One estimated quantity in display units (g or mm)."""
+
+    name: str
+    unit: str
+    estimate: float
+    sigma: float | None
+    truth: float | None
+
+    @property
+    def error(self) -> float | None:
+        return None if self.truth is None else self.estimate - self.truth
+
+
+def _rows(run: RunData) -> list[_Row]:
+    """Mass (g) and COM x, y, z (mm) of the estimate, with sigma and truth when known."""
+    values = run.diagnostic["values"] if run.diagnostic else {}
+    if run.estimate is not None:
+        mass, com = run.estimate.mass, run.estimate.com.tolist()
+    else:
+        parts = [_value(values, k) for k in ("mass", "com_x", "com_y", "com_z")]
+        if any(p is None for p in parts):
+            return []
+        mass, com = parts[0], parts[1:]
+    truth = run.truth
+    rows = [
+        _Row(
+            "mass",
+            "g",
+            mass * 1e3,
+            _scaled(_value(values, "sigma_mass"), 1e3),
+            None if truth is None else truth.mass * 1e3,
+        )
+    ]
+    for i, axis in enumerate("xyz"):
+        rows.append(
+            _Row(
+                f"COM {axis}",
+                "mm",
+                com[i] * 1e3,
+                _scaled(_value(values, f"sigma_com_{axis}"), 1e3),
+                None if truth is None else float(truth.com[i]) * 1e3,
+            )
+        )
+    return rows
+
+
+def _scaled(v: float | None, k: float) -> float | None:
+    return None if v is None else v * k
+
+
+def _windows(run: RunData) -> list[tuple[float, float, str]]:
+    """(start s, stop s, label) of every static window; a window ends at the next label."""
+    end = run.stamps[-1] if run.stamps.size else (run.labels[-1][0] if run.labels else 0)
+    out = []
+    for k, (start, label) in enumerate(run.labels):
+        if label.startswith((TARE_PREFIX, OBJECT_PREFIX)):
+            stop = run.labels[k + 1][0] if k + 1 < len(run.labels) else max(end, start)
+            out.append((start * 1e-9, stop * 1e-9, label))
+    return out
+
+
+# --- drawing ------------------------------------------------------------------------------
+
+
+def _envelope(
+    t: NDArray[np.float64], y: NDArray[np.float64], max_points: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Min/max envelope of ``y`` (n, k) in buckets: looks like every sample, plots fast."""
+    n = len(t)
+    if n <= max_points:
+        return t, y
+    size = math.ceil(2 * n / max_points)
+    m = n // size
+    tb = t[: m * size].reshape(m, size)
+    yb = y[: m * size].reshape(m, size, -1)
+    t_out = np.column_stack([tb[:, 0], tb[:, -1]]).ravel()
+    y_out = np.stack([yb.min(axis=1), yb.max(axis=1)], axis=1).reshape(2 * m, -1)
+    return np.concatenate([t_out, t[m * size :]]), np.concatenate([y_out, y[m * size :]])
+
+
+def _draw_traces(fig, run: RunData, rect: tuple[float, float, float, float]) -> None:
+    """Window strip, force panel and torque panel in ``rect`` (left, bottom, width, height)."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    left, bottom, width, height = rect
+    strip_h = 0.055
+    gap = 0.012
+    panel_h = (height - strip_h - 2 * gap) / 2
+    ax_strip = fig.add_axes((left, bottom + height - strip_h, width, strip_h))
+    ax_f = fig.add_axes((left, bottom + panel_h + gap, width, panel_h), sharex=ax_strip)
+    ax_t = fig.add_axes((left, bottom, width, panel_h), sharex=ax_strip)
+
+    windows = _windows(run)
+    t = run.stamps * 1e-9
+    times = [*t[:1], *t[-1:], *(s * 1e-9 for s, _ in run.labels)]
+    t0, t1 = (min(times), max(times)) if times else (0.0, 1.0)
+    if t1 <= t0:
+        t1 = t0 + 1.0
+    pad = 0.005 * (t1 - t0)
+    ax_strip.set_xlim(t0 - pad, t1 + pad)
+
+    suspect = run.diagnostic["values"].get("suspect_pose") if run.diagnostic else None
+    px_per_s = width * fig.get_figwidth() * fig.dpi / (t1 - t0 + 2 * pad)
+    for start, stop, label in windows:
+        tare = label.startswith(TARE_PREFIX)
+        colour = _TARE_COLOUR if tare else _OBJECT_COLOUR
+        for ax in (ax_f, ax_t):
+            ax.axvspan(start, stop, color=colour, alpha=0.18, lw=0)
+        bad = not tare and suspect not in (None, "", "None") and label == OBJECT_PREFIX + suspect
+        ax_strip.axvspan(
+            start,
+            stop,
+            facecolor=colour,
+            alpha=0.8,
+            edgecolor="#b71c1c" if bad else "white",
+            lw=2.5 if bad else 0.8,
+        )
+        pose = label.split("/", 1)[1]
+        fits = (stop - start) * px_per_s > 7.0 * len(pose) + 6
+        ax_strip.text(
+            (start + stop) / 2,
+            0.5,
+            pose + (" (!)" if bad else ""),
+            ha="center",
+            va="center",
+            rotation=0 if fits else 90,
+            fontsize=9 if fits else 7.5,
+            color="#b71c1c" if bad else "black",
+            clip_on=True,
+        )
+    done_lines = [s * 1e-9 for s, lbl in run.labels if lbl == DONE]
+    for done in done_lines:
+        for ax in (ax_strip, ax_f, ax_t):
+            ax.axvline(done, color="black", ls="--", lw=1.4)
+    ax_strip.set_ylim(0, 1)
+    ax_strip.set_yticks([])
+    ax_strip.tick_params(labelbottom=False, bottom=False)
+    ax_strip.set_title(
+        "Wrench on the sensor (ft_sensor frame) and the labelled static windows",
+        loc="left",
+        fontsize=12,
+        fontweight="bold",
+        pad=24,
+    )
+    handles = [
+        Patch(color=_TARE_COLOUR, label="tare window (empty hand)"),
+        Patch(color=_OBJECT_COLOUR, label="object window"),
+        Line2D([], [], color="black", ls="--", label="done"),
+    ]
+    ax_strip.legend(
+        handles=handles,
+        loc="lower right",
+        bbox_to_anchor=(1.0, 1.0),
+        ncol=3,
+        fontsize=9,
+        frameon=False,
+        borderaxespad=0.1,
+    )
+    if not run.labels:
+        ax_strip.text(
+            0.5,
+            0.5,
+            f"no labels ({POSE_TOPIC} missing)",
+            transform=ax_strip.transAxes,
+            ha="center",
+            va="center",
+            color="#c62828",
+            fontsize=10,
+        )
+
+    if run.stamps.size:
+        tt, ww = _envelope(t, run.wrenches, _MAX_TRACE_POINTS)
+        for ax, cols, names, unit in (
+            (ax_f, slice(0, 3), ("$f_x$", "$f_y$", "$f_z$"), "force (N)"),
+            (ax_t, slice(3, 6), (r"$\tau_x$", r"$\tau_y$", r"$\tau_z$"), "torque (N m)"),
+        ):
+            for k, (colour, name) in enumerate(zip(_AXIS_COLOURS, names, strict=True)):
+                ax.plot(tt, ww[:, cols][:, k], color=colour, lw=0.8, label=name)
+            ax.set_ylabel(unit)
+            ax.legend(loc="upper left", ncol=3, fontsize=9, framealpha=0.85)
+    else:
+        for ax in (ax_f, ax_t):
+            ax.set_yticks([])
+            ax.text(
+                0.5,
+                0.5,
+                f"no wrench messages ({WRENCH_TOPIC} missing)",
+                transform=ax.transAxes,
+                ha="center",
+                va="center",
+                color="#c62828",
+                fontsize=12,
+            )
+    for ax in (ax_f, ax_t):
+        ax.grid(True, color="#dddddd", lw=0.6)
+        ax.margins(x=0)
+    ax_f.tick_params(labelbottom=False)
+    ax_t.set_xlabel("sim time (s, header stamps)")
+    if not times:
+        ax_t.tick_params(labelbottom=False)
+
+
+def _right_edge(fig, artist, renderer) -> float:
+    """Right edge of a drawn artist, in figure coordinates."""
+    return fig.transFigure.inverted().transform(artist.get_window_extent(renderer).p1)[0]
+
+
+def _bottom_edge(fig, artist, renderer) -> float:
+    """Bottom edge of a drawn artist, in figure coordinates."""
+    return fig.transFigure.inverted().transform(artist.get_window_extent(renderer).p0)[1]
+
+
+def _draw_bars(fig, rows: list[_Row], rect: tuple[float, float, float, float]) -> None:
+    """Mass and COM panels: error (or value) with 1-sigma and 3-sigma bars, in ``rect``."""
+    from matplotlib.ticker import MaxNLocator
+
+    left, bottom, width, height = rect
+    with_truth = rows[0].truth is not None
+    title = "Estimate minus ground truth (0 = truth)" if with_truth else "Estimate"
+    fig.text(left - 0.03, bottom + height + 0.06, title, fontsize=12, fontweight="bold")
+    if not with_truth:
+        fig.text(
+            left + 0.045,
+            bottom + height + 0.06,
+            "no ground truth",
+            fontsize=12,
+            color="#c62828",
+            fontweight="bold",
+        )
+    fig.text(
+        left - 0.03,
+        bottom + height + 0.043,
+        ("point: estimate - truth" if with_truth else "point: estimate")
+        + (
+            ";  thick bar: 1 sigma;  thin bar: 3 sigma"
+            if rows[0].sigma is not None
+            else ";  no sigmas (no diagnostics)"
+        ),
+        fontsize=9,
+        color="#444444",
+    )
+    # the mass, then the COM axes (one shared scale when they are errors)
+    gaps = [0.05, 0.012, 0.012] if with_truth else [0.045, 0.04, 0.04]
+    w = (width - sum(gaps)) / 4
+    x = left
+    axes = []
+    for k, row in enumerate(rows):
+        share = axes[1] if (with_truth and k >= 2) else None
+        ax = fig.add_axes((x, bottom, w, height), sharey=share)
+        axes.append(ax)
+        x += w + (gaps[k] if k < 3 else 0.0)
+        colour = "#555555" if k == 0 else _AXIS_COLOURS[k - 1]
+        y = row.error if with_truth else row.estimate
+        if row.sigma is not None:
+            ax.errorbar(
+                0,
+                y,
+                yerr=3 * row.sigma,
+                fmt="none",
+                ecolor=colour,
+                elinewidth=1.2,
+                capsize=12,
+                capthick=1.2,
+                alpha=0.6,
+            )
+            ax.errorbar(
+                0,
+                y,
+                yerr=row.sigma,
+                fmt="none",
+                ecolor=colour,
+                elinewidth=9,
+                capsize=0,
+                alpha=0.85,
+            )
+        ax.plot(0, y, "o", color="black", ms=6, zorder=5)
+        if with_truth:
+            ax.axhline(0.0, color="#2e7d32", lw=1.5, zorder=1)
+        ax.set_xlim(-1, 1)
+        ax.set_xticks([0], [f"{row.name}\n({row.unit})"], fontsize=10)
+        ax.yaxis.set_major_locator(MaxNLocator(6))
+        ax.grid(True, axis="y", color="#dddddd", lw=0.6)
+        value = f"{y:+.3f}" if with_truth else f"{y:.2f}"
+        sigma = "" if row.sigma is None else f"\n1{_SIGMA} {row.sigma:.3f}"
+        ax.set_title(value + sigma, fontsize=9.5, color=colour if k else "black")
+    for ax in axes:
+        lo, hi = ax.get_ylim()
+        if with_truth:  # keep the truth line in view
+            lo, hi = min(lo, 0.0), max(hi, 0.0)
+        span = hi - lo or 1.0
+        ax.set_ylim(lo - 0.04 * span, hi + 0.04 * span)
+    axes[0].set_ylabel("estimate - truth (g)" if with_truth else "mass (g)")
+    axes[1].set_ylabel("estimate - truth (mm)" if with_truth else "COM (mm, ft_sensor)")
+    if with_truth:
+        for ax in axes[2:]:
+            ax.tick_params(labelleft=False)
+
+
+def _draw_no_estimate(fig, run: RunData, rect: tuple[float, float, float, float]) -> None:
+    """The reason there is no estimate, prominently, in ``rect``."""
+    from matplotlib.patches import FancyBboxPatch
+
+    ax = fig.add_axes(rect)
+    ax.set_axis_off()
+    colour = _STATUS_COLOURS["ERROR"]
+    if run.diagnostic is not None:
+        reason = run.diagnostic["message"] or "(the estimator gave no reason)"
+    else:
+        reason = "no estimate and no diagnostics in the bag: did com_estimator run?"
+    ax.add_patch(
+        FancyBboxPatch(
+            (0.02, 0.04),
+            0.96,
+            0.92,
+            boxstyle="round,pad=0.01",
+            transform=ax.transAxes,
+            fc="#ffebee",
+            ec=colour,
+            lw=2,
+        )
+    )
+    ax.text(
+        0.5,
+        0.8,
+        "NO ESTIMATE",
+        transform=ax.transAxes,
+        ha="center",
+        va="center",
+        fontsize=26,
+        fontweight="bold",
+        color=colour,
+    )
+    ax.text(
+        0.5,
+        0.6,
+        "reason:",
+        transform=ax.transAxes,
+        ha="center",
+        va="center",
+        fontsize=11,
+        color="#3e0000",
+    )
+    ax.text(
+        0.5,
+        0.56,
+        textwrap.fill(reason, 50),
+        transform=ax.transAxes,
+        ha="center",
+        va="top",
+        fontsize=13,
+        color="#3e0000",
+    )
+
+
+def _fmt(v: float | None, spec: str) -> str:
+    return "-" if v is None else format(v, spec)
+
+
+def _summary_lines(run: RunData, rows: list[_Row]) -> list[str]:
+    """The numbers, as monospace lines (<= 64 characters)."""
+    values = run.diagnostic["values"] if run.diagnostic else {}
+    lines = []
+    if rows:
+        lines.append(
+            f"{'':11}{'estimate':>10}{'1' + _SIGMA:>8}{'truth':>10}{'error':>9}"
+            f"{'err/' + _SIGMA:>7}"
+        )
+        for r in rows:
+            ratio = r.error / r.sigma if r.error is not None and r.sigma else None
+            lines.append(
+                f"{r.name + ' ' + r.unit:<11}{r.estimate:>10.3f}{_fmt(r.sigma, '.3f'):>8}"
+                f"{_fmt(r.truth, '.3f'):>10}{_fmt(r.error, '+.3f'):>9}{_fmt(ratio, '+.2f'):>7}"
+            )
+        lines.append("")
+    if "dof" in values:
+        lines.append(
+            f"chi2/dof   {_fmt(_value(values, 'chi2'), '.2f')} / {values['dof']}"
+            f",  p = {_fmt(_value(values, 'p_value'), '.3g')}"
+        )
+    suspect = values.get("suspect_pose")
+    if suspect not in (None, "", "None"):
+        lines.append(f"suspect    {suspect} (the object moved in the grasp?)")
+    poses = [p for p in values.get("poses", "").split(",") if p]
+    if poses:
+        lines += textwrap.wrap(
+            f"poses      {len(poses)}: {', '.join(poses)}", 64, subsequent_indent=" " * 11
+        )
+    samples = values.get("samples")
+    n_wrench = run.counts.get(WRENCH_TOPIC, 0)
+    span = (run.stamps[-1] - run.stamps[0]) * 1e-9 if run.stamps.size > 1 else 0.0
+    lines.append(f"wrenches   {n_wrench} messages over {span:.1f} s")
+    if samples:
+        lines.append(f"           {samples} samples used by the estimator")
+    lines.append(f"labels     {len(run.labels)}, static windows {len(_windows(run))}")
+    lines.append("")
+    lines += textwrap.wrap(f"truth      {run.truth_note}", 64, subsequent_indent=" " * 11)
+    if run.truth is not None and not rows:
+        c = run.truth.com * 1e3
+        lines.append(
+            f"           {run.truth.mass * 1e3:.3f} g, COM ({c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f}) mm"
+        )
+    if run.object_text:
+        lines += textwrap.wrap(f"object     {run.object_text}", 64, subsequent_indent=" " * 11)
+    if run.hand is not None:
+        c = run.hand.com * 1e3
+        lines.append(
+            f"hand       {run.hand.mass:.3f} kg, COM ({c[0]:.1f}, {c[1]:.1f}, {c[2]:.1f}) mm"
+        )
+    if run.estimate is None and rows:
+        lines.append(f"estimate   from {DIAGNOSTICS_TOPIC} ({ESTIMATE_TOPIC} missing)")
+    return lines
+
+
+def _draw_summary(fig, run: RunData, rows: list[_Row], left: float, top: float) -> None:
+    """The numbers table from (``left``, ``top``) down, then what the bag lacks."""
+    renderer = fig.canvas.get_renderer()
+    fig.text(left, top, "Numbers", fontsize=12, fontweight="bold", va="top")
+    table = fig.text(
+        left,
+        top - 0.025,
+        "\n".join(_summary_lines(run, rows)),
+        va="top",
+        ha="left",
+        family="monospace",
+        fontsize=9.5,
+        linespacing=1.4,
+    )
+    problems = []
+    if run.missing:
+        problems.append("missing topics: " + ", ".join(run.missing))
+    problems += run.notes
+    if problems:
+        text = "\n".join(textwrap.fill(p, 72, subsequent_indent="    ") for p in problems)
+        fig.text(
+            left + 0.003,
+            _bottom_edge(fig, table, renderer) - 0.025,
+            text,
+            va="top",
+            ha="left",
+            fontsize=9.5,
+            color="#8a4b00",
+            linespacing=1.4,
+            bbox={"boxstyle": "round,pad=0.5", "fc": "#fff8e1", "ec": "#ffb300"},
+        )
+
+
+def _draw_banner(fig, run: RunData) -> None:
+    """Run id, status, method and fit quality on one line; the reason under it."""
+    renderer = fig.canvas.get_renderer()
+    status = run.status
+    colour = _STATUS_COLOURS.get(status, "#616161")
+    values = run.diagnostic["values"] if run.diagnostic else {}
+    y = 0.965
+    title = fig.text(0.02, y, f"Run {run.name}", fontsize=17, fontweight="bold", va="center")
+    badge = fig.text(
+        _right_edge(fig, title, renderer) + 0.015,
+        y,
+        status,
+        fontsize=15,
+        fontweight="bold",
+        color="white",
+        va="center",
+        bbox={"boxstyle": "round,pad=0.35", "fc": colour, "ec": "none"},
+    )
+    poses = [p for p in values.get("poses", "").split(",") if p]
+    facts = [
+        f"method {values['method']}" if "method" in values else None,
+        f"{len(poses)} poses" if poses else None,
+        f"chi2/dof {_fmt(_value(values, 'chi2'), '.2f')} / {values['dof']}"
+        if "dof" in values
+        else None,
+        f"p = {_fmt(_value(values, 'p_value'), '.3g')}" if "p_value" in values else None,
+    ]
+    line = fig.text(
+        _right_edge(fig, badge, renderer) + 0.02,
+        y,
+        "    |    ".join(f for f in facts if f),
+        fontsize=12.5,
+        va="center",
+    )
+    start, stop = line.get_position()[0], _right_edge(fig, line, renderer)
+    if stop > 0.985:  # a long run id: shrink the line to fit
+        line.set_fontsize(max(7.0, 12.5 * (0.985 - start) / (stop - start)))
+    if run.diagnostic is not None:
+        reason = run.diagnostic["message"] or "(no reason given)"
+    else:
+        reason = f"no com_estimator status on {DIAGNOSTICS_TOPIC}"
+    fig.text(
+        0.02,
+        0.925,
+        textwrap.shorten("reason: " + reason, 210),
+        fontsize=11.5,
+        va="center",
+        color="#333333" if status == "OK" else colour,
+    )
+
+
+def write_report(bag: Path | str, png: Path | str | None = None) -> Path:
+    """Read the run's bag and write its PNG report (default: <bag>/report.png); return the path.
+
+    Parameters
+    ----------
+    bag : rosbag2 directory (MCAP) of one run.
+    png : output file; its directory is created if needed.
+
+    Returns
+    -------
+    The PNG's path (1600 x 1100 px).
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    bag = Path(bag)
+    if not bag.is_dir():
+        raise FileNotFoundError(f"{bag} is not a rosbag2 directory")
+    png = bag / "report.png" if png is None else Path(png)
+    run = read_run(bag)
+    rows = _rows(run)
+
+    fig = Figure(figsize=(16, 11), dpi=100)  # no pyplot: no global figure registry
+    FigureCanvasAgg(fig)  # the Agg backend, for this figure only
+    _draw_banner(fig, run)
+    _draw_traces(fig, run, (0.055, 0.06, 0.54, 0.8))
+    if rows:
+        _draw_bars(fig, rows, (0.69, 0.5, 0.295, 0.3))
+    else:
+        _draw_no_estimate(fig, run, (0.655, 0.5, 0.335, 0.36))
+    _draw_summary(fig, run, rows, 0.66, 0.43)
+    png.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(png, dpi=100)
+    fig.clear()
+    return png

@@ -1,0 +1,262 @@
+"""Run reports: a PNG per bag, also for failed runs and bags missing topics."""
+
+from __future__ import annotations
+
+import struct
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rosbags.typesys import Stores, get_typestore
+
+from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC, BagWriter
+from com_core.cdr import encode_header, encode_wrench_stamped
+from com_core.exploration import ERROR, OK, WARN, Exploration, Solution
+from com_core.planner import Plan
+from com_core.report import (
+    DIAGNOSTICS_TOPIC,
+    ESTIMATE_TOPIC,
+    HAND_TRUTH_TOPIC,
+    OBJECT_TOPIC,
+    TRUTH_TOPIC,
+    read_run,
+    write_report,
+)
+from com_core.synthetic import Load, exploration_stream
+from com_core.windows import MOVING, TARE_PREFIX
+
+LOAD, HAND = Load(0.1, (0.01, -0.02, 0.1)), Load(0.73, (0.0, 0.0, 0.04))
+TS = get_typestore(Stores.ROS2_JAZZY)
+T = TS.types
+LEVELS = {"OK": 0, "WARN": 1, "ERROR": 2}
+FAR = (0.3, 0.4, -0.5)
+SLIP = (0.0, 0.0, -0.002)  # m  # the object on the table, before the grasp and after the release
+
+
+def _header(stamp_ns: int, frame_id: str = "ft_sensor"):
+    sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
+    return T["std_msgs/msg/Header"](
+        stamp=T["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec), frame_id=frame_id
+    )
+
+
+def _inertia(stamp_ns: int, mass: float, com) -> bytes:
+    msg = T["geometry_msgs/msg/InertiaStamped"](
+        header=_header(stamp_ns),
+        inertia=T["geometry_msgs/msg/Inertia"](
+            m=float(mass),
+            com=T["geometry_msgs/msg/Vector3"](x=com[0], y=com[1], z=com[2]),
+            ixx=0.0, ixy=0.0, ixz=0.0, iyy=0.0, iyz=0.0, izz=0.0,
+        ),
+    )  # fmt: skip
+    return bytes(TS.serialize_cdr(msg, "geometry_msgs/msg/InertiaStamped"))
+
+
+def _string(text: str) -> bytes:
+    return bytes(TS.serialize_cdr(T["std_msgs/msg/String"](data=text), "std_msgs/msg/String"))
+
+
+def _flatten(d: dict) -> list[tuple[str, str]]:
+    """As the estimator node's ``_flatten`` and ``_text``: floats written with repr."""
+
+    def text(value: object) -> str:
+        if isinstance(value, list):
+            return ",".join(map(str, value))
+        return repr(value) if isinstance(value, float) else str(value)
+
+    out: list[tuple[str, str]] = []
+    for key, value in d.items():
+        if key in ("com", "sigma_com"):
+            out += [(f"{key}_{axis}", text(v)) for axis, v in zip("xyz", value, strict=True)]
+        elif key == "window_samples":
+            out += [(f"samples {label}", str(n)) for label, n in value.items()]
+        elif key not in ("reason", "notes"):
+            out.append((key, text(value)))
+    return out
+
+
+def _diagnostics(stamp_ns: int, solution: Solution, samples: int) -> list[bytes]:
+    """Two DiagnosticArrays at ``stamp_ns``: the estimator's status, then another node's."""
+    kv = T["diagnostic_msgs/msg/KeyValue"]
+    values = [kv(key=k, value=v) for k, v in _flatten(solution.as_dict())]
+    values.append(kv(key="samples", value=str(samples)))
+    ours = T["diagnostic_msgs/msg/DiagnosticStatus"](
+        level=LEVELS[solution.status],
+        name="com_estimator: exploration",
+        message=solution.reason,
+        hardware_id="ft_sensor",
+        values=values,
+    )
+    other = T["diagnostic_msgs/msg/DiagnosticStatus"](
+        level=2, name="some_driver: temperature", message="too hot", hardware_id="", values=[]
+    )
+    array = T["diagnostic_msgs/msg/DiagnosticArray"]
+    return [
+        bytes(TS.serialize_cdr(array(header=_header(stamp_ns), status=[s]), array.__msgtype__))
+        for s in (ours, other)
+    ]
+
+
+def write_run(
+    path: Path,
+    dwell: float = 0.5,
+    seed: int = 1,
+    drop_tare: bool = False,
+    skip: tuple[str, ...] = (),
+    shift_sigma: float = 0.0,
+) -> tuple[Solution, float]:
+    """A run bag as the sequencer records it; returns the estimator's solution and done (s).
+
+    The truth is published not held at the start (object on the table), held at the grasp
+    (the first object window), and not held again after ``done`` (the release).
+    ``drop_tare`` relabels the tare windows ``moving`` (an ERROR run: no tare);
+    ``shift_sigma`` (m) moves the object in the grasp at each tilt, and the truth is then
+    republished (held) at the last object window with the COM moved by 2 mm.
+    """
+    stream = exploration_stream(
+        Plan(dwell=dwell, gravity_home=(0, 0, -1)),
+        LOAD,
+        HAND,
+        np.random.default_rng(seed),
+        shift_sigma=shift_sigma,
+    )
+    labels = [
+        (s, MOVING if drop_tare and lbl.startswith(TARE_PREFIX) else lbl)
+        for s, lbl in stream.labels
+    ]
+    exploration = Exploration()
+    exploration.add_samples(stream.stamps, stream.wrenches, "ft_sensor")
+    for stamp, label in labels:
+        exploration.add_label(stamp, label)
+    solution = exploration.solve()
+    done = exploration.done_stamp()
+    grasp = next(s for s, lbl in labels if lbl.startswith("object/"))
+    start, end = int(stream.stamps[0]), int(stream.stamps[-1])
+
+    messages = [
+        (int(s), WRENCH_TOPIC, "geometry_msgs/msg/WrenchStamped",
+         encode_wrench_stamped(int(s), "ft_sensor", w))
+        for s, w in zip(stream.stamps, stream.wrenches, strict=True)
+    ]  # fmt: skip
+    messages += [
+        (s, POSE_TOPIC, "std_msgs/msg/Header", encode_header(s, lbl)) for s, lbl in labels
+    ]
+    inertia, string = "geometry_msgs/msg/InertiaStamped", "std_msgs/msg/String"
+    described = "shape=box mass=0.1000 grasp_mode=rigid state="
+    messages += [
+        (start, TRUTH_TOPIC, inertia, _inertia(start, LOAD.mass, FAR)),
+        (start + 1, OBJECT_TOPIC, string, _string(described + "not_held")),
+        (grasp - 5, TRUTH_TOPIC, inertia, _inertia(grasp - 5, LOAD.mass, LOAD.com)),
+        (grasp - 4, OBJECT_TOPIC, string, _string(described + "held")),
+        (end, TRUTH_TOPIC, inertia, _inertia(end, LOAD.mass, FAR)),
+        (end + 1, OBJECT_TOPIC, string, _string(described + "not_held")),
+        (start, HAND_TRUTH_TOPIC, inertia, _inertia(start, HAND.mass, HAND.com)),
+    ]
+    if shift_sigma:
+        last = [s for s, lbl in labels if lbl.startswith("object/")][-1]
+        slipped = np.add(LOAD.com, SLIP)
+        messages.append((last, TRUTH_TOPIC, inertia, _inertia(last, LOAD.mass, slipped)))
+    if solution.estimate is not None:
+        e = solution.estimate
+        messages.append((done + 1, ESTIMATE_TOPIC, inertia, _inertia(done, e.mass, e.com)))
+    diag = _diagnostics(done, solution, exploration.sample_count)
+    messages += [(done + 2 + k, DIAGNOSTICS_TOPIC, "diagnostic_msgs/msg/DiagnosticArray", raw)
+                 for k, raw in enumerate(diag)]  # fmt: skip
+    with BagWriter(path) as bag:
+        for stamp, topic, msgtype, raw in sorted(messages, key=lambda m: m[0]):
+            if topic not in skip:
+                bag.write(topic, msgtype, stamp, raw)
+    return solution, done * 1e-9
+
+
+def png_size(path: Path) -> tuple[int, int]:
+    """(width, height) px of a PNG; asserts the signature and the IHDR chunk."""
+    head = path.read_bytes()[:24]
+    assert head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR"
+    return struct.unpack(">II", head[16:24])
+
+
+def test_report_of_a_good_run(tmp_path):
+    bag = tmp_path / "run_ok"
+    solution, _ = write_run(bag, dwell=2.0)  # ~23k wrench messages, as a real run
+    assert solution.status == OK
+    started = time.perf_counter()
+    png = write_report(bag)
+    elapsed = time.perf_counter() - started
+    assert png == bag / "report.png" and png.exists()
+    assert png_size(png) == (1600, 1100)
+    assert png.stat().st_size > 50_000  # a drawn figure, not an empty canvas
+    assert elapsed < 3.0, f"report took {elapsed:.2f} s"
+
+    run = read_run(bag)
+    assert run.status == OK and run.missing == []
+    assert len(run.stamps) == run.counts[WRENCH_TOPIC] > 20_000
+    assert run.diagnostic["values"]["method"] == "ml"  # the estimator's, not the other node's
+    assert run.estimate.mass == solution.estimate.mass
+    # the truth held in the hand before done, not the object on the table
+    np.testing.assert_allclose(run.truth.com, LOAD.com)
+    assert "held" in run.truth_note
+
+
+def test_report_of_an_error_run_shows_the_reason(tmp_path):
+    bag = tmp_path / "run_error"
+    solution, _ = write_run(bag, drop_tare=True)
+    assert solution.status == ERROR and solution.estimate is None
+    png = write_report(bag, tmp_path / "out" / "error.png")
+    assert png == tmp_path / "out" / "error.png"
+    assert png_size(png) == (1600, 1100)
+    run = read_run(bag)
+    assert run.status == ERROR and run.estimate is None
+    assert run.missing == [ESTIMATE_TOPIC]
+    assert run.diagnostic["message"] == solution.reason
+
+
+@pytest.mark.parametrize(
+    "skip",
+    [
+        (TRUTH_TOPIC, HAND_TRUTH_TOPIC, OBJECT_TOPIC),
+        (DIAGNOSTICS_TOPIC,),
+        (WRENCH_TOPIC, POSE_TOPIC),
+        (WRENCH_TOPIC, POSE_TOPIC, ESTIMATE_TOPIC, DIAGNOSTICS_TOPIC, TRUTH_TOPIC),
+    ],
+    ids=["no-truth", "no-diagnostics", "no-wrench-no-labels", "almost-empty"],
+)
+def test_report_of_a_bag_missing_topics_says_what_is_missing(tmp_path, skip):
+    bag = tmp_path / "run"
+    write_run(bag, skip=skip)
+    png = write_report(bag)
+    assert png_size(png) == (1600, 1100)
+    run = read_run(bag)
+    assert set(skip) <= set(run.missing)
+    if TRUTH_TOPIC in skip:
+        assert run.truth is None and run.truth_note == "no ground truth"
+
+
+def test_report_of_a_run_where_the_object_moved_in_the_grasp(tmp_path):
+    bag = tmp_path / "run_warn"
+    solution, _ = write_run(bag, dwell=1.0, seed=4, shift_sigma=0.003)
+    assert solution.status == WARN and solution.consistency.suspect_pose
+    png = write_report(bag)
+    assert png_size(png) == (1600, 1100)
+    run = read_run(bag)
+    assert run.status == WARN
+    assert run.diagnostic["values"]["suspect_pose"] == solution.consistency.suspect_pose
+    # the last truth while held before done: the slipped one, and the note says so
+    np.testing.assert_allclose(run.truth.com, np.add(LOAD.com, SLIP))
+    assert "moved 2.00 mm" in run.truth_note
+
+
+def test_report_of_a_path_that_is_not_a_bag(tmp_path):
+    with pytest.raises(FileNotFoundError):
+        write_report(tmp_path / "nothing")
+
+
+def test_report_module_is_ros_free_and_leaves_pyplot_alone():
+    code = (
+        "import sys, com_core.report; "
+        "assert 'rclpy' not in sys.modules and 'matplotlib.pyplot' not in sys.modules"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)
