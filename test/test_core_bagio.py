@@ -83,3 +83,4 @@ def test_late_samples_are_dropped_but_a_restarted_clock_is_not():
     assert ex.add_samples(late_and_restarted, np.zeros((4, 6)), "ft_sensor") == 3
     assert ex.dropped == {"out of time order": 1}
     assert ex.time_resets == 1
+    assert ex.sample_count == 3  # the old timeline is gone

@@ -35,13 +35,16 @@ class Listener:
         self.node = rclpy.create_node("test_listener", context=context)
         self.diagnostics: list = []
         self.estimates: list = []
-        self.node.create_subscription(
-            DiagnosticArray, "/diagnostics", lambda m: self.diagnostics.append(m.status[0]), 10
-        )
+        self.inputs: list = []  # the 1 Hz input status
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self.on_diagnostics, 10)
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.node.create_subscription(
             InertiaStamped, "/com_estimator/estimate", self.estimates.append, latched
         )
+
+    def on_diagnostics(self, msg) -> None:
+        self.diagnostics += [s for s in msg.status if s.name == "com_estimator: exploration"]
+        self.inputs += [s for s in msg.status if s.name == "com_estimator: input"]
 
     def next_status(self, seen: int, timeout: float = 20.0):
         assert spin_until(self.node, lambda: len(self.diagnostics) > seen, timeout), (
@@ -73,6 +76,7 @@ def test_estimate_is_within_its_sigma_band_and_replay_matches_to_the_bit(
     run_publisher(start_node, "--bag", str(bag), "--seed", "4", "--speed", "3000")
     status, values = listener.next_status(0)
     assert status.level == b"\x00", status.message
+    assert any(s.message.startswith("receiving") for s in listener.inputs)
     assert spin_until(listener.node, lambda: listener.estimates, 5.0)
     estimate = listener.estimates[-1].inertia
 

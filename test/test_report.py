@@ -16,14 +16,14 @@ from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC, BagWriter
 from com_core.cdr import encode_header, encode_wrench_stamped
 from com_core.exploration import ERROR, OK, WARN, Exploration, Solution
 from com_core.planner import Plan
-from com_core.report import (
+from com_core.report import write_report
+from com_core.run_bag import (
     DIAGNOSTICS_TOPIC,
     ESTIMATE_TOPIC,
     HAND_TRUTH_TOPIC,
     OBJECT_TOPIC,
     TRUTH_TOPIC,
     read_run,
-    write_report,
 )
 from com_core.synthetic import Load, exploration_stream
 from com_core.windows import MOVING, TARE_PREFIX

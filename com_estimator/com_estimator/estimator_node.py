@@ -6,7 +6,9 @@ Subscribes
     label, stamp the sensor time from which it applies; reliable, transient local).
 Publishes
     ~/estimate (geometry_msgs/InertiaStamped: m, com in ft_sensor; transient local),
-    /diagnostics (diagnostic_msgs/DiagnosticArray: status, reason, sigmas, chi-square).
+    /diagnostics (diagnostic_msgs/DiagnosticArray: ``com_estimator: exploration`` with the
+    status, reason, sigmas, chi-square of each solution; ``com_estimator: input`` at 1 Hz
+    with the wrench rate, so a sequencer knows the estimator hears the sensor).
 Services
     ~/solve (std_srvs/Trigger): estimate now from what has arrived.
     ~/reset (std_srvs/Trigger): forget the current exploration.
@@ -41,6 +43,7 @@ from com_core.windows import DONE
 from com_core.wrench_model import SensorModel
 
 DEFAULTS = Exploration()
+INPUT_STATUS = "com_estimator: input"
 LEVELS = {OK: DiagnosticStatus.OK, WARN: DiagnosticStatus.WARN, ERROR: DiagnosticStatus.ERROR}
 
 PARAMETERS = {
@@ -82,6 +85,8 @@ class EstimatorNode(Node):
         self.create_service(Trigger, "~/reset", self.reset_callback)
         steady = Clock(clock_type=ClockType.STEADY_TIME)  # keeps running if /clock stops
         self.create_timer(0.02, self.drain_callback, clock=steady)
+        self._received = 0  # wrench messages since the last input status
+        self.create_timer(1.0, self.input_status_callback, clock=steady)
         self.get_logger().info(
             f"estimating with method={self._param('method')}; waiting for {POSE_TOPIC} labels"
         )
@@ -159,12 +164,15 @@ class EstimatorNode(Node):
         self._exploration.add_label(stamp, label)
         self.get_logger().info(f"pose {label!r} from t={stamp * 1e-9:.3f} s")
         if label == DONE and self._done_stamp is None:
-            self._done_stamp, self._done_wall = stamp, time.monotonic()
+            done = self._exploration.done_stamp()  # None: a done that ends no exploration
+            if done is not None:
+                self._done_stamp, self._done_wall = done, time.monotonic()
 
     def _drain(self) -> None:
         if not self._raw:
             return
         raws, self._raw = self._raw, []
+        self._received += len(raws)
         try:
             stamps, wrenches, frames = decode_wrench_batch(raws)
         except (ValueError, IndexError) as exc:  # malformed bytes: drop the batch, say so
@@ -174,6 +182,23 @@ class EstimatorNode(Node):
         self._exploration.add_samples(stamps, wrenches, frames)
         if self._exploration.time_resets > resets:
             self.get_logger().warning("sensor time jumped back by more than 1 s: restarted clock")
+
+    def input_status_callback(self) -> None:
+        """1 Hz ``com_estimator: input`` status: the wrench rate (Hz, wall clock)."""
+        self._drain()
+        rate, self._received = self._received, 0
+        level = DiagnosticStatus.OK if rate else DiagnosticStatus.WARN
+        text = f"receiving {rate} wrenches/s" if rate else f"no wrenches on {WRENCH_TOPIC}"
+        status = DiagnosticStatus(
+            level=level,
+            name=INPUT_STATUS,
+            message=text,
+            hardware_id=self._param("expected_frame"),
+            values=[KeyValue(key="rate_hz", value=str(rate))],
+        )
+        msg = DiagnosticArray(status=[status])
+        msg.header.stamp = self.get_clock().now().to_msg()
+        self._diag_pub.publish(msg)
 
     def drain_callback(self) -> None:
         self._drain()

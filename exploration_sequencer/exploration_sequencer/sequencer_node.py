@@ -62,6 +62,7 @@ from exploration_sequencer.recorder import Recorder
 ARM_JOINTS = [f"panda_joint{i}" for i in range(1, 8)]
 FINGER_OPEN, FINGER_CLOSED = 0.04, 0.0
 ESTIMATOR_STATUS = "com_estimator: exploration"
+ESTIMATOR_INPUT = "com_estimator: input"
 
 PARAMETERS: dict[str, tuple[object, str]] = {
     "tilt": (math.pi / 6, "rad; wrist tilt from home about each axis"),
@@ -109,6 +110,7 @@ class IoNode(Node):
         self.joints: dict[str, tuple[float, float]] = {}
         self.joints_wall = -math.inf
         self.diagnostics: list = []
+        self.estimator_hears = -math.inf  # wall time of the last input status with wrenches
         self.create_subscription(JointState, "/joint_states", self.joint_state_callback, 100)
         self.create_subscription(DiagnosticArray, "/diagnostics", self.diagnostics_callback, 10)
         self.recorder = Recorder(self)
@@ -120,6 +122,8 @@ class IoNode(Node):
 
     def diagnostics_callback(self, msg: DiagnosticArray) -> None:
         for status in msg.status:
+            if status.name == ESTIMATOR_INPUT and status.level == b"\x00":
+                self.estimator_hears = time.monotonic()
             if status.name == ESTIMATOR_STATUS:
                 stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
                 self.diagnostics.append((stamp, status))
@@ -138,8 +142,8 @@ class SequencerNode(Node):
             self.declare_parameter(name, default, ParameterDescriptor(description=text))
         self.add_on_set_parameters_callback(self.validate_parameters)
         self.io = io
-        latched = QoSProfile(depth=100, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self.pose_pub = self.create_publisher(Header, "~/pose", latched)
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.pose_pub = self.create_publisher(Header, "~/pose", latched)  # the current label
         self.arm_pub = self.create_publisher(
             JointTrajectory, "/panda_arm_controller/joint_trajectory", 10
         )
@@ -225,6 +229,11 @@ class SequencerNode(Node):
         """One exploration; returns (success, summary). Raises RunError."""
         log = self.get_logger()
         self._wait(lambda: self.io.joints, "waiting for /joint_states", wall_timeout=None)
+        self._wait(
+            lambda: time.monotonic() - self.io.estimator_hears < 1.5,
+            "waiting for the estimator to hear /ft_sensor/wrench",
+            wall_timeout=self.p("estimate_timeout"),
+        )
         home, pick = self._joint_sets()
         plan = self.plan()
         target = self.p("target_com_sigma")
@@ -256,7 +265,7 @@ class SequencerNode(Node):
         log.info("phase 3/4: object pass")
         start = self.io.now_ns()
         self._pass(OBJECT_PREFIX, poses, plan.dwell)
-        done = self.io.now_ns()
+        done = self._labels[-1][0]  # the last window's end: the same windows if "moving" is lost
         self._label(done, DONE)
         object_time = (done - start) * 1e-9
         log.info("phase 4/4: return and release")

@@ -14,7 +14,7 @@ topics:
 - samples are kept in arrival order; one whose stamp is not after the previous one's
   is dropped and counted (out of time order), as are non-finite samples and samples in
   another frame than the expected one; a jump back by more than 1 s is a restarted
-  clock, not a late sample (``time_resets``).
+  clock, not a late sample: what came before it is dropped (``time_resets``).
 
 Statuses: ERROR (no estimate: too few poses, ill-conditioned, no tare, no load),
 WARN (an estimate, but: the object moved in the grasp, or input was dropped), OK.
@@ -56,6 +56,7 @@ __all__ = [
     "WARN",
     "Exploration",
     "Solution",
+    "done_stamp",
     "format_solution",
     "label_static_windows",
 ]
@@ -181,18 +182,25 @@ class Exploration:
         finite = np.isfinite(w).all(axis=1)
         self._count("not finite (NaN or inf)", int((keep & ~finite).sum()))
         keep &= finite
-        # out of time order: not after the latest stamp kept so far
         kept_idx = np.flatnonzero(keep)
         if kept_idx.size:
             s = stamps[kept_idx]
+            # a restarted clock: a sample more than TIME_RESET_NS before the latest one
+            while True:
+                latest = np.maximum.accumulate(np.concatenate([[self._last_stamp], s]))[:-1]
+                restarts = np.flatnonzero(s <= latest - TIME_RESET_NS)
+                if not restarts.size:
+                    break
+                first = int(restarts[0])
+                self._restart_clock(int(s[first]))
+                keep[kept_idx[:first]] = False
+                kept_idx, s = kept_idx[first:], s[first:]
+            # out of time order: not after the latest stamp kept so far
             prior = np.maximum.accumulate(np.concatenate([[self._last_stamp], s[:-1]]))
             late = s <= prior
-            if late.any():
-                late = self._resolve_order(s)
-            else:
-                self._last_stamp = int(s[-1])
             self._count("out of time order", int(late.sum()))
             keep[kept_idx[late]] = False
+            self._last_stamp = max(self._last_stamp, int(s.max()))
         self._stamps.append(stamps[keep])
         self._wrenches.append(w[keep])
         return int(keep.sum())
@@ -203,35 +211,23 @@ class Exploration:
             return np.empty(0, np.int64), np.empty((0, 6))
         return np.concatenate(self._stamps), np.concatenate(self._wrenches)
 
-    def _resolve_order(self, s: NDArray[np.int64]) -> NDArray[np.bool_]:
-        """Late samples of ``s``, in order; a jump back by more than ``TIME_RESET_NS`` is a
-        restarted clock (a restarted simulator, a looped bag): counted in
-        ``time_resets``, and the samples after it are kept."""
-        late = np.zeros(len(s), dtype=bool)
-        last = self._last_stamp
-        for i, t in enumerate(s.tolist()):
-            if t <= last - TIME_RESET_NS:
-                self.time_resets += 1
-            elif t <= last:
-                late[i] = True
-                continue
-            last = t
-        self._last_stamp = last
-        return late
+    def _restart_clock(self, stamp_ns: int) -> None:
+        """The sensor's clock restarted at ``stamp_ns`` (a restarted simulator, a looped
+        bag): the samples and labels of the old timeline are dropped, so the two
+        timelines' stamps never mix in a window; counted in ``time_resets``."""
+        self.time_resets += 1
+        self._stamps.clear()
+        self._wrenches.clear()
+        self._labels = [(t, lbl) for t, lbl in self._labels if t <= stamp_ns + TIME_RESET_NS]
+        self._last_stamp = -(2**62)
 
     def add_label(self, stamp_ns: int, label: str) -> None:
         """A pose label applying from ``stamp_ns`` (see module)."""
         self._labels.append((int(stamp_ns), label))
 
     def done_stamp(self) -> int | None:
-        """Stamp of the first ``done`` after the first window label, or None.
-
-        A ``done`` before any window ends an earlier exploration (a latched label a
-        recorder replays at the start of the next run), not this one.
-        """
-        starts = [s for s, lbl in self._labels if lbl.startswith((TARE_PREFIX, OBJECT_PREFIX))]
-        begin = min(starts) if starts else -(2**62)
-        return min((s for s, lbl in self._labels if lbl == DONE and s > begin), default=None)
+        """Stamp of the ``done`` that ends this exploration (see ``done_stamp``)."""
+        return done_stamp(self._labels)
 
     def _count(self, what: str, n: int) -> None:
         if n:
@@ -313,6 +309,23 @@ class Exploration:
             tuple(notes),
             window_samples=counts,
         )
+
+
+def done_stamp(labels: Sequence[tuple[int, str]]) -> int | None:
+    """Stamp of the first ``done`` that arrived after a window label, or None.
+
+    ``labels`` in arrival order. A ``done`` with no window before it ends an earlier
+    exploration (the latched label a late-joining subscriber or a recorder gets first),
+    not this one; with a restarted clock its stamp could fall anywhere, so the order of
+    arrival decides, not the stamp.
+    """
+    seen_window = False
+    for stamp, label in labels:
+        if label.startswith((TARE_PREFIX, OBJECT_PREFIX)):
+            seen_window = True
+        elif label == DONE and seen_window:
+            return stamp
+    return None
 
 
 def label_static_windows(

@@ -14,15 +14,7 @@
 
 Any topic may be missing: the report is still written and says what is missing.
 
-Ground truth: ``/wrench_sim/ground_truth`` is republished whenever the object is grasped,
-released, or moves in the grasp (slip). The report compares with the last one published
-while the object was held, at or before the ``done`` label (the state the estimate
-describes). "Held" comes from ``/wrench_sim/object`` (``state=held``/``state=not_held``),
-published together with the truth message it pairs with (nearest by log time); a truth
-message without a description is a republish while held. Without descriptions every
-truth message counts as held. If none qualifies, the last truth message is used and the
-report says so. If the truth moved while held before ``done`` (a slip), the report
-gives by how much.
+The ground truth shown is the one ``run_bag`` chooses (the last while held, before done).
 
 The core never imports rclpy: messages are decoded from their CDR bytes with
 ``com_core.cdr`` (wrenches, labels) and the rosbags type store (the rest).
@@ -32,47 +24,18 @@ from __future__ import annotations
 
 import math
 import textwrap
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
-from .bagio import POSE_TOPIC, WRENCH_TOPIC, read_raw
-from .cdr import decode_header, decode_wrench_batch
+from .bagio import POSE_TOPIC, WRENCH_TOPIC
+from .run_bag import DIAGNOSTICS_TOPIC, ESTIMATE_TOPIC, RunData, read_run
 from .windows import DONE, OBJECT_PREFIX, TARE_PREFIX
 
-__all__ = [
-    "DIAGNOSTICS_TOPIC",
-    "DIAGNOSTIC_NAME",
-    "ESTIMATE_TOPIC",
-    "HAND_TRUTH_TOPIC",
-    "OBJECT_TOPIC",
-    "TRUTH_TOPIC",
-    "Inertia",
-    "RunData",
-    "read_run",
-    "write_report",
-]
+__all__ = ["write_report"]
 
-ESTIMATE_TOPIC = "/com_estimator/estimate"
-DIAGNOSTICS_TOPIC = "/diagnostics"
-TRUTH_TOPIC = "/wrench_sim/ground_truth"
-HAND_TRUTH_TOPIC = "/wrench_sim/hand_ground_truth"
-OBJECT_TOPIC = "/wrench_sim/object"
-DIAGNOSTIC_NAME = "com_estimator: exploration"
-
-_TOPICS = (
-    WRENCH_TOPIC,
-    POSE_TOPIC,
-    ESTIMATE_TOPIC,
-    DIAGNOSTICS_TOPIC,
-    TRUTH_TOPIC,
-    HAND_TRUTH_TOPIC,
-    OBJECT_TOPIC,
-)
-_BATCH = 16384
-_LEVELS = {0: "OK", 1: "WARN", 2: "ERROR", 3: "STALE"}
 _STATUS_COLOURS = {
     "OK": "#2e7d32",
     "WARN": "#ef6c00",
@@ -83,196 +46,7 @@ _STATUS_COLOURS = {
 _TARE_COLOUR, _OBJECT_COLOUR = "#6baed6", "#fd8d3c"
 _AXIS_COLOURS = ("#d62728", "#2ca02c", "#1f77b4")  # x, y, z
 _SIGMA = "\u03c3"
-_TRUTH_MOVE_M = 5e-5  # the simulator republishes the truth on a 0.05 mm move
 _MAX_TRACE_POINTS = 4000  # per trace; min/max envelope beyond (about 2 points per pixel)
-
-
-@dataclass(frozen=True)
-class Inertia:
-    """One geometry_msgs/InertiaStamped: mass (kg) and COM (shape (3,), m, ``ft_sensor``).
-
-    ``stamp_ns`` is the header stamp (sim time), ``log_ns`` the bag's log time.
-    """
-
-    stamp_ns: int
-    log_ns: int
-    mass: float
-    com: NDArray[np.float64]
-
-
-@dataclass
-class RunData:
-    """What the report shows of one run bag.
-
-    Attributes
-    ----------
-    name : run id (the bag directory's name).
-    stamps : shape (n,); ns, sim time (header stamps), sorted.
-    wrenches : shape (n, 6); N and N m; ``ft_sensor``.
-    labels : (stamp ns, label) sorted by stamp.
-    estimate : the last ``/com_estimator/estimate``, or None.
-    diagnostic : level (int), message (str) and values (dict of str) of the last
-        ``com_estimator: exploration`` status on ``/diagnostics``, or None.
-    truth : the object's ground truth chosen as the module says, or None.
-    truth_note : how ``truth`` was chosen (one line).
-    hand : the last ``/wrench_sim/hand_ground_truth``, or None.
-    object_text : the last ``/wrench_sim/object`` description with ``state=held`` (else
-        the last one), or None.
-    counts : messages read per topic.
-    notes : problems met while reading (unreadable bag, undecodable messages).
-    """
-
-    name: str
-    stamps: NDArray[np.int64] = field(default_factory=lambda: np.empty(0, np.int64))
-    wrenches: NDArray[np.float64] = field(default_factory=lambda: np.empty((0, 6)))
-    labels: list[tuple[int, str]] = field(default_factory=list)
-    estimate: Inertia | None = None
-    diagnostic: dict | None = None
-    truth: Inertia | None = None
-    truth_note: str = ""
-    hand: Inertia | None = None
-    object_text: str | None = None
-    counts: dict[str, int] = field(default_factory=dict)
-    notes: list[str] = field(default_factory=list)
-
-    @property
-    def missing(self) -> list[str]:
-        """Topics of a run bag with no message in this one."""
-        return [t for t in _TOPICS if not self.counts.get(t)]
-
-    @property
-    def done_ns(self) -> int | None:
-        """Stamp of the first ``done`` label, or None."""
-        return next((s for s, lbl in self.labels if lbl == DONE), None)
-
-    @property
-    def status(self) -> str:
-        """OK, WARN, ERROR (from the diagnostics), or UNKNOWN without them."""
-        if self.diagnostic is None:
-            return "UNKNOWN"
-        return _LEVELS.get(self.diagnostic["level"], f"LEVEL {self.diagnostic['level']}")
-
-
-# --- reading ------------------------------------------------------------------------------
-
-
-def read_run(bag: Path | str) -> RunData:
-    """Read everything the report shows from a run bag (rosbag2 directory, MCAP).
-
-    A bag that cannot be read to its end gives what was read before the failure and a
-    note saying why.
-    """
-    from rosbags.typesys import Stores, get_typestore
-
-    bag = Path(bag)
-    typestore = get_typestore(Stores.ROS2_JAZZY)
-    run = RunData(name=bag.resolve().name)
-    raws: list[bytes] = []
-    stamp_parts: list[NDArray[np.int64]] = []
-    wrench_parts: list[NDArray[np.float64]] = []
-    other_frames: dict[str, int] = {}
-    truths: list[Inertia] = []
-    states: list[tuple[int, bool]] = []  # (log ns, held) from /wrench_sim/object
-
-    def flush() -> None:
-        if not raws:
-            return
-        try:
-            stamps, wrenches, frames = decode_wrench_batch(raws)
-        except (ValueError, IndexError) as exc:
-            run.notes.append(f"{len(raws)} undecodable wrench messages dropped ({exc})")
-        else:
-            stamp_parts.append(stamps)
-            wrench_parts.append(wrenches)
-            for name in set(frames.tolist()) - {"ft_sensor"}:
-                other_frames[name] = other_frames.get(name, 0) + int((frames == name).sum())
-        raws.clear()
-
-    def inertia(raw: bytes, log_ns: int) -> Inertia:
-        msg = typestore.deserialize_cdr(raw, "geometry_msgs/msg/InertiaStamped")
-        c = msg.inertia.com
-        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-        return Inertia(stamp, log_ns, float(msg.inertia.m), np.array([c.x, c.y, c.z]))
-
-    try:
-        for topic, msgtype, log_ns, raw in read_raw(bag, _TOPICS):
-            run.counts[topic] = run.counts.get(topic, 0) + 1
-            try:
-                if topic == WRENCH_TOPIC:
-                    raws.append(raw)
-                    if len(raws) >= _BATCH:
-                        flush()
-                elif topic == POSE_TOPIC:
-                    if msgtype != "std_msgs/msg/Header":
-                        run.notes.append(f"labels of type {msgtype} ignored")
-                        continue
-                    run.labels.append(decode_header(raw))
-                elif topic == ESTIMATE_TOPIC:
-                    run.estimate = inertia(raw, log_ns)
-                elif topic == TRUTH_TOPIC:
-                    truths.append(inertia(raw, log_ns))
-                elif topic == HAND_TRUTH_TOPIC:
-                    run.hand = inertia(raw, log_ns)
-                elif topic == OBJECT_TOPIC:
-                    text = typestore.deserialize_cdr(raw, msgtype).data
-                    held = "state=held" in text.split()
-                    if held or not any(h for _, h in states):
-                        run.object_text = text  # the last one while held, if ever held
-                    if "state=" in text:
-                        states.append((log_ns, held))
-                elif topic == DIAGNOSTICS_TOPIC:
-                    msg = typestore.deserialize_cdr(raw, msgtype)
-                    for status in msg.status:
-                        if status.name == DIAGNOSTIC_NAME:
-                            run.diagnostic = {
-                                "level": int(status.level),
-                                "message": status.message,
-                                "values": {kv.key: kv.value for kv in status.values},
-                            }
-            except Exception as exc:  # one bad message must not cost the report
-                run.notes.append(f"undecodable message on {topic}: {exc}")
-    except Exception as exc:  # a truncated bag (crashed recorder): report what was read
-        run.notes.append(f"bag not read to the end: {exc}")
-    flush()
-    if stamp_parts:
-        stamps, wrenches = np.concatenate(stamp_parts), np.concatenate(wrench_parts)
-        order = np.argsort(stamps, kind="stable")
-        run.stamps, run.wrenches = stamps[order], wrenches[order]
-    for name, n in other_frames.items():
-        run.notes.append(f"{n} wrench samples in frame {name!r}, not 'ft_sensor'")
-    run.labels.sort(key=lambda sl: sl[0])
-    until = run.done_ns
-    if until is None and run.estimate is not None:
-        until = run.estimate.stamp_ns
-    run.truth, run.truth_note = _choose_truth(truths, states, until)
-    return run
-
-
-def _choose_truth(
-    truths: list[Inertia], states: list[tuple[int, bool]], until_ns: int | None
-) -> tuple[Inertia | None, str]:
-    """The last truth published while held at or before ``until_ns`` (see module)."""
-    if not truths:
-        return None, "no ground truth"
-    held = [True] * len(truths)
-    log_times = np.array([t.log_ns for t in truths])
-    for log_ns, is_held in states:  # each description pairs with its truth message
-        held[int(np.argmin(np.abs(log_times - log_ns)))] = is_held
-    candidates = [
-        t
-        for t, h in zip(truths, held, strict=True)
-        if h and (until_ns is None or t.stamp_ns <= until_ns)
-    ]
-    n = len(truths)
-    if not candidates:
-        return truths[-1], f"the last of {n} published (none while held before done)"
-    chosen = candidates[-1]
-    note = f"t = {chosen.stamp_ns * 1e-9:.3f} s, the last of {n} published while held"
-    note += " before done" if until_ns is not None else ""
-    moved = max(float(np.linalg.norm(t.com - chosen.com)) for t in candidates)
-    if moved > _TRUTH_MOVE_M:
-        note += f"; moved {moved * 1e3:.2f} mm in the grasp"
-    return chosen, note
 
 
 # --- the numbers --------------------------------------------------------------------------
