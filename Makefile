@@ -40,6 +40,10 @@ lint: $(VENV_STAMP)
 
 bench: setup
 	$(IN_ENV) python bench/estimator_efficiency.py
+	$(IN_ENV) python bench/sim_rate.py --subscriber
+	$(IN_ENV) python bench/estimator_rate.py
+	$(IN_ENV) python bench/replay_rate.py
+	$(IN_ENV) python bench/exploration.py --runs 50
 
 clean:
 	rm -rf build install log

@@ -22,9 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
-from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC, BagWriter, read_raw
+from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC, read_raw
 from com_core.cdr import encode_header, encode_wrench_stamped
 from com_core.planner import Plan
+from com_core.recording import CrashSafeBagWriter
 from com_core.synthetic import Load, exploration_stream
 from com_estimator.replay import main as replay_main
 
@@ -38,7 +39,7 @@ def write_bag(path: Path, dwell: float) -> int:
     )
     labels = iter(sorted(stream.labels))
     label = next(labels, None)
-    with BagWriter(path) as bag:
+    with CrashSafeBagWriter(path) as bag:
         for stamp, wrench in zip(stream.stamps.tolist(), stream.wrenches, strict=True):
             while label is not None and label[0] <= stamp:
                 bag.write(POSE_TOPIC, "std_msgs/msg/Header", label[0], encode_header(*label))
@@ -51,7 +52,7 @@ def write_bag(path: Path, dwell: float) -> int:
             )
         if label is not None:
             bag.write(POSE_TOPIC, "std_msgs/msg/Header", label[0], encode_header(*label))
-        return bag.count
+        return sum(bag.counts.values())
 
 
 def best_of(runs: int, fn) -> float:

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC, BagWriter, feed_bag, read_raw
+from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC, feed_bag, read_raw
 from com_core.cdr import encode_header, encode_wrench_stamped
 from com_core.exploration import OK, WARN, Exploration, label_static_windows
 from com_core.planner import Plan
+from com_core.recording import CrashSafeBagWriter
 from com_core.synthetic import Load, exploration_stream
 
 LOAD, HAND = Load(0.1, (0.01, -0.02, 0.1)), Load(0.73, (0.0, 0.0, 0.04))
@@ -28,7 +29,7 @@ def write_stream(path, stream, labels=True) -> None:
             (s, POSE_TOPIC, "std_msgs/msg/Header", encode_header(s, lbl))
             for s, lbl in stream.labels
         ]
-    with BagWriter(path) as bag:
+    with CrashSafeBagWriter(path) as bag:
         for stamp, topic, msgtype, raw in sorted(messages, key=lambda m: m[0]):
             bag.write(topic, msgtype, stamp, raw)
 

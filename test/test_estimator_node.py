@@ -12,6 +12,7 @@ import pytest
 from conftest import INSTALL, spin_until
 
 from com_core.planner import Plan, predict
+from com_core.run_bag import DIAGNOSTIC_NAME, INPUT_STATUS_NAME
 from com_core.wrench_model import SensorModel
 
 PACKAGE = "com_estimator"
@@ -43,8 +44,8 @@ class Listener:
         )
 
     def on_diagnostics(self, msg) -> None:
-        self.diagnostics += [s for s in msg.status if s.name == "com_estimator: exploration"]
-        self.inputs += [s for s in msg.status if s.name == "com_estimator: input"]
+        self.diagnostics += [s for s in msg.status if s.name == DIAGNOSTIC_NAME]
+        self.inputs += [s for s in msg.status if s.name == INPUT_STATUS_NAME]
 
     def next_status(self, seen: int, timeout: float = 20.0):
         assert spin_until(self.node, lambda: len(self.diagnostics) > seen, timeout), (

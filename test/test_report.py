@@ -12,12 +12,14 @@ import numpy as np
 import pytest
 from rosbags.typesys import Stores, get_typestore
 
-from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC, BagWriter
+from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC
 from com_core.cdr import encode_header, encode_wrench_stamped
 from com_core.exploration import ERROR, OK, WARN, Exploration, Solution
 from com_core.planner import Plan
+from com_core.recording import CrashSafeBagWriter
 from com_core.report import write_report
 from com_core.run_bag import (
+    DIAGNOSTIC_NAME,
     DIAGNOSTICS_TOPIC,
     ESTIMATE_TOPIC,
     HAND_TRUTH_TOPIC,
@@ -85,7 +87,7 @@ def _diagnostics(stamp_ns: int, solution: Solution, samples: int) -> list[bytes]
     values.append(kv(key="samples", value=str(samples)))
     ours = T["diagnostic_msgs/msg/DiagnosticStatus"](
         level=LEVELS[solution.status],
-        name="com_estimator: exploration",
+        name=DIAGNOSTIC_NAME,
         message=solution.reason,
         hardware_id="ft_sensor",
         values=values,
@@ -165,7 +167,7 @@ def write_run(
     diag = _diagnostics(done, solution, exploration.sample_count)
     messages += [(done + 2 + k, DIAGNOSTICS_TOPIC, "diagnostic_msgs/msg/DiagnosticArray", raw)
                  for k, raw in enumerate(diag)]  # fmt: skip
-    with BagWriter(path) as bag:
+    with CrashSafeBagWriter(path) as bag:
         for stamp, topic, msgtype, raw in sorted(messages, key=lambda m: m[0]):
             if topic not in skip:
                 bag.write(topic, msgtype, stamp, raw)

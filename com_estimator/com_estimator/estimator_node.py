@@ -38,12 +38,12 @@ from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC
 from com_core.cdr import decode_header, decode_wrench_batch
 from com_core.exploration import ERROR, METHODS, OK, WARN, Exploration, Solution, format_solution
 from com_core.rosenv import keep_dds_local
+from com_core.run_bag import DIAGNOSTIC_NAME, INPUT_STATUS_NAME
 from com_core.tare_cache import load_tares
 from com_core.windows import DONE
 from com_core.wrench_model import SensorModel
 
 DEFAULTS = Exploration()
-INPUT_STATUS = "com_estimator: input"
 LEVELS = {OK: DiagnosticStatus.OK, WARN: DiagnosticStatus.WARN, ERROR: DiagnosticStatus.ERROR}
 
 PARAMETERS = {
@@ -86,6 +86,7 @@ class EstimatorNode(Node):
         steady = Clock(clock_type=ClockType.STEADY_TIME)  # keeps running if /clock stops
         self.create_timer(0.02, self.drain_callback, clock=steady)
         self._received = 0  # wrench messages since the last input status
+        self._latest_stamp = 0  # ns, of the latest wrench received
         self.create_timer(1.0, self.input_status_callback, clock=steady)
         self.get_logger().info(
             f"estimating with method={self._param('method')}; waiting for {POSE_TOPIC} labels"
@@ -125,8 +126,8 @@ class EstimatorNode(Node):
         if any(s > 0 for s in sigma) or any(lim > 0 for lim in limits):
             sensor = SensorModel.from_scalars(
                 *sigma,
-                limit_f=limits[0] or math.inf,
-                limit_tau=limits[1] or math.inf,
+                limit_f=limits[0],
+                limit_tau=limits[1],
             )
         cache = load_tares(self._param("tare_cache")) if self._param("tare_cache") else None
         return {
@@ -180,21 +181,27 @@ class EstimatorNode(Node):
             return
         resets = self._exploration.time_resets
         self._exploration.add_samples(stamps, wrenches, frames)
+        self._latest_stamp = int(stamps[-1])
         if self._exploration.time_resets > resets:
             self.get_logger().warning("sensor time jumped back by more than 1 s: restarted clock")
 
     def input_status_callback(self) -> None:
-        """1 Hz ``com_estimator: input`` status: the wrench rate (Hz, wall clock)."""
+        """1 Hz ``com_estimator: input`` status: the wrench rate (Hz, wall clock) and the
+        stamp of the latest wrench (ns), by which a sequencer knows the estimator hears
+        the sensor on its own clock."""
         self._drain()
         rate, self._received = self._received, 0
         level = DiagnosticStatus.OK if rate else DiagnosticStatus.WARN
         text = f"receiving {rate} wrenches/s" if rate else f"no wrenches on {WRENCH_TOPIC}"
         status = DiagnosticStatus(
             level=level,
-            name=INPUT_STATUS,
+            name=INPUT_STATUS_NAME,
             message=text,
             hardware_id=self._param("expected_frame"),
-            values=[KeyValue(key="rate_hz", value=str(rate))],
+            values=[
+                KeyValue(key="rate_hz", value=str(rate)),
+                KeyValue(key="latest_stamp_ns", value=str(self._latest_stamp)),
+            ],
         )
         msg = DiagnosticArray(status=[status])
         msg.header.stamp = self.get_clock().now().to_msg()
@@ -261,7 +268,7 @@ class EstimatorNode(Node):
         values.append(KeyValue(key="samples", value=str(self._exploration.sample_count)))
         status = DiagnosticStatus(
             level=LEVELS[solution.status],
-            name="com_estimator: exploration",
+            name=DIAGNOSTIC_NAME,
             message=solution.reason,
             hardware_id=header.frame_id,
             values=values,

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from pathlib import Path
 
@@ -68,8 +67,8 @@ def main(argv: list[str] | None = None) -> int:
         sensor = SensorModel.from_scalars(
             args.sigma_f,
             args.sigma_tau,
-            limit_f=args.limit_f or math.inf,
-            limit_tau=args.limit_tau or math.inf,
+            limit_f=args.limit_f,
+            limit_tau=args.limit_tau,
         )
     cache = load_tares(args.tare or args.bag / BAG_TARE_FILE)
     exploration = Exploration(

@@ -26,8 +26,9 @@ from rclpy.serialization import serialize_message
 from rclpy.utilities import remove_ros_args
 from std_msgs.msg import Header
 
-from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC, BagWriter
+from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC
 from com_core.planner import Plan
+from com_core.recording import CrashSafeBagWriter
 from com_core.rosenv import keep_dds_local
 from com_core.synthetic import Load, Stream, exploration_stream
 from com_core.windows import MOVING, TARE_PREFIX
@@ -121,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
     pose_pub = node.create_publisher(Header, POSE_TOPIC, latched)
     truth_pub = node.create_publisher(InertiaStamped, GROUND_TRUTH_TOPIC, latched)
     with contextlib.ExitStack() as stack:
-        bag = stack.enter_context(BagWriter(args.bag)) if args.bag else None
+        bag = stack.enter_context(CrashSafeBagWriter(args.bag)) if args.bag else None
         elapsed = _play(args, stream, frames, node, (wrench_pub, pose_pub, truth_pub), bag)
     node.get_logger().info(
         f"published {len(stream.stamps)} wrenches and {len(stream.labels)} labels in "
@@ -133,7 +134,9 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def _play(args, stream: Stream, frames: list[str], node, pubs, bag: BagWriter | None) -> float:
+def _play(
+    args, stream: Stream, frames: list[str], node, pubs, bag: CrashSafeBagWriter | None
+) -> float:
     """Publish (and record) the stream; returns the wall time it took, s."""
     wrench_pub, pose_pub, truth_pub = pubs
 

@@ -20,8 +20,7 @@ import time
 from pathlib import Path
 
 from com_core.rosenv import keep_dds_local
-
-ESTIMATOR_STATUS = "com_estimator: exploration"
+from com_core.run_bag import DIAGNOSTIC_NAME
 
 
 def executable(package: str, name: str) -> str:
@@ -156,7 +155,7 @@ def run_exploration(args: argparse.Namespace, started: float) -> int:
     node.create_subscription(
         DiagnosticArray,
         "/diagnostics",
-        lambda m: statuses.extend(s for s in m.status if s.name == ESTIMATOR_STATUS),
+        lambda m: statuses.extend(s for s in m.status if s.name == DIAGNOSTIC_NAME),
         10,
     )
     executor = SingleThreadedExecutor()

@@ -45,6 +45,7 @@ from com_core.errors import WindowError
 from com_core.exploration import Exploration
 from com_core.planner import Plan, dwell_for_target, predict
 from com_core.rosenv import keep_dds_local
+from com_core.run_bag import DIAGNOSTIC_NAME, INPUT_STATUS_NAME
 from com_core.tare_cache import BAG_TARE_FILE, drift, load_tares, save_tares
 from com_core.windows import (
     DONE,
@@ -61,8 +62,6 @@ from exploration_sequencer.recorder import Recorder
 
 ARM_JOINTS = [f"panda_joint{i}" for i in range(1, 8)]
 FINGER_OPEN, FINGER_CLOSED = 0.04, 0.0
-ESTIMATOR_STATUS = "com_estimator: exploration"
-ESTIMATOR_INPUT = "com_estimator: input"
 
 PARAMETERS: dict[str, tuple[object, str]] = {
     "tilt": (math.pi / 6, "rad; wrist tilt from home about each axis"),
@@ -110,7 +109,7 @@ class IoNode(Node):
         self.joints: dict[str, tuple[float, float]] = {}
         self.joints_wall = -math.inf
         self.diagnostics: list = []
-        self.estimator_hears = -math.inf  # wall time of the last input status with wrenches
+        self.estimator_latest = -(2**62)  # ns: the latest wrench the estimator has heard
         self.create_subscription(JointState, "/joint_states", self.joint_state_callback, 100)
         self.create_subscription(DiagnosticArray, "/diagnostics", self.diagnostics_callback, 10)
         self.recorder = Recorder(self)
@@ -122,9 +121,10 @@ class IoNode(Node):
 
     def diagnostics_callback(self, msg: DiagnosticArray) -> None:
         for status in msg.status:
-            if status.name == ESTIMATOR_INPUT and status.level == b"\x00":
-                self.estimator_hears = time.monotonic()
-            if status.name == ESTIMATOR_STATUS:
+            if status.name == INPUT_STATUS_NAME and status.level == b"\x00":
+                values = {kv.key: kv.value for kv in status.values}
+                self.estimator_latest = int(values.get("latest_stamp_ns", -(2**62)))
+            if status.name == DIAGNOSTIC_NAME:
                 stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
                 self.diagnostics.append((stamp, status))
 
@@ -229,8 +229,8 @@ class SequencerNode(Node):
         """One exploration; returns (success, summary). Raises RunError."""
         log = self.get_logger()
         self._wait(lambda: self.io.joints, "waiting for /joint_states", wall_timeout=None)
-        self._wait(
-            lambda: time.monotonic() - self.io.estimator_hears < 1.5,
+        self._wait(  # it hears the sensor on this clock (not a sensor that was restarted)
+            lambda: abs(self.io.estimator_latest - self.io.now_ns()) < 1_000_000_000,
             "waiting for the estimator to hear /ft_sensor/wrench",
             wall_timeout=self.p("estimate_timeout"),
         )
@@ -246,14 +246,14 @@ class SequencerNode(Node):
             plan = advice.plan
             log.info(f"target COM sigma {target * 1e3:.3g} mm: dwell {plan.dwell:.3g} s per pose")
         prediction = predict(plan)
+        poses = pose_joints(plan, home)
         log.info(
-            f"run {run_id}: plan {[n for n, _ in plan.poses()]}, tilt {plan.tilt:.3f} rad, "
+            f"run {run_id}: poses {[n for n, _ in poses]}, tilt {plan.tilt:.3f} rad, "
             f"dwell {plan.dwell:g} s; predicted {prediction}"
         )
         bag = Path(self.p("bag_dir")).resolve() / run_id
         self._labels = []
         self.io.recorder.start(bag)
-        poses = pose_joints(plan, home)
 
         self._gripper(FINGER_OPEN)
         self._tare(plan, poses, bag)

@@ -13,7 +13,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from com_core.wrench_model import SensorModel
 
-__all__ = ["WrenchSensor", "random_streams", "sensor_model_from_parameters"]
+__all__ = ["WrenchSensor", "random_streams"]
 
 _STREAMS = ("object", "sensor", "slip")
 _BLOCK = 1000  # samples of unit normals drawn at once
@@ -30,31 +30,6 @@ def random_streams(seed: int) -> dict[str, np.random.Generator]:
         name: np.random.Generator(np.random.PCG64(child))
         for name, child in zip(_STREAMS, children, strict=True)
     }
-
-
-def sensor_model_from_parameters(
-    sigma_f: float = 0.0,
-    sigma_tau: float = 0.0,
-    bias_f: float = 0.0,
-    bias_tau: float = 0.0,
-    resolution_f: float = 0.0,
-    resolution_tau: float = 0.0,
-    limit_f: float = 0.0,
-    limit_tau: float = 0.0,
-    rate_hz: float = 1000.0,
-) -> SensorModel:
-    """A SensorModel from the node's scalar parameters (N, N m, Hz); a limit of 0 = no limit."""
-    return SensorModel.from_scalars(
-        sigma_f,
-        sigma_tau,
-        bias_f=bias_f,
-        bias_tau=bias_tau,
-        resolution_f=resolution_f,
-        resolution_tau=resolution_tau,
-        limit_f=limit_f if limit_f > 0.0 else np.inf,
-        limit_tau=limit_tau if limit_tau > 0.0 else np.inf,
-        rate_hz=rate_hz,
-    )
 
 
 class WrenchSensor:

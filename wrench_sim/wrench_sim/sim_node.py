@@ -25,9 +25,10 @@ from std_msgs.msg import Float64MultiArray, String
 from trajectory_msgs.msg import JointTrajectory
 
 from com_core.rosenv import keep_dds_local
+from com_core.wrench_model import SensorModel
 from wrench_sim.parameters import SENSOR_PARAMETERS, check_parameter, declare_parameters
 from wrench_sim.physics import TIME_STEP, PandaWorld, SimConfig
-from wrench_sim.sensor import WrenchSensor, random_streams, sensor_model_from_parameters
+from wrench_sim.sensor import WrenchSensor, random_streams
 
 SENSOR_FRAME = "ft_sensor"
 _SPIN_EVERY = 50  # steps between spin_once calls (50 ms of sim time; one costs ~0.2 ms)
@@ -111,7 +112,7 @@ class SimNode(Node):
         values = {name: self.get_parameter(name).value for name in (*SENSOR_PARAMETERS, "rate")}
         values.update(overrides or {})
         rate = values.pop("rate")
-        return sensor_model_from_parameters(**values, rate_hz=rate)
+        return SensorModel.from_scalars(**values, rate_hz=rate)
 
     def parameters_callback(self, parameters: list[Parameter]) -> SetParametersResult:
         """Refuse invalid values with a reason; apply sensor and timing changes at run time."""

@@ -1,15 +1,14 @@
 """Read and write rosbag2 directories (MCAP storage) without ROS, through rosbags.
 
-Messages stay serialized (CDR bytes) end to end: the writer stores the bytes it is
-given, the reader hands them to ``cdr`` for decoding, exactly as the node's raw
-subscriptions do.
+Messages stay serialized (CDR bytes) end to end: the reader hands them to ``cdr`` for
+decoding, exactly as the node's raw subscriptions do. Bags are written by
+``com_core.recording.CrashSafeBagWriter``.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
 from pathlib import Path
-from types import TracebackType
 
 from .cdr import decode_header, decode_wrench_batch
 from .exploration import Exploration
@@ -17,7 +16,6 @@ from .exploration import Exploration
 __all__ = [
     "POSE_TOPIC",
     "WRENCH_TOPIC",
-    "BagWriter",
     "feed_bag",
     "read_raw",
 ]
@@ -69,42 +67,3 @@ def feed_bag(
             n_label += 1
     flush()
     return n_wrench, n_label
-
-
-class BagWriter:
-    """A rosbag2 directory with MCAP storage, written from serialized messages.
-
-    ``with BagWriter(path) as bag: bag.write(topic, msgtype, stamp_ns, raw)``; topics
-    are added on first use (with the message type's definition from the Jazzy type
-    store, so any rosbag2 reader decodes them). Closing writes metadata.yaml.
-    """
-
-    def __init__(self, path: Path | str) -> None:
-        from rosbags.rosbag2 import StoragePlugin, Writer
-        from rosbags.typesys import Stores, get_typestore
-
-        self.path = Path(path)
-        self._typestore = get_typestore(Stores.ROS2_JAZZY)
-        self._writer = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
-        self._connections: dict[str, object] = {}
-        self.count = 0
-
-    def __enter__(self) -> BagWriter:
-        self._writer.open()
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self._writer.close()
-
-    def write(self, topic: str, msgtype: str, stamp_ns: int, raw: bytes) -> None:
-        conn = self._connections.get(topic)
-        if conn is None:
-            conn = self._writer.add_connection(topic, msgtype, typestore=self._typestore)
-            self._connections[topic] = conn
-        self._writer.write(conn, int(stamp_ns), raw)
-        self.count += 1

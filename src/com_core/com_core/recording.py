@@ -166,7 +166,7 @@ class CrashSafeBagWriter:
     """A rosbag2 directory (MCAP storage) that stays readable if the writer dies; see module.
 
     ``write(topic, msgtype, stamp_ns, raw)`` takes serialized (CDR) messages, as
-    ``com_core.bagio.BagWriter`` does; ``topics`` (topic -> msgtype) are declared at open,
+    the rosbag2 convention; ``topics`` (topic -> msgtype) are declared at open,
     others on first use. ``offered_qos`` (topic -> rosbags ``Qos`` profiles) is stored
     for ``ros2 bag play``. Messages are held in memory until ``flush()``, or until the chunk
     reaches ``chunk_size`` bytes or its first message is ``flush_interval`` s old (checked on

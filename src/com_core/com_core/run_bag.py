@@ -31,6 +31,7 @@ __all__ = [
     "DIAGNOSTIC_NAME",
     "ESTIMATE_TOPIC",
     "HAND_TRUTH_TOPIC",
+    "INPUT_STATUS_NAME",
     "LEVELS",
     "OBJECT_TOPIC",
     "RUN_BAG_TOPICS",
@@ -45,7 +46,8 @@ DIAGNOSTICS_TOPIC = "/diagnostics"
 TRUTH_TOPIC = "/wrench_sim/ground_truth"
 HAND_TRUTH_TOPIC = "/wrench_sim/hand_ground_truth"
 OBJECT_TOPIC = "/wrench_sim/object"
-DIAGNOSTIC_NAME = "com_estimator: exploration"
+DIAGNOSTIC_NAME = "com_estimator: exploration"  # the estimator's status of each solution
+INPUT_STATUS_NAME = "com_estimator: input"  # its 1 Hz status of the wrench input
 
 RUN_BAG_TOPICS = (
     WRENCH_TOPIC,

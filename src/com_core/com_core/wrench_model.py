@@ -132,7 +132,10 @@ class SensorModel:
         limit_tau: float = np.inf,
         rate_hz: float = 1000.0,
     ) -> SensorModel:
-        """Same value on every force axis and on every torque axis."""
+        """Same value on every force axis and on every torque axis.
+
+        A limit of 0 (or inf) means no range check, as the nodes' parameters write it.
+        """
 
         def pair(a: float, b: float) -> NDArray[np.float64]:
             return np.array([a, a, a, b, b, b], dtype=np.float64)
@@ -141,7 +144,7 @@ class SensorModel:
             sigma=pair(sigma_f, sigma_tau),
             bias=pair(bias_f, bias_tau),
             resolution=pair(resolution_f, resolution_tau),
-            limit=pair(limit_f, limit_tau),
+            limit=pair(limit_f or np.inf, limit_tau or np.inf),
             rate_hz=rate_hz,
         )
 
