@@ -37,6 +37,8 @@ PARAMETERS = [  # name, default, description, read-only, lower bound of a float
     ("limit_f", 0.0, "force range (saturation), N; 0 = none", False, 0.0),
     ("limit_tau", 0.0, "torque range (saturation), N m; 0 = none", False, 0.0),
     ("rate", 1000.0, "wrench publish rate, Hz; must divide 1000", False, 1.0),
+    ("clock_rate", 250.0, f"/clock publish rate, Hz (sim); must divide 1000; {_START}", True,
+     1.0),
     ("real_time_factor", 0.0, "sim s per wall s; 0 = as fast as possible", False, 0.0),
 ]  # fmt: skip
 SENSOR_PARAMETERS = tuple(
@@ -55,8 +57,10 @@ def check_parameter(parameter: Parameter) -> str | None:
         return "object_com_offset must be 3 values (m), or unset to draw it from the seed"
     if name in ("home_joints", "pick_joints") and len(value) != 7:
         return f"{name} must be 7 values (rad)"
-    if name == "rate" and not (0.0 < value <= 1000.0 and abs(1000.0 / value % 1) < 1e-9):
-        return "rate must divide the 1000 Hz physics rate (1000, 500, 250, 200, 100, ... Hz)"
+    if name in ("rate", "clock_rate") and not (
+        0.0 < value <= 1000.0 and abs(1000.0 / value % 1) < 1e-9
+    ):
+        return f"{name} must divide the 1000 Hz physics rate (1000, 500, 250, 200, 100, ... Hz)"
     if isinstance(value, float) and not math.isfinite(value):
         return f"{name} must be finite"
     return None
