@@ -68,7 +68,7 @@ PARAMETERS: dict[str, tuple[object, str]] = {
     "tilt_axes": (["x", "y"], "sensor axes to tilt about (x and/or y)"),
     "both_directions": (True, "tilt +tilt and -tilt about each axis (false: the paper's one)"),
     "dwell": (0.9, "s of samples per object window"),
-    "tare_dwell": (3.0, "s of samples per tare window (empty hand)"),
+    "tare_dwell": (5.0, "s of samples per tare window (empty hand; cached per hand)"),
     "settle": (0.3, "s to wait after a motion before a window starts"),
     "speed": (1.35, "rad/s mean joint speed, capped per joint by the Panda's limits"),
     "max_tilt": (math.pi / 6, "rad; the largest tilt the object allows (a full mug: small)"),
@@ -91,6 +91,7 @@ PARAMETERS: dict[str, tuple[object, str]] = {
     "hand_id": ("panda_hand", "names the hand: a cached tare serves this hand only"),
 }
 DRIFT_ALPHA = 1e-3  # false-alarm rate of the tare drift test
+DRIFT_CHECK_SUFFIX = "_check"  # the drift window's pose: tare/home_check
 
 
 class RunError(RuntimeError):
@@ -309,9 +310,10 @@ class SequencerNode(Node):
         ):
             log.info(f"phase 1/4: drift check of the cached tare ({cache.age():.0f} s old)")
             self._move(home, "home")
-            fresh = self._captured_windows(
-                TARE_PREFIX, [(home_name, home)], self.p("drift_dwell")
-            ).get(home_name)
+            check = f"{home_name}{DRIFT_CHECK_SUFFIX}"  # matches no object window: the
+            fresh = self._captured_windows(  # estimator keeps the longer cached home tare
+                TARE_PREFIX, [(check, home)], self.p("drift_dwell")
+            ).get(check)
             chi2, p = drift(cache.windows[home_name], fresh) if fresh else (math.inf, 0.0)
             if p >= DRIFT_ALPHA:
                 shutil.copyfile(path, bag / BAG_TARE_FILE)
@@ -437,10 +439,17 @@ class SequencerNode(Node):
             return list(home), list(pick)
         if not self._sim_params.wait_for_service(timeout_sec=self.p("sim_timeout")):
             raise RunError("home_joints/pick_joints unset and /wrench_sim does not answer")
-        future = self._sim_params.call_async(
-            GetParameters.Request(names=["home_joints", "pick_joints"])
-        )
-        self._wait(future.done, "reading /wrench_sim's joint sets", wall_timeout=10.0)
+        request = GetParameters.Request(names=["home_joints", "pick_joints"])
+        for attempt in range(1, 4):  # a request sent before the service matched is lost
+            future = self._sim_params.call_async(request)
+            try:
+                self._wait(future.done, "reading /wrench_sim's joint sets", wall_timeout=3.0)
+                break
+            except TimeoutRunError:
+                self._sim_params.remove_pending_request(future)
+                if attempt == 3:
+                    raise
+                self.get_logger().warning("/wrench_sim did not answer; asking again")
         values = [list(v.double_array_value) for v in future.result().values]
         return (
             list(home) if len(home) == 7 else values[0],
