@@ -1,6 +1,6 @@
 """The fastest bare rclpy subscriber of WrenchStamped (DESIGN.md): the reference.
 
-EventsExecutor, raw CDR bytes, the estimator's QoS (best effort, depth 2000); it only
+EventsExecutor, raw CDR bytes, the estimator's QoS (best effort, depth 5000); it only
 counts. ``~/reset`` (std_srvs/Trigger) answers "cleared N samples" like the estimator.
 Prints "ready" once subscribed and "received N" (all messages) when stopped.
 """
@@ -33,7 +33,7 @@ def main() -> None:
         count[0] = 0
         return resp
 
-    qos = QoSProfile(depth=2000, reliability=ReliabilityPolicy.BEST_EFFORT)
+    qos = QoSProfile(depth=5000, reliability=ReliabilityPolicy.BEST_EFFORT)
     node.create_subscription(WrenchStamped, WRENCH_TOPIC, on_wrench, qos, raw=True)
     node.create_service(Trigger, "~/reset", on_reset)
     executor = EventsExecutor()

@@ -1,7 +1,7 @@
 """com_estimator node: object mass and COM from the wrist F/T stream and pose labels.
 
 Subscribes
-    /ft_sensor/wrench (geometry_msgs/WrenchStamped; best effort, depth 2000; raw CDR
+    /ft_sensor/wrench (geometry_msgs/WrenchStamped; best effort, depth 5000; raw CDR
     decoded in batches), /exploration_sequencer/pose (std_msgs/Header: frame_id is the
     label, stamp the sensor time from which it applies; reliable, transient local).
 Publishes
@@ -75,7 +75,7 @@ class EstimatorNode(Node):
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self._estimate_pub = self.create_publisher(InertiaStamped, "~/estimate", latched)
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
-        wrench_qos = QoSProfile(depth=2000, reliability=ReliabilityPolicy.BEST_EFFORT)
+        wrench_qos = QoSProfile(depth=5000, reliability=ReliabilityPolicy.BEST_EFFORT)
         self.create_subscription(
             WrenchStamped, WRENCH_TOPIC, self.wrench_callback, wrench_qos, raw=True
         )

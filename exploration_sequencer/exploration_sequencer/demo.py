@@ -61,11 +61,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--sigma-f", type=float, default=0.1, help="N per sample")
     p.add_argument("--sigma-tau", type=float, default=0.005, help="N m per sample")
-    p.add_argument("--tilt", type=float, default=math.pi / 6, help="rad")
+    p.add_argument("--tilt", type=float, help="rad (default: the sequencer's, pi/6)")
     p.add_argument("--axes", default="x,y", help="tilt axes, e.g. 'x' for the paper's one")
     p.add_argument("--one-way", action="store_true", help="tilt one direction only (paper)")
-    p.add_argument("--dwell", type=float, default=0.8, help="s per window")
-    p.add_argument("--target-sigma", type=float, default=0.0, help="m; adaptive dwell")
+    p.add_argument("--dwell", type=float, help="s per window (default: the sequencer's)")
+    p.add_argument("--target-sigma", type=float, help="m; adaptive dwell to meet it")
     p.add_argument("--method", choices=("ml", "two_pose"), default="ml")
     p.add_argument("--real-time-factor", type=float, default=5.0, help="0: as fast as possible")
     p.add_argument("--bag-dir", type=Path, default=Path("bags"))
@@ -89,24 +89,31 @@ def main(argv: list[str] | None = None) -> int:
         "sigma_tau": args.sigma_tau,
         "real_time_factor": args.real_time_factor,
     }
+    tare_cache = str((args.bag_dir / "tare_cache.json").resolve())  # shared by both nodes
     estimator_params = {
         "use_sim_time": True,
         "method": args.method,
         "sigma_f": args.sigma_f,
         "sigma_tau": args.sigma_tau,
+        "tare_cache": tare_cache,
     }
     sequencer_params = {
         "use_sim_time": True,
-        "tilt": args.tilt,
-        "dwell": args.dwell,
         "tilt_axes": "[" + ",".join(f"'{a}'" for a in args.axes.split(",")) + "]",
         "both_directions": not args.one_way,
-        "target_com_sigma": args.target_sigma,
         "sigma_f": args.sigma_f,
         "sigma_tau": args.sigma_tau,
         "mass_guess": args.mass,
         "bag_dir": str(args.bag_dir.resolve()),
+        "tare_cache": tare_cache,
     }
+    for key, value in (
+        ("tilt", args.tilt),
+        ("dwell", args.dwell),
+        ("target_com_sigma", args.target_sigma),
+    ):
+        if value is not None:  # else the sequencer's own default
+            sequencer_params[key] = value
     started = time.monotonic()
     procs: list[subprocess.Popen] = []
     try:

@@ -494,6 +494,15 @@ def _summary(status, prediction, object_time: float, bag: Path) -> str:
     return f"{head}; predicted {prediction}; object pass {object_time:.1f} s (sim); bag {bag}"
 
 
+def _spin_until_shutdown(executor: MultiThreadedExecutor) -> None:
+    """Spin; an error once the context is shutting down (SIGINT) just ends the thread."""
+    try:
+        executor.spin()
+    except Exception:
+        if rclpy.ok():
+            raise
+
+
 def main(args: list[str] | None = None) -> None:
     keep_dds_local()
     rclpy.init(args=args)
@@ -503,7 +512,7 @@ def main(args: list[str] | None = None) -> None:
     io_executor.add_node(io)
     executor = MultiThreadedExecutor(num_threads=3)
     executor.add_node(node)
-    worker = threading.Thread(target=executor.spin, daemon=True)
+    worker = threading.Thread(target=_spin_until_shutdown, args=(executor,), daemon=True)
     worker.start()
     try:
         while rclpy.ok():
