@@ -6,6 +6,7 @@ the same physics as the estimator assumes (``wrench_model``).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -71,7 +72,6 @@ def _exploration_truth(
     hand: Load,
     rng: np.random.Generator,
     shift_sigma: float,
-    tare_dwell: float | None,
     g: float,
 ) -> list[tuple[str, NDArray[np.float64], int]]:
     """(label, true wrench (6,), samples) per window: tare pass, then object pass."""
@@ -80,7 +80,8 @@ def _exploration_truth(
     coms = as_vector(load.com, 3, "com") + _shifts(len(poses), shift_sigma, rng)
     hand_com = as_vector(hand.com, 3, "hand com")
     n_obj = plan.samples_per_window()
-    tare_s = plan.dwell if tare_dwell is None else tare_dwell
+    finite_tare = plan.tare_dwell is not None and math.isfinite(plan.tare_dwell)
+    tare_s = plan.tare_dwell if finite_tare else plan.dwell
     n_tare = max(1, round(tare_s * plan.sensor.rate_hz))
     out = []
     for pose, g_s in zip(poses, g_dirs, strict=True):
@@ -97,7 +98,6 @@ def exploration_samples(
     hand: Load,
     rng: np.random.Generator,
     shift_sigma: float = 0.0,
-    tare_dwell: float | None = None,
     g: float = STANDARD_GRAVITY,
 ) -> list[tuple[str, NDArray[np.float64]]]:
     """Labelled raw samples of a whole exploration: tare pass, then object pass.
@@ -106,7 +106,7 @@ def exploration_samples(
     hand, then ``object/<pose>`` windows of hand + object, each through ``plan.sensor``
     (noise, bias, quantisation, saturation). N, N m; sensor frame.
     """
-    truth = _exploration_truth(plan, load, hand, rng, shift_sigma, tare_dwell, g)
+    truth = _exploration_truth(plan, load, hand, rng, shift_sigma, g)
     return [(label, plan.sensor.measure(np.tile(w, (n, 1)), rng)) for label, w, n in truth]
 
 
@@ -129,7 +129,6 @@ def exploration_stream(
     hand: Load,
     rng: np.random.Generator,
     shift_sigma: float = 0.0,
-    tare_dwell: float | None = None,
     move_time: float = 0.2,
     start_ns: int = 1_000_000_000,
     g: float = STANDARD_GRAVITY,
@@ -140,7 +139,7 @@ def exploration_stream(
     ``move_time`` s, labelled ``moving``; ``done`` follows the last window and 50 ms of
     samples follow ``done``, so a consumer sees the stream pass it.
     """
-    truth = _exploration_truth(plan, load, hand, rng, shift_sigma, tare_dwell, g)
+    truth = _exploration_truth(plan, load, hand, rng, shift_sigma, g)
     dt = 1e9 / plan.sensor.rate_hz
     n_move = max(2, round(move_time * plan.sensor.rate_hz))
     pieces, labels, t = [], [], 0
