@@ -47,6 +47,10 @@ class Listener:
         self.diagnostics += [s for s in msg.status if s.name == DIAGNOSTIC_NAME]
         self.inputs += [s for s in msg.status if s.name == INPUT_STATUS_NAME]
 
+    def wait_for_node(self, timeout: float = 30.0) -> None:
+        """Until the node's 1 Hz input status arrives: it hears us, we hear it."""
+        assert spin_until(self.node, lambda: self.inputs, timeout), "no estimator status"
+
     def next_status(self, seen: int, timeout: float = 20.0):
         assert spin_until(self.node, lambda: len(self.diagnostics) > seen, timeout), (
             "no /diagnostics from the estimator"
@@ -73,6 +77,7 @@ def test_estimate_is_within_its_sigma_band_and_replay_matches_to_the_bit(
     start_node, listener, ros_env, tmp_path
 ):
     start_node("estimator_node", PACKAGE)
+    listener.wait_for_node()
     bag = tmp_path / "run"
     run_publisher(start_node, "--bag", str(bag), "--seed", "4", "--speed", "3000")
     status, values = listener.next_status(0)
@@ -135,6 +140,7 @@ def test_every_bad_input_gives_its_status_and_the_node_keeps_serving(start_node,
     from std_srvs.srv import Trigger
 
     start_node("estimator_node", PACKAGE)
+    listener.wait_for_node()
     seen = 0
     for fault, level, text in BAD_INPUTS:
         run_publisher(start_node, "--fault", fault, "--dwell", "0.4", "--speed", "4000")
