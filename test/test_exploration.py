@@ -191,8 +191,9 @@ def test_a_friction_grasp_slip_is_flagged(start_node, client, tmp_path):
     shows the slip and the estimator flags the run. (In this mode the simulated sensor
     also carries Bullet's finger-joint error, itself inconsistent with a rigid load.)
     How far a friction grasp slips depends on when the commands land in sim time: with
-    /clock at 1 kHz the box slips ~1 mm in every run, at the default 250 Hz sometimes
-    only 0.1-0.5 mm, so this test asks for the 1 kHz clock."""
+    /clock at 1 kHz the box slipped 0.48-1.1 mm over the tilts in every run seen, at the
+    default 250 Hz 0.1-0.5 mm, so this test asks for the 1 kHz clock. The bound, 0.1 mm,
+    is over 100 times the creep of a box held still for the whole run (1e-5 mm/s)."""
     sim = {"object": "box", "grasp_mode": "friction", "clock_rate": 1000.0}
     start_system(start_node, tmp_path, sim)
     result = client.wait(client.call())
@@ -204,4 +205,4 @@ def test_a_friction_grasp_slip_is_flagged(start_node, client, tmp_path):
             if abs(t.inertia.com.z) < 0.2
         ]
     )
-    assert np.abs(held - held[0]).max() > 0.5e-3  # slipped by more than 0.5 mm
+    assert np.abs(held - held[0]).max() > 0.1e-3  # slipped by more than 0.1 mm
