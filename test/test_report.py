@@ -61,29 +61,10 @@ def _string(text: str) -> bytes:
     return bytes(TS.serialize_cdr(T["std_msgs/msg/String"](data=text), "std_msgs/msg/String"))
 
 
-def _flatten(d: dict) -> list[tuple[str, str]]:
-    """As the estimator node's ``_flatten`` and ``_text``: floats written with repr."""
-
-    def text(value: object) -> str:
-        if isinstance(value, list):
-            return ",".join(map(str, value))
-        return repr(value) if isinstance(value, float) else str(value)
-
-    out: list[tuple[str, str]] = []
-    for key, value in d.items():
-        if key in ("com", "sigma_com"):
-            out += [(f"{key}_{axis}", text(v)) for axis, v in zip("xyz", value, strict=True)]
-        elif key == "window_samples":
-            out += [(f"samples {label}", str(n)) for label, n in value.items()]
-        elif key not in ("reason", "notes"):
-            out.append((key, text(value)))
-    return out
-
-
 def _diagnostics(stamp_ns: int, solution: Solution, samples: int) -> list[bytes]:
     """Two DiagnosticArrays at ``stamp_ns``: the estimator's status, then another node's."""
     kv = T["diagnostic_msgs/msg/KeyValue"]
-    values = [kv(key=k, value=v) for k, v in _flatten(solution.as_dict())]
+    values = [kv(key=k, value=v) for k, v in solution.diagnostic_values()]
     values.append(kv(key="samples", value=str(samples)))
     ours = T["diagnostic_msgs/msg/DiagnosticStatus"](
         level=LEVELS[solution.status],

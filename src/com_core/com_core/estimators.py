@@ -284,9 +284,18 @@ class _FitState:
     means: NDArray[np.float64]  # (n, 6)
     g: float
     iterations: int = 0
+    _evaluated: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
 
     def residual_and_jacobian(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Whitened residuals (6n,) and Jacobian (6n, 1 + 3G + 2n) of the model."""
+        """Whitened residuals (6n,) and Jacobian (6n, 1 + 3G + 2n) of the model.
+
+        Computed once per state (a state is never changed; ``updated`` makes a new one).
+        """
+        if self._evaluated is None:
+            self._evaluated = self._evaluate()
+        return self._evaluated
+
+    def _evaluate(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         n, n_groups = len(self.dirs), len(self.coms)
         d, p = self.dirs, self.coms[self.groups]
         mg = self.mass * self.g

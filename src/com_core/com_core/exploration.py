@@ -62,6 +62,7 @@ __all__ = [
 ]
 
 OK, WARN, ERROR = "OK", "WARN", "ERROR"
+_NO_STAMP = -(2**62)
 TIME_RESET_NS = 1_000_000_000
 """A sample stamped this much before its predecessor starts a new clock, not a late one."""
 METHODS = {"ml": ml, "two_pose": two_pose}
@@ -83,6 +84,26 @@ class Solution:
     windows: tuple[Window, ...] = ()
     notes: tuple[str, ...] = ()
     window_samples: Mapping[str, int] = field(default_factory=dict)
+
+    def diagnostic_values(self) -> list[tuple[str, str]]:
+        """``as_dict`` as diagnostic_msgs/KeyValue pairs (the reason is the status's
+        message): vectors per axis (``com_x``), window counts as ``samples <label>``, and
+        floats as repr, the shortest text that reads back to the same double."""
+
+        def text(value: object) -> str:
+            if isinstance(value, list):
+                return ",".join(map(str, value))
+            return repr(value) if isinstance(value, float) else str(value)
+
+        out: list[tuple[str, str]] = []
+        for key, value in self.as_dict().items():
+            if key in ("com", "sigma_com"):
+                out += [(f"{key}_{axis}", text(v)) for axis, v in zip("xyz", value, strict=True)]
+            elif key == "window_samples":
+                out += [(f"samples {label}", str(n)) for label, n in value.items()]
+            elif key not in ("reason", "notes"):
+                out.append((key, text(value)))
+        return out
 
     def as_dict(self) -> dict:
         """JSON-ready summary: mass (kg), com (m, sensor frame), their sigmas, status."""
@@ -139,7 +160,7 @@ class Exploration:
     _stamps: list[NDArray[np.int64]] = field(default_factory=list, repr=False)
     _wrenches: list[NDArray[np.float64]] = field(default_factory=list, repr=False)
     _labels: list[tuple[int, str]] = field(default_factory=list, repr=False)
-    _last_stamp: int = field(default=-(2**62), repr=False)
+    _last_stamp: int = field(default=_NO_STAMP, repr=False)
     dropped: dict[str, int] = field(default_factory=dict)
     time_resets: int = 0
 
@@ -150,6 +171,11 @@ class Exploration:
     @property
     def sample_count(self) -> int:
         return sum(len(s) for s in self._stamps)
+
+    @property
+    def latest_stamp(self) -> int | None:
+        """Stamp (ns) of the latest sample kept, or None before the first."""
+        return None if self._last_stamp == _NO_STAMP else self._last_stamp
 
     @property
     def labels(self) -> list[tuple[int, str]]:
@@ -219,7 +245,7 @@ class Exploration:
         self._stamps.clear()
         self._wrenches.clear()
         self._labels = [(t, lbl) for t, lbl in self._labels if t <= stamp_ns + TIME_RESET_NS]
-        self._last_stamp = -(2**62)
+        self._last_stamp = _NO_STAMP
 
     def add_label(self, stamp_ns: int, label: str) -> None:
         """A pose label applying from ``stamp_ns`` (see module)."""
