@@ -327,7 +327,10 @@ def test_recorder_keeps_every_message_at_5_khz(start_node, rclpy_context, tmp_pa
         proc = start_node(
             "synthetic_exploration",
             "com_estimator",
-            args=["--speed", "5000", "--dwell", "0.5", "--bag", str(published)],
+            args=[
+                *("--speed", "5000", "--dwell", "0.5", "--bag", str(published)),
+                *("--estimator-timeout", "0"),  # no estimator here
+            ],
         )
         # mid-run the bag is already readable, up to ~0.1 s ago (what a crash would leave)
         mid_run = 0

@@ -8,7 +8,8 @@ Publishes
     ~/estimate (geometry_msgs/InertiaStamped: m, com in ft_sensor; transient local),
     /diagnostics (diagnostic_msgs/DiagnosticArray: ``com_estimator: exploration`` with the
     status, reason, sigmas, chi-square of each solution; ``com_estimator: input`` at 1 Hz
-    with the wrench rate, so a sequencer knows the estimator hears the sensor).
+    with the wrench rate and the stamps of the latest wrench and label, so a sequencer
+    knows the estimator hears the sensor and its labels).
 Services
     ~/solve (std_srvs/Trigger): estimate now from what has arrived.
     ~/reset (std_srvs/Trigger): forget the current exploration.
@@ -87,6 +88,7 @@ class EstimatorNode(Node):
         self.create_timer(0.02, self.drain_callback, clock=steady)
         self._received = 0  # wrench messages since the last input status
         self._latest_stamp = 0  # ns, of the latest wrench received
+        self._latest_label: int | None = None  # ns, stamp of the latest label received
         self.create_timer(1.0, self.input_status_callback, clock=steady)
         self.get_logger().info(
             f"estimating with method={self._param('method')}; waiting for {POSE_TOPIC} labels"
@@ -163,6 +165,7 @@ class EstimatorNode(Node):
         self._drain()
         stamp, label = decode_header(raw)
         self._exploration.add_label(stamp, label)
+        self._latest_label = stamp
         self.get_logger().info(f"pose {label!r} from t={stamp * 1e-9:.3f} s")
         if label == DONE and self._done_stamp is None:
             done = self._exploration.done_stamp()  # None: a done that ends no exploration
@@ -186,22 +189,26 @@ class EstimatorNode(Node):
             self.get_logger().warning("sensor time jumped back by more than 1 s: restarted clock")
 
     def input_status_callback(self) -> None:
-        """1 Hz ``com_estimator: input`` status: the wrench rate (Hz, wall clock) and the
+        """1 Hz ``com_estimator: input`` status: the wrench rate (Hz, wall clock), the
         stamp of the latest wrench (ns), by which a sequencer knows the estimator hears
-        the sensor on its own clock."""
+        the sensor on its own clock, and the stamp of the latest label (ns), by which it
+        knows the estimator hears its labels."""
         self._drain()
         rate, self._received = self._received, 0
         level = DiagnosticStatus.OK if rate else DiagnosticStatus.WARN
         text = f"receiving {rate} wrenches/s" if rate else f"no wrenches on {WRENCH_TOPIC}"
+        values = [
+            KeyValue(key="rate_hz", value=str(rate)),
+            KeyValue(key="latest_stamp_ns", value=str(self._latest_stamp)),
+        ]
+        if self._latest_label is not None:
+            values.append(KeyValue(key="latest_label_ns", value=str(self._latest_label)))
         status = DiagnosticStatus(
             level=level,
             name=INPUT_STATUS_NAME,
             message=text,
             hardware_id=self._param("expected_frame"),
-            values=[
-                KeyValue(key="rate_hz", value=str(rate)),
-                KeyValue(key="latest_stamp_ns", value=str(self._latest_stamp)),
-            ],
+            values=values,
         )
         msg = DiagnosticArray(status=[status])
         msg.header.stamp = self.get_clock().now().to_msg()
@@ -211,8 +218,8 @@ class EstimatorNode(Node):
         self._drain()
         if self._done_stamp is None:
             return
-        arrived = self._exploration.samples()[0]
-        caught_up = arrived.size > 0 and arrived[-1] >= self._done_stamp
+        latest = self._exploration.latest_stamp
+        caught_up = latest is not None and latest >= self._done_stamp
         if caught_up or time.monotonic() - self._done_wall > self._param("solve_timeout"):
             self._solve(self._done_stamp)
             self._exploration, self._done_stamp = self._new_exploration(), None
@@ -221,11 +228,11 @@ class EstimatorNode(Node):
 
     def solve_callback(self, request: Trigger.Request, response: Trigger.Response):
         self._drain()
-        stamps = self._exploration.samples()[0]
+        latest = self._exploration.latest_stamp
         until = (
             self._done_stamp
             if self._done_stamp is not None
-            else (int(stamps[-1]) + 1 if stamps.size else 0)
+            else (latest + 1 if latest is not None else 0)
         )
         solution = self._solve(until)
         response.success = solution.status != ERROR
@@ -264,7 +271,7 @@ class EstimatorNode(Node):
                 float(c) for c in solution.estimate.com
             )
             self._estimate_pub.publish(msg)
-        values = [KeyValue(key=k, value=_text(v)) for k, v in _flatten(solution.as_dict())]
+        values = [KeyValue(key=k, value=v) for k, v in solution.diagnostic_values()]
         values.append(KeyValue(key="samples", value=str(self._exploration.sample_count)))
         status = DiagnosticStatus(
             level=LEVELS[solution.status],
@@ -274,25 +281,6 @@ class EstimatorNode(Node):
             values=values,
         )
         self._diag_pub.publish(DiagnosticArray(header=header, status=[status]))
-
-
-def _flatten(d: dict) -> list[tuple[str, object]]:
-    out: list[tuple[str, object]] = []
-    for key, value in d.items():
-        if key in ("com", "sigma_com"):
-            out += [(f"{key}_{axis}", v) for axis, v in zip("xyz", value, strict=True)]
-        elif key == "window_samples":
-            out += [(f"samples {label}", n) for label, n in value.items()]
-        elif key not in ("reason", "notes"):
-            out.append((key, value))
-    return out
-
-
-def _text(value: object) -> str:
-    """Floats as repr: the shortest text that reads back to the same double."""
-    if isinstance(value, list):
-        return ",".join(map(str, value))
-    return repr(value) if isinstance(value, float) else str(value)
 
 
 def main(args: list[str] | None = None) -> None:

@@ -2,12 +2,20 @@
 
     synthetic_exploration [--mass 0.1 --com X Y Z] [--speed 2000] [--bag DIR]
                           [--fault nan|frame|order|motion|no-tare|one-pose]
+                          [--estimator-timeout 10]
 
 The stream is ``com_core.synthetic.exploration_stream`` (tare pass, then object pass,
 motion between poses, then ``done``), published on /ft_sensor/wrench and
 /exploration_sequencer/pose with the ground truth on /wrench_sim/ground_truth. With
 ``--bag`` every published message is also written, serialized as sent, to a rosbag2
 directory, so the node's answer can be compared with the offline replay's.
+
+It begins with 1 s (sensor time) of the hand at rest, in no window, and plays the
+exploration only once the estimator's input status on /diagnostics reports a wrench
+of this lead-in (at most ``--estimator-timeout`` s of wall time; 0: do not wait). A
+publisher seeing its subscriber does not mean the subscriber has matched the
+publisher yet; on a loaded machine that took longer than a whole run, and every
+message of it was lost.
 """
 
 from __future__ import annotations
@@ -20,6 +28,7 @@ import time
 
 import numpy as np
 import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import InertiaStamped, WrenchStamped
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from rclpy.serialization import serialize_message
@@ -30,6 +39,7 @@ from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC
 from com_core.planner import Plan
 from com_core.recording import CrashSafeBagWriter
 from com_core.rosenv import keep_dds_local
+from com_core.run_bag import INPUT_STATUS_NAME
 from com_core.synthetic import Load, Stream, exploration_stream
 from com_core.windows import MOVING, TARE_PREFIX
 from com_core.wrench_model import SensorModel
@@ -60,6 +70,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fault", choices=FAULTS, default="none", help="inject a bad input")
     p.add_argument("--bag", help="also write the published messages to this directory")
     p.add_argument("--frame", default="ft_sensor")
+    p.add_argument(
+        "--estimator-timeout",
+        type=float,
+        default=10.0,
+        help="s to wait for the estimator to hear the lead-in (0: no estimator, no wait)",
+    )
     return p
 
 
@@ -102,9 +118,8 @@ def main(argv: list[str] | None = None) -> int:
         plan, load, Load(args.hand_mass, tuple(args.hand_com)), rng, shift_sigma=args.shift_sigma
     )
     stream, frames = inject(stream, args.fault, args.dwell, args.rate)
-    # 1 s of rest before the first label, as a sensor streams before an exploration: the
-    # writer sees the reader before the reader has matched it, and a best-effort reader
-    # drops what arrives before; those first samples are in no window
+    # 1 s of rest before the first label, as a sensor streams before an exploration (see
+    # the module); a best-effort reader drops what arrives before it has matched
     lead = round(args.rate)
     lead_stamps = stream.stamps[0] - np.arange(lead, 0, -1) * round(1e9 / args.rate)
     stream = Stream(
@@ -123,7 +138,8 @@ def main(argv: list[str] | None = None) -> int:
     truth_pub = node.create_publisher(InertiaStamped, GROUND_TRUTH_TOPIC, latched)
     with contextlib.ExitStack() as stack:
         bag = stack.enter_context(CrashSafeBagWriter(args.bag)) if args.bag else None
-        elapsed = _play(args, stream, frames, node, (wrench_pub, pose_pub, truth_pub), bag)
+        pubs = (wrench_pub, pose_pub, truth_pub)
+        elapsed = _play(args, stream, frames, lead, node, pubs, bag)
     node.get_logger().info(
         f"published {len(stream.stamps)} wrenches and {len(stream.labels)} labels in "
         f"{elapsed:.2f} s (fault: {args.fault})" + (f"; bag {args.bag}" if args.bag else "")
@@ -134,11 +150,34 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+class _EstimatorInput:
+    """The latest wrench stamp (ns) the estimator's 1 Hz input status reports hearing."""
+
+    def __init__(self, node) -> None:
+        self.latest: int | None = None
+        node.create_subscription(DiagnosticArray, "/diagnostics", self._callback, 10)
+
+    def _callback(self, msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            if status.name == INPUT_STATUS_NAME and status.level == DiagnosticStatus.OK:
+                values = {kv.key: kv.value for kv in status.values}
+                self.latest = int(values.get("latest_stamp_ns", self.latest or 0))
+
+
 def _play(
-    args, stream: Stream, frames: list[str], node, pubs, bag: CrashSafeBagWriter | None
+    args,
+    stream: Stream,
+    frames: list[str],
+    lead: int,
+    node,
+    pubs,
+    bag: CrashSafeBagWriter | None,
 ) -> float:
-    """Publish (and record) the stream; returns the wall time it took, s."""
+    """Publish (and record) the stream; returns the wall time it took, s. The first
+    ``lead`` samples go out slowly until the estimator reports hearing one (module)."""
     wrench_pub, pose_pub, truth_pub = pubs
+    estimator = _EstimatorInput(node) if args.estimator_timeout > 0 else None
+    lead_first = int(stream.stamps[0])
 
     def send(pub, msg, msgtype: str, stamp: int) -> None:
         pub.publish(msg)
@@ -148,6 +187,7 @@ def _play(
     deadline = time.monotonic() + 10.0
     while wrench_pub.get_subscription_count() == 0 and time.monotonic() < deadline:
         time.sleep(0.05)
+    waiting_until = time.monotonic() + args.estimator_timeout
     truth = InertiaStamped(header=_header(int(stream.stamps[0]), args.frame))
     truth.inertia.m = args.mass
     truth.inertia.com.x, truth.inertia.com.y, truth.inertia.com.z = args.com
@@ -164,6 +204,19 @@ def _play(
         f, t = msg.wrench.force, msg.wrench.torque
         f.x, f.y, f.z, t.x, t.y, t.z = (float(v) for v in wrench)
         send(wrench_pub, msg, "geometry_msgs/msg/WrenchStamped", stamp)
+        if estimator is not None:
+            rclpy.spin_once(node, timeout_sec=0.01)  # ~100 lead-in wrenches/s meanwhile
+            if lead_first <= (estimator.latest or -1) <= stamp:
+                estimator = None
+            elif i == lead - 1 or time.monotonic() > waiting_until:
+                node.get_logger().warning(
+                    f"the estimator did not report hearing the lead-in within "
+                    f"{args.estimator_timeout} s; playing on"
+                )
+                estimator = None
+            if estimator is None:  # pace the rest from here
+                started = time.monotonic() - (i + 1) / args.speed if args.speed > 0 else 0.0
+            continue
         if args.speed > 0 and i % 50 == 49:
             lag = started + (i + 1) / args.speed - time.monotonic()
             if lag > 0:

@@ -83,7 +83,7 @@ PARAMETERS: dict[str, tuple[object, str]] = {
     "home_joints": ([0.0], "rad; 7 joints of the arm at home ([0.0]: ask /wrench_sim)"),
     "pick_joints": ([0.0], "rad; 7 joints with the fingers around the object ([0.0]: ask sim)"),
     "sim_timeout": (5.0, "s (wall) without /joint_states before a run fails"),
-    "estimate_timeout": (10.0, "s (wall) to wait for the estimator's answer after 'done'"),
+    "estimate_timeout": (10.0, "s (wall) to wait for the estimator: to hear us, to answer"),
     "bag_dir": ("bags", "directory that receives one rosbag2 directory per run"),
     "tare_cache": ("", "file of the cached tare pass ('': <bag_dir>/tare_cache.json)"),
     "tare_max_age": (3600.0, "s; a cached tare older than this is taken again"),
@@ -111,6 +111,7 @@ class IoNode(Node):
         self.joints_wall = -math.inf
         self.diagnostics: list = []
         self.estimator_latest = -(2**62)  # ns: the latest wrench the estimator has heard
+        self.estimator_label = -(2**62)  # ns: stamp of the latest label it has heard
         self.create_subscription(JointState, "/joint_states", self.joint_state_callback, 100)
         self.create_subscription(DiagnosticArray, "/diagnostics", self.diagnostics_callback, 10)
         self.recorder = Recorder(self)
@@ -125,6 +126,7 @@ class IoNode(Node):
             if status.name == INPUT_STATUS_NAME and status.level == b"\x00":
                 values = {kv.key: kv.value for kv in status.values}
                 self.estimator_latest = int(values.get("latest_stamp_ns", -(2**62)))
+                self.estimator_label = int(values.get("latest_label_ns", -(2**62)))
             if status.name == DIAGNOSTIC_NAME:
                 stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
                 self.diagnostics.append((stamp, status))
@@ -230,9 +232,18 @@ class SequencerNode(Node):
         """One exploration; returns (success, summary). Raises RunError."""
         log = self.get_logger()
         self._wait(lambda: self.io.joints, "waiting for /joint_states", wall_timeout=None)
-        self._wait(  # it hears the sensor on this clock (not a sensor that was restarted)
-            lambda: abs(self.io.estimator_latest - self.io.now_ns()) < 1_000_000_000,
-            "waiting for the estimator to hear /ft_sensor/wrench",
+        # The estimator hears the sensor on this clock (not a sensor that was restarted),
+        # and this node's labels: a "moving" now, which begins no window, must come back
+        # in its input status (a subscriber can match a publisher seconds after the
+        # publisher matched it, and then the first window labels would be lost).
+        handshake = self.io.now_ns()
+        self._label(handshake, MOVING)
+        self._wait(
+            lambda: (
+                abs(self.io.estimator_latest - self.io.now_ns()) < 1_000_000_000
+                and self.io.estimator_label == handshake
+            ),
+            "waiting for the estimator to hear /ft_sensor/wrench and ~/pose",
             wall_timeout=self.p("estimate_timeout"),
         )
         home, pick = self._joint_sets()
