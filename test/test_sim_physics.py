@@ -267,6 +267,31 @@ def test_malformed_arm_commands_are_refused(rigid_world, names, times, positions
     rigid_world.step()
 
 
+def test_a_trajectory_with_a_later_start_waits_for_it(rigid_world):
+    """The JointTrajectory header stamp's meaning: the running motion (or the hold) goes
+    on until the start time, then the new trajectory runs its full duration from there."""
+    world = rigid_world
+    world.move_arm(HOME_JOINTS, 2.0)
+    q0 = np.array(world.joint_state()[1][:7])
+    start = world.time + 0.3
+    end = world.command_arm(ARM_JOINT_NAMES, [0.5], [POSES["j6+0.5"]], start_time=start)
+    assert end == pytest.approx(start + 0.5)
+    assert not world.arm_idle  # queued
+    world.run(0.29)
+    assert_allclose(world.joint_state()[1][:7], q0, atol=1e-4)  # still holding
+    world.run(0.11)
+    moved = np.abs(np.array(world.joint_state()[1][:7]) - q0).max()
+    assert 1e-3 < moved < 0.25  # on its way: 0.1 s into a 0.5 s move of 0.5 rad
+    world.run(end - world.time)
+    assert_allclose(world.joint_state()[1][:7], POSES["j6+0.5"], atol=5e-3)
+    # a start in the past means now, and a new command replaces a queued one
+    world.command_arm(ARM_JOINT_NAMES, [0.4], [HOME_JOINTS], start_time=world.time + 1.0)
+    end = world.command_arm(ARM_JOINT_NAMES, [0.4], [HOME_JOINTS], start_time=1e-3)
+    assert end == pytest.approx(world.time + 0.4)
+    world.move_arm(HOME_JOINTS, 0.4)
+    assert world.arm_idle
+
+
 def test_bad_gripper_commands_are_refused(rigid_world):
     for opening in (-0.01, 0.05, float("nan")):
         with pytest.raises(ValueError, match="finger opening"):

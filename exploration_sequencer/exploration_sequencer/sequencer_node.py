@@ -19,6 +19,7 @@ import shutil
 import threading
 import time
 import traceback
+from collections import deque
 from collections.abc import Callable
 from datetime import datetime
 from pathlib import Path
@@ -109,6 +110,8 @@ class IoNode(Node):
         super().__init__("exploration_sequencer_io")
         self.joints: dict[str, tuple[float, float]] = {}
         self.joints_wall = -math.inf
+        # (stamp ns, joints) of the last 2 s at 100 Hz: when did the arm come to rest
+        self.joint_history: deque[tuple[int, dict[str, tuple[float, float]]]] = deque(maxlen=200)
         self.diagnostics: list = []
         self.estimator_latest = -(2**62)  # ns: the latest wrench the estimator has heard
         self.estimator_label = -(2**62)  # ns: stamp of the latest label it has heard
@@ -120,6 +123,8 @@ class IoNode(Node):
         velocities = msg.velocity if len(msg.velocity) == len(msg.name) else [0.0] * len(msg.name)
         self.joints = dict(zip(msg.name, zip(msg.position, velocities, strict=True), strict=True))
         self.joints_wall = time.monotonic()
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        self.joint_history.append((stamp, self.joints))
 
     def diagnostics_callback(self, msg: DiagnosticArray) -> None:
         for status in msg.status:
@@ -369,52 +374,75 @@ class SequencerNode(Node):
         return windows
 
     def _pass(self, prefix: str, poses: list[tuple[str, list[float]]], dwell: float) -> None:
-        for name, q in poses:
-            self._move(q, name)
-            self._window(prefix + name, dwell)
+        """A window at each pose. Each move after the first is sent ahead, to start at the
+        previous window's end (sim time), and each window starts ``settle`` s after the
+        joint states first show the arm resting, so the pass's timing in sim time does
+        not depend on how soon this node reacts."""
+        dwell_ns = round(dwell * 1e9)
+        start = self._move(poses[0][1], poses[0][0])
+        for k, (name, _) in enumerate(poses):
+            end = start + dwell_ns
+            self._label(start, prefix + name)
+            following = poses[k + 1] if k + 1 < len(poses) else None
+            if following is not None:
+                arrival = self._command(following[1], start_ns=end)
+            self._sleep_until(end, f"recording {prefix}{name}")
+            self._label(end, MOVING)
+            if following is not None:
+                start = self._arrive(following[1], following[0], arrival)
 
-    def _move(self, goal: list[float], what: str, must_arrive: bool = True) -> None:
-        """Move the arm to ``goal`` (rad), wait until it rests there, then ``settle`` s.
+    def _move(self, goal: list[float], what: str, must_arrive: bool = True) -> int:
+        """Move the arm to ``goal`` (rad) now and wait until it has rested there ``settle``
+        s; returns that sim time, ns. See ``_arrive`` for ``must_arrive``."""
+        if _resting(self.io.joints, goal):
+            return self.io.now_ns()  # already resting there
+        return self._arrive(goal, what, self._command(goal), must_arrive)
 
-        The wait ends after 5 s + 2x the motion's time (wall; a sim runs at least real
-        time); then RunError, or with ``must_arrive`` False a warning and the arm stays.
-        """
-
-        def settled() -> bool:
-            state = [self.io.joints[j] for j in ARM_JOINTS]
-            return all(
-                abs(q - g) < 5e-3 and abs(v) < 5e-3 for (q, v), g in zip(state, goal, strict=True)
-            )
-
-        if settled():
-            return  # already resting there
+    def _command(self, goal: list[float], start_ns: int = 0) -> int:
+        """Send a smooth move to ``goal`` (rad) starting at sim time ``start_ns`` (0: when
+        the sim receives it); returns the sim time (ns) at which it ends."""
         start = [self.io.joints[j][0] for j in ARM_JOINTS]
         duration = motion_time(start, goal, self.p("speed"))
         secs, nsecs = divmod(round(duration * 1e9), 1_000_000_000)
         point = JointTrajectoryPoint(
             positions=[float(v) for v in goal], time_from_start=Duration(sec=secs, nanosec=nsecs)
         )
-        self.arm_pub.publish(JointTrajectory(joint_names=ARM_JOINTS, points=[point]))
+        msg = JointTrajectory(joint_names=ARM_JOINTS, points=[point])
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(start_ns, 1_000_000_000)
+        self.arm_pub.publish(msg)
+        return max(start_ns, self.io.now_ns()) + round(duration * 1e9)
+
+    def _arrive(
+        self, goal: list[float], what: str, arrival_ns: int, must_arrive: bool = True
+    ) -> int:
+        """Wait until the arm rests at ``goal`` (joints within 5 mrad, speeds below 5 mrad/s)
+        and ``settle`` s more, counted from the first joint state that shows it resting
+        (however late this node notices); returns the end of ``settle``, sim time, ns.
+
+        The wait ends 5 s + twice the time to ``arrival_ns`` after the call (wall; a sim
+        runs at least real time); then RunError, or with ``must_arrive`` False a warning
+        and the arm stays where it is.
+        """
+        timeout = 5.0 + 2.0 * max(arrival_ns - self.io.now_ns(), 0) * 1e-9
         try:
-            self._wait(settled, f"moving to {what}", wall_timeout=5.0 + 2.0 * duration)
+            self._wait(lambda: _resting(self.io.joints, goal), f"moving to {what}", timeout)
         except TimeoutRunError as exc:
             if must_arrive:
                 raise
             self.get_logger().warning(f"{exc}: going on from where the arm is")
-            return
-        self._sleep(self.p("settle"), f"settling at {what}")
+            return self.io.now_ns()
+        rested = self.io.now_ns()
+        for stamp, joints in reversed(tuple(self.io.joint_history)):  # tuple(): one C call
+            if not _resting(joints, goal):
+                break
+            rested = stamp
+        ready = rested + round(self.p("settle") * 1e9)
+        self._sleep_until(ready, f"settling at {what}")
+        return ready
 
     def _gripper(self, opening: float, wait: float = 0.0) -> None:
         self.hand_pub.publish(Float64MultiArray(data=[opening]))
-        self._sleep(wait, "moving the fingers")
-
-    def _window(self, label: str, dwell: float) -> None:
-        """Label a static window: it covers [t0, t0 + dwell) of sensor time exactly."""
-        t0 = self.io.now_ns()
-        self._label(t0, label)
-        end = t0 + round(dwell * 1e9)
-        self._wait(lambda: self.io.now_ns() >= end, f"recording {label}", wall_timeout=None)
-        self._label(end, MOVING)
+        self._sleep_until(self.io.now_ns() + round(wait * 1e9), "moving the fingers")
 
     def _label(self, stamp_ns: int, label: str) -> None:
         header = Header(frame_id=label)
@@ -424,9 +452,9 @@ class SequencerNode(Node):
         if label != MOVING:
             self.get_logger().info(f"window {label} from t={stamp_ns * 1e-9:.3f} s")
 
-    def _sleep(self, seconds: float, what: str) -> None:
-        end = self.io.now_ns() + round(seconds * 1e9)
-        self._wait(lambda: self.io.now_ns() >= end, what, wall_timeout=None)
+    def _sleep_until(self, stamp_ns: int, what: str) -> None:
+        """Wait until sim time ``stamp_ns``."""
+        self._wait(lambda: self.io.now_ns() >= stamp_ns, what, wall_timeout=None)
 
     def _wait(self, done: Callable[[], object], what: str, wall_timeout: float | None) -> None:
         """Poll ``done`` until true; RunError when the sim stops answering or on timeout."""
@@ -494,6 +522,15 @@ class SequencerNode(Node):
             self.get_logger().info(f"report: {write_report(bag)}")
         except Exception as exc:  # a report must never fail a run
             self.get_logger().error(f"report not written: {exc!r}")
+
+
+def _resting(joints: dict[str, tuple[float, float]], goal: list[float]) -> bool:
+    """The arm's joints (position rad, speed rad/s) are within 5 mrad of ``goal`` and
+    slower than 5 mrad/s."""
+    return all(
+        abs(joints[j][0] - g) < 5e-3 and abs(joints[j][1]) < 5e-3
+        for j, g in zip(ARM_JOINTS, goal, strict=True)
+    )
 
 
 def _summary(status, prediction, object_time: float, bag: Path) -> str:

@@ -253,6 +253,7 @@ class PandaWorld:
         self.events: list[str] = []
         self._steps = 0
         self._trajectory: QuinticTrajectory | None = None
+        self._queued: QuinticTrajectory | None = None  # starts later (command_arm)
         self._set_point = (home.copy(), np.zeros(7), np.zeros(7))
         self._finger_target = FINGER_OPEN
         self._finger_opening = FINGER_OPEN  # rigid mode: the virtual fingers
@@ -346,6 +347,8 @@ class PandaWorld:
 
     def step(self) -> None:
         """Advance the world by one 1 ms physics step and read the sensor."""
+        if self._queued is not None and self.time >= self._queued.start_time:
+            self._trajectory, self._queued = self._queued, None
         if self._trajectory is not None:
             self._follow_trajectory()
         if self._finger_opening != self._finger_target and self._rigid:
@@ -382,14 +385,18 @@ class PandaWorld:
         joint_names: Sequence[str],
         times: Sequence[float],
         positions: Sequence[Sequence[float]],
+        start_time: float = 0.0,
     ) -> float:
-        """Follow a joint trajectory from now (replacing any running one).
+        """Follow a joint trajectory from ``start_time`` (replacing any running or queued
+        one; a running one goes on until then).
 
         Parameters
         ----------
         joint_names : subset of panda_joint1..7, any order.
-        times : s from now, strictly increasing.
+        times : s from the start, strictly increasing.
         positions : rad, one row per time, one value per name.
+        start_time : s, simulated; now if earlier than now (the JointTrajectory header
+            stamp's convention, with 0 for now).
 
         Returns
         -------
@@ -400,10 +407,16 @@ class PandaWorld:
         ValueError if the command is malformed or unreachable; the arm then keeps its
         current motion.
         """
+        start = max(start_time, self.time)
+        running = self._trajectory
+        state = running.sample(start) if running and start > self.time else self._set_point
         trajectory = trajectory_from_command(
-            joint_names, times, positions, self._limits, self.time, self._set_point
+            joint_names, times, positions, self._limits, start, state
         )
-        self._trajectory = trajectory
+        if start > self.time:
+            self._queued = trajectory
+        else:
+            self._trajectory, self._queued = trajectory, None
         self._still_steps = 0
         return trajectory.end_time
 
@@ -416,13 +429,13 @@ class PandaWorld:
 
     @property
     def arm_idle(self) -> bool:
-        """No trajectory is running."""
-        return self._trajectory is None
+        """No trajectory is running or queued."""
+        return self._trajectory is None and self._queued is None
 
     @property
     def arm_settled(self) -> bool:
         """No trajectory is running and the joints have been still for 20 ms."""
-        return self._trajectory is None and self._still_steps >= _SETTLE_STEPS
+        return self.arm_idle and self._still_steps >= _SETTLE_STEPS
 
     def _follow_trajectory(self) -> None:
         assert self._trajectory is not None

@@ -145,11 +145,13 @@ class SimNode(Node):
 
     # ------------------------------------------------------------------ commands
     def trajectory_callback(self, msg: JointTrajectory) -> None:
-        """Follow a joint trajectory; a malformed or unreachable one is logged and ignored."""
+        """Follow a joint trajectory from its header stamp (sim time; zero or past: now);
+        a malformed or unreachable one is logged and ignored."""
         try:
             times = [p.time_from_start.sec + 1e-9 * p.time_from_start.nanosec for p in msg.points]
             positions = [list(p.positions) for p in msg.points]
-            end = self.world.command_arm(list(msg.joint_names), times, positions)
+            start = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+            end = self.world.command_arm(list(msg.joint_names), times, positions, start)
         except Exception as error:  # a bad command must never stop the sim
             self.get_logger().error(f"rejected joint trajectory: {error}")
             return

@@ -83,6 +83,11 @@ class QuinticTrajectory:
         self._final = np.asarray(positions[-1], dtype=np.float64)
 
     @property
+    def start_time(self) -> float:
+        """s; when the trajectory starts."""
+        return float(self._knots[0])
+
+    @property
     def end_time(self) -> float:
         """s; when the last waypoint is reached."""
         return float(self._knots[-1])
