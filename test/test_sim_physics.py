@@ -171,6 +171,26 @@ def test_friction_mode_error_stays_within_the_documented_bound():
         world.close()
 
 
+def test_a_friction_grasp_too_weak_for_a_tilt_slips_and_the_ground_truth_shows_it():
+    """0.55 N per finger holds the 0.1 kg box still at home but not through a quick tilt:
+    it slides along the fingers (~28 mm) and the ground truth follows it."""
+    world = PandaWorld(SimConfig(object_shape="box", grasp_mode="friction", grip_force=0.55))
+    try:
+        grasp(world)
+        world.run(0.3)
+        assert world.object_held
+        before = world.object_ground_truth()[1]
+        world.run(0.9)
+        still = world.object_ground_truth()[1]
+        assert np.abs(still - before).max() < 1e-5  # at rest it holds
+        world.command_arm(ARM_JOINT_NAMES, [0.4], [POSES["j6+0.5"]])
+        world.run(0.7)
+        slid = np.linalg.norm(world.object_ground_truth()[1] - before)
+        assert 0.01 < slid < 0.05, slid
+    finally:
+        world.close()
+
+
 def test_slip_sigma_shifts_the_object_at_each_new_tilt():
     world = PandaWorld(SimConfig(object_com_offset=COM_OFFSET, slip_sigma=0.002, seed=11))
     try:
