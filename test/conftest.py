@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import fcntl
 import itertools
+import json
 import os
 import signal
 import subprocess
@@ -212,3 +213,17 @@ def wait_for_messages(
     finally:
         node.destroy_subscription(subscription)
     return received[:count]
+
+
+def replay_json(bag: Path, env: dict[str, str] | None = None) -> dict[str, Any]:
+    """What the installed ``replay`` prints for ``bag`` with ``--json`` (the offline
+    estimate: mass, com, sigmas, status, ...)."""
+    out = subprocess.run(
+        [str(INSTALL / "com_estimator/lib/com_estimator/replay"), str(bag), "--json"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=True,
+    ).stdout
+    return json.loads(out)

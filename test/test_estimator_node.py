@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import json
 import math
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import INSTALL, spin_until
+from conftest import replay_json, spin_until
 
 from com_core.planner import Plan, predict
 from com_core.run_bag import DIAGNOSTIC_NAME, INPUT_STATUS_NAME
@@ -102,15 +100,7 @@ def test_estimate_is_within_its_sigma_band_and_replay_matches_to_the_bit(
     com = np.array([estimate.com.x, estimate.com.y, estimate.com.z])
     assert np.all(np.abs(com - TRUTH_COM) < 4 * sigma_com)
 
-    replay = subprocess.run(
-        [str(INSTALL / PACKAGE / "lib" / PACKAGE / "replay"), str(bag), "--json"],
-        env=ros_env,
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=True,
-    )
-    offline = json.loads(replay.stdout)
+    offline = replay_json(bag, ros_env)
     assert offline["status"] == "OK" and offline["messages"] == 8050  # 1 s lead-in + run
     node_windows = {
         k.split(" ", 1)[1]: int(v) for k, v in values.items() if k.startswith("samples ")

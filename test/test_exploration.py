@@ -2,17 +2,15 @@
 
 from __future__ import annotations
 
-import json
 import os
 import re
 import signal
-import subprocess
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import WORKSPACE, spin_until
+from conftest import WORKSPACE, replay_json, spin_until
 
 from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC, read_raw
 from com_core.cdr import decode_header
@@ -173,15 +171,7 @@ def test_second_run_reuses_the_cached_tare_and_replays_to_the_nodes_estimate(
     # a short drift check at home, no tare pass; the estimator uses the cached tare
     assert "tare/home_check" in labels and "tare/home" not in labels
     assert not any(lbl.startswith("tare/tilt") for lbl in labels)
-    replay = subprocess.run(
-        [str(WORKSPACE / "install/com_estimator/lib/com_estimator/replay"), str(bag), "--json"],
-        env=ros_env,
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=True,
-    ).stdout
-    offline = json.loads(replay)
+    offline = replay_json(bag, ros_env)
     online = numbers(result.message, "COM") * 1e-3
     np.testing.assert_allclose(offline["com"], online, atol=0.006e-3)  # 2 decimals in mm
 

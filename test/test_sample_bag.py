@@ -2,11 +2,8 @@
 
 from __future__ import annotations
 
-import json
-import subprocess
-
 import numpy as np
-from conftest import INSTALL, WORKSPACE
+from conftest import WORKSPACE, replay_json
 
 from com_core.run_bag import read_run
 
@@ -18,14 +15,7 @@ def test_replay_of_the_sample_run_is_the_recorded_estimate_to_the_bit():
     kept beside it as tare.json); the estimate and diagnostics in it are the node's."""
     run = read_run(SAMPLE)
     assert run.estimate is not None and run.diagnostic is not None, run.notes
-    out = subprocess.run(
-        [str(INSTALL / "com_estimator/lib/com_estimator/replay"), str(SAMPLE), "--json"],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=True,
-    ).stdout
-    offline = json.loads(out)
+    offline = replay_json(SAMPLE)
     values = run.diagnostic["values"]
     assert offline["status"] == run.status == "OK"
     assert offline["mass"] == run.estimate.mass

@@ -222,16 +222,7 @@ def _draw_traces(fig, run: RunData, rect: tuple[float, float, float, float]) -> 
         borderaxespad=0.1,
     )
     if not run.labels:
-        ax_strip.text(
-            0.5,
-            0.5,
-            f"no labels ({POSE_TOPIC} missing)",
-            transform=ax_strip.transAxes,
-            ha="center",
-            va="center",
-            color="#c62828",
-            fontsize=10,
-        )
+        _centred_text(ax_strip, f"no labels ({POSE_TOPIC} missing)", 10)
 
     if run.stamps.size:
         tt, ww = _envelope(t, run.wrenches, _MAX_TRACE_POINTS)
@@ -246,16 +237,7 @@ def _draw_traces(fig, run: RunData, rect: tuple[float, float, float, float]) -> 
     else:
         for ax in (ax_f, ax_t):
             ax.set_yticks([])
-            ax.text(
-                0.5,
-                0.5,
-                f"no wrench messages ({WRENCH_TOPIC} missing)",
-                transform=ax.transAxes,
-                ha="center",
-                va="center",
-                color="#c62828",
-                fontsize=12,
-            )
+            _centred_text(ax, f"no wrench messages ({WRENCH_TOPIC} missing)", 12)
     for ax in (ax_f, ax_t):
         ax.grid(True, color="#dddddd", lw=0.6)
         ax.margins(x=0)
@@ -384,36 +366,19 @@ def _draw_no_estimate(fig, run: RunData, rect: tuple[float, float, float, float]
             lw=2,
         )
     )
+    _centred_text(ax, "NO ESTIMATE", 26, y=0.8, colour=colour, fontweight="bold")
+    _centred_text(ax, "reason:", 11, y=0.6, colour="#3e0000")
+    _centred_text(ax, textwrap.fill(reason, 50), 13, y=0.56, colour="#3e0000", va="top")
+
+
+def _centred_text(
+    ax, text: str, fontsize: float, y: float = 0.5, colour: str = "#c62828", **style
+) -> None:
+    """``text`` centred across ``ax`` at height ``y`` (axes coordinates; ``style``: more
+    matplotlib text properties)."""
+    style.setdefault("va", "center")
     ax.text(
-        0.5,
-        0.8,
-        "NO ESTIMATE",
-        transform=ax.transAxes,
-        ha="center",
-        va="center",
-        fontsize=26,
-        fontweight="bold",
-        color=colour,
-    )
-    ax.text(
-        0.5,
-        0.6,
-        "reason:",
-        transform=ax.transAxes,
-        ha="center",
-        va="center",
-        fontsize=11,
-        color="#3e0000",
-    )
-    ax.text(
-        0.5,
-        0.56,
-        textwrap.fill(reason, 50),
-        transform=ax.transAxes,
-        ha="center",
-        va="top",
-        fontsize=13,
-        color="#3e0000",
+        0.5, y, text, transform=ax.transAxes, ha="center", color=colour, fontsize=fontsize, **style
     )
 
 
