@@ -23,8 +23,10 @@ from com_core.run_bag import (
     DIAGNOSTICS_TOPIC,
     ESTIMATE_TOPIC,
     HAND_TRUTH_TOPIC,
+    INPUT_STATUS_NAME,
     OBJECT_TOPIC,
     TRUTH_TOPIC,
+    heard_stamps,
     read_run,
 )
 from com_core.synthetic import Load, exploration_stream
@@ -243,3 +245,17 @@ def test_report_module_is_ros_free_and_leaves_pyplot_alone():
         "assert 'rclpy' not in sys.modules and 'matplotlib.pyplot' not in sys.modules"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_heard_stamps_reads_only_an_ok_input_status():
+    from types import SimpleNamespace as Ns
+
+    def status(name=INPUT_STATUS_NAME, level=b"\x00", **values):
+        kvs = [Ns(key=k, value=v) for k, v in values.items()]
+        return Ns(name=name, level=level, values=kvs)
+
+    assert heard_stamps(status(latest_stamp_ns="7", latest_label_ns="5")) == (7, 5)
+    assert heard_stamps(status(latest_stamp_ns="7")) == (7, None)  # no label heard yet
+    assert heard_stamps(status(level=b"\x01", latest_stamp_ns="7")) is None  # no wrenches
+    assert heard_stamps(status(name=DIAGNOSTIC_NAME, latest_stamp_ns="7")) is None
+    assert heard_stamps(status()) is None

@@ -39,7 +39,12 @@ from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC
 from com_core.cdr import decode_header, decode_wrench_batch
 from com_core.exploration import ERROR, METHODS, OK, WARN, Exploration, Solution, format_solution
 from com_core.rosenv import keep_dds_local
-from com_core.run_bag import DIAGNOSTIC_NAME, INPUT_STATUS_NAME
+from com_core.run_bag import (
+    DIAGNOSTIC_NAME,
+    INPUT_STATUS_NAME,
+    LATEST_LABEL_KEY,
+    LATEST_STAMP_KEY,
+)
 from com_core.tare_cache import load_tares
 from com_core.windows import DONE
 from com_core.wrench_model import SensorModel
@@ -199,10 +204,10 @@ class EstimatorNode(Node):
         text = f"receiving {rate} wrenches/s" if rate else f"no wrenches on {WRENCH_TOPIC}"
         values = [
             KeyValue(key="rate_hz", value=str(rate)),
-            KeyValue(key="latest_stamp_ns", value=str(self._latest_stamp)),
+            KeyValue(key=LATEST_STAMP_KEY, value=str(self._latest_stamp)),
         ]
         if self._latest_label is not None:
-            values.append(KeyValue(key="latest_label_ns", value=str(self._latest_label)))
+            values.append(KeyValue(key=LATEST_LABEL_KEY, value=str(self._latest_label)))
         status = DiagnosticStatus(
             level=level,
             name=INPUT_STATUS_NAME,

@@ -28,7 +28,7 @@ import time
 
 import numpy as np
 import rclpy
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import InertiaStamped, WrenchStamped
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from rclpy.serialization import serialize_message
@@ -39,7 +39,7 @@ from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC
 from com_core.planner import Plan
 from com_core.recording import CrashSafeBagWriter
 from com_core.rosenv import keep_dds_local
-from com_core.run_bag import INPUT_STATUS_NAME
+from com_core.run_bag import heard_stamps
 from com_core.synthetic import Load, Stream, exploration_stream
 from com_core.windows import MOVING, TARE_PREFIX
 from com_core.wrench_model import SensorModel
@@ -159,9 +159,9 @@ class _EstimatorInput:
 
     def _callback(self, msg: DiagnosticArray) -> None:
         for status in msg.status:
-            if status.name == INPUT_STATUS_NAME and status.level == DiagnosticStatus.OK:
-                values = {kv.key: kv.value for kv in status.values}
-                self.latest = int(values.get("latest_stamp_ns", self.latest or 0))
+            heard = heard_stamps(status)
+            if heard is not None:
+                self.latest = heard[0]
 
 
 def _play(

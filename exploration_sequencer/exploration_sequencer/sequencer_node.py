@@ -46,7 +46,7 @@ from com_core.errors import WindowError
 from com_core.exploration import Exploration
 from com_core.planner import Plan, dwell_for_target, predict
 from com_core.rosenv import keep_dds_local
-from com_core.run_bag import DIAGNOSTIC_NAME, INPUT_STATUS_NAME
+from com_core.run_bag import DIAGNOSTIC_NAME, heard_stamps
 from com_core.tare_cache import BAG_TARE_FILE, drift, load_tares, save_tares
 from com_core.windows import (
     DONE,
@@ -108,9 +108,9 @@ class IoNode(Node):
 
     def __init__(self) -> None:
         super().__init__("exploration_sequencer_io")
-        self.joints: dict[str, tuple[float, float]] = {}
         self.joints_wall = -math.inf
-        # (stamp ns, joints) of the last 2 s at 100 Hz: when did the arm come to rest
+        # (stamp ns, {name: (position, velocity)}) of the last 2 s at 100 Hz: the latest
+        # joint state, and when the arm came to rest
         self.joint_history: deque[tuple[int, dict[str, tuple[float, float]]]] = deque(maxlen=200)
         self.diagnostics: list = []
         self.estimator_latest = -(2**62)  # ns: the latest wrench the estimator has heard
@@ -121,17 +121,22 @@ class IoNode(Node):
 
     def joint_state_callback(self, msg: JointState) -> None:
         velocities = msg.velocity if len(msg.velocity) == len(msg.name) else [0.0] * len(msg.name)
-        self.joints = dict(zip(msg.name, zip(msg.position, velocities, strict=True), strict=True))
-        self.joints_wall = time.monotonic()
+        joints = dict(zip(msg.name, zip(msg.position, velocities, strict=True), strict=True))
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-        self.joint_history.append((stamp, self.joints))
+        self.joint_history.append((stamp, joints))
+        self.joints_wall = time.monotonic()
+
+    @property
+    def joints(self) -> dict[str, tuple[float, float]]:
+        """The latest joint state: {name: (position rad or m, velocity)}; {} before one."""
+        return self.joint_history[-1][1] if self.joint_history else {}
 
     def diagnostics_callback(self, msg: DiagnosticArray) -> None:
         for status in msg.status:
-            if status.name == INPUT_STATUS_NAME and status.level == b"\x00":
-                values = {kv.key: kv.value for kv in status.values}
-                self.estimator_latest = int(values.get("latest_stamp_ns", -(2**62)))
-                self.estimator_label = int(values.get("latest_label_ns", -(2**62)))
+            heard = heard_stamps(status)
+            if heard is not None:
+                self.estimator_latest, label = heard
+                self.estimator_label = -(2**62) if label is None else label
             if status.name == DIAGNOSTIC_NAME:
                 stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
                 self.diagnostics.append((stamp, status))

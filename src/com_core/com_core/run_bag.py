@@ -32,12 +32,15 @@ __all__ = [
     "ESTIMATE_TOPIC",
     "HAND_TRUTH_TOPIC",
     "INPUT_STATUS_NAME",
+    "LATEST_LABEL_KEY",
+    "LATEST_STAMP_KEY",
     "LEVELS",
     "OBJECT_TOPIC",
     "RUN_BAG_TOPICS",
     "TRUTH_TOPIC",
     "Inertia",
     "RunData",
+    "heard_stamps",
     "read_run",
 ]
 
@@ -48,6 +51,8 @@ HAND_TRUTH_TOPIC = "/wrench_sim/hand_ground_truth"
 OBJECT_TOPIC = "/wrench_sim/object"
 DIAGNOSTIC_NAME = "com_estimator: exploration"  # the estimator's status of each solution
 INPUT_STATUS_NAME = "com_estimator: input"  # its 1 Hz status of the wrench input
+LATEST_STAMP_KEY = "latest_stamp_ns"  # its keys: the latest wrench stamp it has heard
+LATEST_LABEL_KEY = "latest_label_ns"  # and the latest label stamp (absent before one)
 
 RUN_BAG_TOPICS = (
     WRENCH_TOPIC,
@@ -244,3 +249,18 @@ def _choose_truth(
     if moved > _TRUTH_MOVE_M:
         note += f"; moved {moved * 1e3:.2f} mm in the grasp"
     return chosen, note
+
+
+def heard_stamps(status) -> tuple[int, int | None] | None:
+    """(latest wrench stamp, latest label stamp or None), ns, that an OK
+    ``com_estimator: input`` status reports; None for any other status.
+
+    status : a diagnostic_msgs/DiagnosticStatus (name, level, values of key/value).
+    """
+    if status.name != INPUT_STATUS_NAME or status.level not in (0, b"\x00"):
+        return None
+    values = {kv.key: kv.value for kv in status.values}
+    if LATEST_STAMP_KEY not in values:
+        return None
+    label = values.get(LATEST_LABEL_KEY)
+    return int(values[LATEST_STAMP_KEY]), None if label is None else int(label)
