@@ -7,7 +7,8 @@
 - ``start_node(executable, package, params=None, args=None, name=None)`` starts
   install/<package>/lib/<package>/<executable> as a process (as ``ros2 run`` would), logging
   to a file under tmp_path; every node is stopped at teardown (SIGINT, then SIGTERM, then
-  SIGKILL), and its log tail is printed when the test failed.
+  SIGKILL), and its log tail is printed when the test failed; a node still running at
+  teardown must end on SIGINT with exit code 0 and no traceback, or the test errors.
 - ``rclpy_context``: an rclpy Context on the same domain, shut down at teardown;
   ``wait_for_messages`` and ``spin_until`` wait on it with a timeout.
 """
@@ -102,16 +103,33 @@ def _parameter_text(value: Any) -> str:
     return str(value)
 
 
-def _stop(process: subprocess.Popen) -> None:
-    """SIGINT (clean DDS shutdown), then SIGTERM, then SIGKILL."""
+def _stop(process: subprocess.Popen) -> signal.Signals | None:
+    """SIGINT (clean DDS shutdown), then SIGTERM, then SIGKILL; returns the signal that
+    ended the process (None: it had ended before)."""
     for sig, wait in ((signal.SIGINT, 10.0), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
         if process.poll() is not None:
-            return
+            return None
         process.send_signal(sig)
         try:
             process.wait(timeout=wait)
+            return sig
         except subprocess.TimeoutExpired:
             continue
+    return None
+
+
+UNCLEAN_EXIT = ("Traceback", "never retrieved", "terminate called")
+"""Text a node's output must not hold after SIGINT: a shutdown that is not clean."""
+
+
+def unclean_exit(process: subprocess.Popen, sig: signal.Signals | None, log: str) -> str:
+    """Why a node stopped by ``_stop`` did not shut down cleanly ('' if it did): SIGINT
+    must end it, with exit code 0 and none of UNCLEAN_EXIT in its output."""
+    if sig is None:
+        return ""
+    if sig != signal.SIGINT or process.returncode != 0:
+        return f"needed {sig.name}, exit code {process.returncode}"
+    return ", ".join(f"{text!r} in its output" for text in UNCLEAN_EXIT if text in log)
 
 
 def log_tail(path: Path, lines: int = _LOG_TAIL_LINES) -> str:
@@ -160,8 +178,7 @@ def start_node(
         return process
 
     yield start
-    for process, _ in reversed(started):
-        _stop(process)
+    stopped_by = [_stop(process) for process, _ in reversed(started)][::-1]
     failed = any(
         getattr(getattr(request.node, f"rep_{when}", None), "failed", False)
         for when in ("setup", "call")
@@ -170,6 +187,14 @@ def start_node(
         for process, log_path in started:
             print(f"\n----- {log_path.name} (exit code {process.returncode}), last lines -----")
             print(log_tail(log_path))
+        return
+    unclean = [
+        f"{log_path.name}: {why}"
+        for (process, log_path), sig in zip(started, stopped_by, strict=True)
+        if (why := unclean_exit(process, sig, log_path.read_text(errors="replace")))
+    ]
+    if unclean:
+        pytest.fail("nodes did not shut down cleanly on SIGINT: " + "; ".join(unclean))
 
 
 @pytest.fixture

@@ -6,9 +6,10 @@ import numpy as np
 
 from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC, feed_bag, read_raw
 from com_core.cdr import encode_header, encode_wrench_stamped
-from com_core.exploration import OK, WARN, Exploration, label_static_windows
+from com_core.exploration import OK, WARN, Exploration
 from com_core.planner import Plan
 from com_core.recording import CrashSafeBagWriter
+from com_core.static_windows import label_static_windows
 from com_core.synthetic import Load, exploration_stream
 
 LOAD, HAND = Load(0.1, (0.01, -0.02, 0.1)), Load(0.73, (0.0, 0.0, 0.04))

@@ -118,6 +118,9 @@ BAD_INPUTS = [
     ("nan", "WARN", "5 samples not finite"),
     ("frame", "WARN", "100 samples in frame 'tool0'"),
     ("order", "WARN", "3 samples out of time order"),
+    ("duplicate", "WARN", "dropped 3 samples with a duplicate stamp"),
+    ("long-label", "WARN", "dropped 1 labels longer than 128 characters (object/xxx"),
+    ("no-windows", "ERROR", "no windows: no tare/ or object/ label before the end"),
     ("motion", "WARN", "window 'tilt_x+': motion"),
     ("no-tare", "ERROR", "no tare for pose(s) home, tilt_x+"),
     ("one-pose", "ERROR", "need at least 2 poses"),
@@ -131,13 +134,21 @@ def test_every_bad_input_gives_its_status_and_the_node_keeps_serving(start_node,
 
     start_node("estimator_node", PACKAGE)
     listener.wait_for_node()
-    seen = 0
+    # the object moved in the grasp: WARN on /diagnostics, and no estimate on ~/estimate
+    run_publisher(start_node, "--shift-sigma", "0.01", "--dwell", "0.4", "--speed", "4000")
+    status, values = listener.next_status(0)
+    assert status.level == b"\x01" and "moved in the grasp" in status.message, status.message
+    assert "mass" in values  # its numbers, for diagnosis
+    spin_until(listener.node, lambda: bool(listener.estimates), 1.0)
+    assert not listener.estimates, "an inconsistent fit was published on ~/estimate"
+    seen = 1
     for fault, level, text in BAD_INPUTS:
         run_publisher(start_node, "--fault", fault, "--dwell", "0.4", "--speed", "4000")
         status, _ = listener.next_status(seen)
         seen += 1
         assert status.level == {"WARN": b"\x01", "ERROR": b"\x02"}[level], (fault, status.message)
         assert text in status.message, (fault, status.message)
+        assert len(status.message) < 400, status.message  # a long label is never copied whole
 
     # still serving: a bad parameter is refused, a clean run is OK, services answer
     bad = Parameter(
@@ -153,6 +164,6 @@ def test_every_bad_input_gives_its_status_and_the_node_keeps_serving(start_node,
     assert status.level == b"\x00", status.message
     assert math.isclose(float(values["mass"]), TRUTH_MASS, rel_tol=0.02)
     solve = listener.call(Trigger, "/com_estimator/solve", Trigger.Request())
-    assert not solve.success and "no object windows" in solve.message
+    assert not solve.success and "no windows" in solve.message
     reset = listener.call(Trigger, "/com_estimator/reset", Trigger.Request())
     assert reset.success

@@ -245,6 +245,20 @@ def test_invalid_parameter_is_refused_with_a_message(start_node):
     assert "object must be one of" in process.log_path.read_text()
 
 
+def test_a_com_offset_the_sim_cannot_hold_is_refused_with_the_range(start_node):
+    # Inside the cylinder, but on its stand the cylinder tips over with this COM.
+    process = start_node(
+        "sim_node",
+        "wrench_sim",
+        {"object": "cylinder", "object_com_offset": [0.0175, 0.0175, 0.0]},
+    )
+    assert process.wait(timeout=30) != 0
+    log = process.log_path.read_text()
+    assert "outside what the sim can hold for the cylinder" in log, log
+    assert "hypot(x, y) <= 0.0200 m and |z| <= 0.0400 m" in log, log
+    assert "Traceback" not in log, log
+
+
 def test_saturation_clips_and_is_logged_once_per_episode(start_node, rclpy_context):
     # The hand alone weighs 9.9 N: a 5 N force range saturates fz from the start.
     process = start_node(

@@ -14,6 +14,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from com_core.wrench_model import SensorModel, gravity_wrench
+from wrench_sim.objects import SHAPES, holdable_com_range, object_spec
 from wrench_sim.physics import (
     ARM_JOINT_NAMES,
     HOME_JOINTS,
@@ -325,5 +326,77 @@ def test_invalid_scene_is_refused():
         SimConfig(grasp_mode="glue")
     with pytest.raises(ValueError, match="slip_sigma applies"):
         SimConfig(grasp_mode="friction", slip_sigma=0.001)
-    with pytest.raises(ValueError, match="outside the box"):
+    with pytest.raises(ValueError, match="outside what the sim can hold for the box"):
         PandaWorld(SimConfig(object_com_offset=(0.0, 0.0, 0.5)))
+
+
+# The COM offsets the sim can hold (objects.holdable_com_range), as the README states them.
+STATED_RANGES = {
+    "box": "|x|, |y| <= 0.0200 m and |z| <= 0.0400 m",
+    "cylinder": "hypot(x, y) <= 0.0200 m and |z| <= 0.0400 m",
+    "mug": "hypot(x, y) <= 0.0224 m and |z| <= 0.0450 m",
+}
+# Offsets inside the body with which the object tips over on its stand (measured, 0.1 kg).
+TIPPED_OVER = {
+    "box": (0.025, 0.0, 0.0),
+    "cylinder": (0.0175, 0.0175, 0.0),
+    "mug": (0.0196, 0.0196, 0.0),
+}
+COM_TOL = 5e-4  # m; held COM vs requested offset (measured <= 0.07 mm, either mode)
+OBJECT_TOP_BELOW_FLANGE = 0.075  # m; where the stand puts the object in the hand at PICK_JOINTS
+
+
+def range_corner(shape: str) -> tuple[float, float, float]:
+    """The offset (m, object frame) at the far corner of the shape's holdable range: the
+    horizontal bound on the diagonal, at the top of the body (where the COM tips over most
+    readily)."""
+    reach = holdable_com_range(shape)
+    horizontal = reach.half_xy / np.sqrt(2.0) if reach.round else reach.half_xy
+    return (horizontal, -horizontal, reach.half_z)
+
+
+@pytest.mark.parametrize("grasp_mode", ["rigid", "friction"])
+@pytest.mark.parametrize("shape", sorted(SHAPES))
+def test_an_offset_at_the_edge_of_the_holdable_range_is_held(shape, grasp_mode):
+    """The object stands 6 s on its stand (offsets just outside the range tip over within
+    that), is grasped and lifted, and its ground-truth COM is the requested offset."""
+    offset = range_corner(shape)
+    assert holdable_com_range(shape).contains(offset)
+    world = PandaWorld(
+        SimConfig(object_shape=shape, grasp_mode=grasp_mode, object_com_offset=offset)
+    )
+    try:
+        world.run(3.0)
+        grasp(world)
+        world.run(0.3)
+        assert world.object_held, world.events
+        centre = np.array([0.0, 0.0, OBJECT_TOP_BELOW_FLANGE + SHAPES[shape].half_extents[2]])
+        # object frame (x, y, z) = hand (x, -y, -z) at the home pose
+        expected = centre + np.array(offset) * [1.0, -1.0, -1.0]
+        assert_allclose(world.object_ground_truth()[1], expected, atol=COM_TOL)
+    finally:
+        world.close()
+
+
+@pytest.mark.parametrize("shape", sorted(SHAPES))
+def test_an_offset_outside_the_holdable_range_is_refused_with_the_range(shape):
+    reach = holdable_com_range(shape)
+    assert str(reach) == STATED_RANGES[shape]
+    # One that tips the object over on its stand, one just beyond the horizontal bound, one
+    # beyond the vertical bound.
+    for offset in (
+        TIPPED_OVER[shape],
+        (1.05 * reach.half_xy, 0.0, 0.0),
+        (0.0, 0.0, -1.05 * reach.half_z),
+    ):
+        with pytest.raises(ValueError, match="outside what the sim can hold") as error:
+            PandaWorld(SimConfig(object_shape=shape, object_com_offset=offset))
+        assert STATED_RANGES[shape] in str(error.value)
+
+
+@pytest.mark.parametrize("shape", sorted(SHAPES))
+def test_every_seeded_com_offset_is_in_the_holdable_range(shape):
+    reach = holdable_com_range(shape)
+    for seed in range(51):
+        offset = object_spec(shape, 0.1, None, random_streams(seed)["object"]).com_offset
+        assert reach.contains(offset), (seed, offset, str(reach))

@@ -5,13 +5,15 @@ Subscribes
     decoded in batches), /exploration_sequencer/pose (std_msgs/Header: frame_id is the
     label, stamp the sensor time from which it applies; reliable, transient local).
 Publishes
-    ~/estimate (geometry_msgs/InertiaStamped: m, com in ft_sensor; transient local),
+    ~/estimate (geometry_msgs/InertiaStamped: m, com in ft_sensor; transient local): only
+    usable estimates (``Solution.usable``: status OK, or WARN for dropped input with a
+    consistent fit); an inconsistent fit (the object moved) is on /diagnostics only,
     /diagnostics (diagnostic_msgs/DiagnosticArray: ``com_estimator: exploration`` with the
     status, reason, sigmas, chi-square of each solution; ``com_estimator: input`` at 1 Hz
     with the wrench rate and the stamps of the latest wrench and label, so a sequencer
     knows the estimator hears the sensor and its labels).
 Services
-    ~/solve (std_srvs/Trigger): estimate now from what has arrived.
+    ~/solve (std_srvs/Trigger): estimate now from what has arrived; success only on OK.
     ~/reset (std_srvs/Trigger): forget the current exploration.
 The estimation is ``com_core.exploration``; this node only moves messages in and out.
 """
@@ -37,7 +39,16 @@ from std_srvs.srv import Trigger
 
 from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC
 from com_core.cdr import decode_header, decode_wrench_batch
-from com_core.exploration import ERROR, METHODS, OK, WARN, Exploration, Solution, format_solution
+from com_core.exploration import (
+    ERROR,
+    METHODS,
+    OK,
+    WARN,
+    Exploration,
+    Solution,
+    format_solution,
+    shorten,
+)
 from com_core.rosenv import keep_dds_local
 from com_core.run_bag import (
     DIAGNOSTIC_NAME,
@@ -50,6 +61,7 @@ from com_core.windows import DONE
 from com_core.wrench_model import SensorModel
 
 DEFAULTS = Exploration()
+MAX_MESSAGE_LENGTH = 1000  # characters of a diagnostic message
 LEVELS = {OK: DiagnosticStatus.OK, WARN: DiagnosticStatus.WARN, ERROR: DiagnosticStatus.ERROR}
 
 PARAMETERS = {
@@ -63,6 +75,10 @@ PARAMETERS = {
     "min_tilt_sigmas": (DEFAULTS.min_tilt_sigmas, "refuse tilts below this many sigma of noise"),
     "solve_timeout": (1.0, "s (wall) to wait after 'done' for samples up to its stamp"),
     "tare_cache": ("", "file of cached tare windows for poses without a fresh tare ('': none)"),
+    "max_label_gap": (
+        DEFAULTS.max_label_gap,
+        "s (sensor time) without a label after which a label starts a new exploration (0: never)",
+    ),
 }
 
 
@@ -112,6 +128,7 @@ class EstimatorNode(Node):
             "expected_frame": lambda v: isinstance(v, str),
             "min_tilt_sigmas": lambda v: v >= 0.0,
             "solve_timeout": lambda v: v > 0.0,
+            "max_label_gap": lambda v: v >= 0.0,
         }
         for p in params:
             ok = checks.get(p.name, lambda v: isinstance(v, float) and v >= 0.0)
@@ -144,6 +161,7 @@ class EstimatorNode(Node):
             "sensor": sensor,
             "alpha": self._param("alpha"),
             "min_tilt_sigmas": self._param("min_tilt_sigmas"),
+            "max_label_gap": self._param("max_label_gap"),
         }
 
     def _new_exploration(self) -> Exploration:
@@ -169,12 +187,21 @@ class EstimatorNode(Node):
     def pose_callback(self, raw: bytes) -> None:
         self._drain()
         stamp, label = decode_header(raw)
+        stale = self._exploration.stale_drops
         self._exploration.add_label(stamp, label)
         self._latest_label = stamp
-        self.get_logger().info(f"pose {label!r} from t={stamp * 1e-9:.3f} s")
+        self.get_logger().info(f"pose {shorten(label)!r} from t={stamp * 1e-9:.3f} s")
+        if self._exploration.stale_drops > stale:
+            self.get_logger().warning(
+                f"no label for over {self._param('max_label_gap'):g} s before this one: "
+                "dropped the earlier exploration (a sequencer that stopped mid-run)"
+            )
         if label == DONE and self._done_stamp is None:
-            done = self._exploration.done_stamp()  # None: a done that ends no exploration
-            if done is not None:
+            done = self._exploration.done_stamp()
+            if done is None:  # a done with no window before it: say so, start anew
+                self._solve(stamp)
+                self._exploration = self._new_exploration()
+            else:
                 self._done_stamp, self._done_wall = done, time.monotonic()
 
     def _drain(self) -> None:
@@ -240,7 +267,7 @@ class EstimatorNode(Node):
             else (latest + 1 if latest is not None else 0)
         )
         solution = self._solve(until)
-        response.success = solution.status != ERROR
+        response.success = solution.status == OK
         response.message = format_solution(solution)
         return response
 
@@ -269,7 +296,7 @@ class EstimatorNode(Node):
             self.get_logger().error(summary)
         header = Header(frame_id=self._param("expected_frame") or "ft_sensor")
         header.stamp.sec, header.stamp.nanosec = divmod(max(stamp_ns, 0), 1_000_000_000)
-        if solution.estimate is not None:
+        if solution.usable:
             msg = InertiaStamped(header=header)
             msg.inertia.m = solution.estimate.mass
             msg.inertia.com.x, msg.inertia.com.y, msg.inertia.com.z = (
@@ -281,7 +308,7 @@ class EstimatorNode(Node):
         status = DiagnosticStatus(
             level=LEVELS[solution.status],
             name=DIAGNOSTIC_NAME,
-            message=solution.reason,
+            message=shorten(solution.reason, MAX_MESSAGE_LENGTH),
             hardware_id=header.frame_id,
             values=values,
         )

@@ -7,23 +7,41 @@ Reads /ft_sensor/wrench and /exploration_sequencer/pose from a rosbag2 directory
 with the node's defaults, so the same messages give the same numbers to the last bit.
 
 A bag without pose labels is cut into static windows by
-``com_core.exploration.label_static_windows`` (blocks of 50 ms whose spread is at the
+``com_core.static_windows.find_static_windows`` (blocks of 50 ms whose spread is at the
 noise level, joined while their means agree within 6 standard errors, kept when longer
-than 0.3 s); with no tare windows the estimate is then of the whole load beyond the
-sensor (hand + object), and the output says which it did. Tare windows of poses the bag
-has no fresh tare for come from the run's cached tare, BAG/tare.json (``--tare``).
+than 0.3 s) and sorted by ``split_load_levels`` into the empty hand's and the loaded
+hand's by the magnitude of their mean force (the gravity load, N, whatever the
+orientation): each object window is tared with the tare window (of the bag or of the
+cached tare) whose force points the same way within 2 deg. With one load level the
+estimate is of the whole load beyond the sensor (hand + object), untared. The output
+says which it did. Tare windows of poses the bag has no fresh tare for come from the
+run's cached tare, BAG/tare.json (``--tare``).
+
+A bag whose MCAP file was cut short (no Footer) is read up to the cut; a labelled run
+without its ``done`` label, or cut before the end of its last window, is reported WARN
+with the reason (its estimate is kept); ``--json`` gives what was read under ``bag``.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 from pathlib import Path
 
-from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC, feed_bag
-from com_core.exploration import ERROR, Exploration, format_solution, label_static_windows
+from com_core.bagio import INCOMPLETE_TEXT, POSE_TOPIC, WRENCH_TOPIC, BagReading, feed_bag
+from com_core.exploration import (
+    ERROR,
+    OK,
+    WARN,
+    Exploration,
+    Solution,
+    format_solution,
+)
+from com_core.static_windows import find_static_windows, split_load_levels
 from com_core.tare_cache import BAG_TARE_FILE, load_tares
+from com_core.windows import OBJECT_PREFIX, TARE_PREFIX
 from com_core.wrench_model import SensorModel
 
 DEFAULTS = Exploration()
@@ -79,23 +97,75 @@ def main(argv: list[str] | None = None) -> int:
         min_tilt_sigmas=args.min_tilt_sigmas,
         tares=cache.windows if cache else {},
     )
-    n_wrench, n_label = feed_bag(args.bag, exploration, args.wrench_topic, args.pose_topic)
+    reading = BagReading()
+    n_wrench, n_label = feed_bag(
+        args.bag, exploration, args.wrench_topic, args.pose_topic, reading=reading
+    )
     if n_label:
         source = f"pose labels from the bag ({n_label})"
     else:
         stamps, wrenches = exploration.samples()
-        found = label_static_windows(stamps, wrenches)
-        for stamp, label in found:
+        levels = split_load_levels(find_static_windows(stamps, wrenches), exploration.tares)
+        for stamp, label in levels.labels:
             exploration.add_label(stamp, label)
-        exploration.untared = True
-        source = f"no pose labels in the bag: found {len(found) // 2} static windows"
-    solution = exploration.solve()
+        exploration.untared = levels.untared
+        source = f"no pose labels in the bag: {levels.describe()}"
+    reasons = cut_short_reasons(exploration, n_label, reading)
+    solution = with_warnings(exploration.solve(), reasons)
     if args.json:
-        print(json.dumps(solution.as_dict() | {"windows_from": source, "messages": n_wrench}))
+        extra = {"windows_from": source, "messages": n_wrench, "bag": reading.as_dict()}
+        print(json.dumps(solution.as_dict() | extra))
     else:
         print(f"{args.bag}: {n_wrench} wrenches; windows from {source}")
+        for note in reading.notes():
+            print(f"bag: {note}")
+        if reading.cut_short and n_label and not reasons:
+            print("bag: the cut lies after done: every window of the run was read")
         print(format_solution(solution))
     return 1 if solution.status == ERROR else 0
+
+
+def cut_short_reasons(exploration: Exploration, n_label: int, reading: BagReading) -> list[str]:
+    """Why the bag may hold only part of the exploration ([] when it holds all of it).
+
+    A labelled run is whole when it has its ``done`` label and, if its MCAP file was cut,
+    samples up to the ``done`` stamp (ns, sensor time). An unlabelled bag cannot tell, so
+    a cut file or a recording never closed is reason enough.
+    """
+    reasons = []
+    if n_label:
+        done = exploration.done_stamp()
+        latest = exploration.latest_stamp
+        if done is None:
+            reasons.append(
+                f"the run has no done label: cut short after {last_window(exploration)}"
+            )
+        elif reading.cut_short and (latest is None or latest < done):
+            end = "no samples" if latest is None else f"samples end at {latest * 1e-9:.3f} s"
+            reasons.append(f"{end}, before done at {done * 1e-9:.3f} s: the last window is cut")
+    if reasons or not n_label:
+        reasons += [reading.cut_text()] if reading.cut_short else []
+        reasons += [INCOMPLETE_TEXT] if reading.complete is False else []
+    return reasons
+
+
+def last_window(exploration: Exploration) -> str:
+    """The last window label that arrived, or what was there instead."""
+    windows = [
+        label for _, label in exploration.labels if label.startswith((TARE_PREFIX, OBJECT_PREFIX))
+    ]
+    return windows[-1] if windows else "no window label (before the first window)"
+
+
+def with_warnings(solution: Solution, reasons: list[str]) -> Solution:
+    """``solution`` with ``reasons`` first in its reason and notes; OK becomes WARN."""
+    if not reasons:
+        return solution
+    text = "; ".join(reasons)
+    status = WARN if solution.status == OK else solution.status
+    reason = text if solution.status == OK else f"{text}; {solution.reason}"
+    notes = (*reasons, *solution.notes)
+    return dataclasses.replace(solution, status=status, reason=reason, notes=notes)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,8 @@
 """Play a synthetic exploration into the live estimator (for tests and benchmarks).
 
     synthetic_exploration [--mass 0.1 --com X Y Z] [--speed 2000] [--bag DIR]
-                          [--fault nan|frame|order|motion|no-tare|one-pose]
+                          [--fault nan|frame|order|duplicate|motion|no-tare|one-pose|
+                                   no-windows|long-label] [--shift-sigma 0.01]
                           [--estimator-timeout 10]
 
 The stream is ``com_core.synthetic.exploration_stream`` (tare pass, then object pass,
@@ -41,11 +42,22 @@ from com_core.recording import CrashSafeBagWriter
 from com_core.rosenv import keep_dds_local
 from com_core.run_bag import heard_stamps
 from com_core.synthetic import Load, Stream, exploration_stream
-from com_core.windows import MOVING, TARE_PREFIX
+from com_core.windows import DONE, MOVING, TARE_PREFIX
 from com_core.wrench_model import SensorModel
 
 GROUND_TRUTH_TOPIC = "/wrench_sim/ground_truth"
-FAULTS = ("none", "nan", "frame", "order", "motion", "no-tare", "one-pose")
+FAULTS = (
+    "none",
+    "nan",
+    "frame",
+    "order",
+    "duplicate",
+    "motion",
+    "no-tare",
+    "one-pose",
+    "no-windows",
+    "long-label",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -93,6 +105,8 @@ def inject(stream: Stream, fault: str, dwell: float, rate: float) -> tuple[Strea
             frames[i] = "tool0"
     elif fault == "order":
         stamps[k + 20 : k + 23] = stamps[k - 300 : k - 297]
+    elif fault == "duplicate":
+        stamps[k + 20 : k + 23] = stamps[k + 19]
     elif fault == "motion":  # the arm creeps through the whole window
         n = int(dwell * rate)
         wrenches[k : k + n, :3] += np.linspace(0.0, 0.5, n)[:, None]
@@ -100,6 +114,11 @@ def inject(stream: Stream, fault: str, dwell: float, rate: float) -> tuple[Strea
         labels = [(s, MOVING if lbl.startswith(TARE_PREFIX) else lbl) for s, lbl in labels]
     elif fault == "one-pose":
         labels = [(s, MOVING if "tilt" in lbl else lbl) for s, lbl in labels]
+    elif fault == "no-windows":
+        labels = [(s, lbl if lbl == DONE else MOVING) for s, lbl in labels]
+    elif fault == "long-label":  # a label of 10,000 characters with the window's end
+        end = next(i for i, (s, _) in enumerate(labels) if s > windows["object/tilt_x+"])
+        labels.insert(end + 1, (labels[end][0], "object/" + "x" * 9993))
     return Stream(stamps, wrenches, labels), frames
 
 

@@ -62,10 +62,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--sigma-f", type=float, default=0.1, help="N per sample")
     p.add_argument("--sigma-tau", type=float, default=0.005, help="N m per sample")
     p.add_argument("--tilt", type=float, help="rad (default: the sequencer's, pi/6)")
+    p.add_argument(
+        "--max-tilt", type=float, help="rad; the largest tilt the object allows (default: pi/6)"
+    )
     p.add_argument("--axes", default="x,y", help="tilt axes, e.g. 'x' for the paper's one")
     p.add_argument("--one-way", action="store_true", help="tilt one direction only (paper)")
     p.add_argument("--dwell", type=float, help="s per window (default: the sequencer's)")
     p.add_argument("--target-sigma", type=float, help="m; adaptive dwell to meet it")
+    p.add_argument(
+        "--raise-tilt",
+        action="store_true",
+        help="with --target-sigma: the tilt may be raised up to --max-tilt (else it is kept)",
+    )
     p.add_argument("--method", choices=("ml", "two_pose"), default="ml")
     p.add_argument("--real-time-factor", type=float, default=5.0, help="0: as fast as possible")
     p.add_argument("--bag-dir", type=Path, default=Path("bags"))
@@ -104,11 +112,13 @@ def main(argv: list[str] | None = None) -> int:
         "sigma_f": args.sigma_f,
         "sigma_tau": args.sigma_tau,
         "mass_guess": args.mass,
+        "raise_tilt": args.raise_tilt,
         "bag_dir": str(args.bag_dir.resolve()),
         "tare_cache": tare_cache,
     }
     for key, value in (
         ("tilt", args.tilt),
+        ("max_tilt", args.max_tilt),
         ("dwell", args.dwell),
         ("target_com_sigma", args.target_sigma),
     ):
@@ -162,7 +172,11 @@ def run_exploration(args: argparse.Namespace, started: float) -> int:
     node.create_subscription(
         DiagnosticArray,
         "/diagnostics",
-        lambda m: statuses.extend(s for s in m.status if s.name == DIAGNOSTIC_NAME),
+        lambda m: statuses.extend(
+            (m.header.stamp.sec * 10**9 + m.header.stamp.nanosec, s)
+            for s in m.status
+            if s.name == DIAGNOSTIC_NAME
+        ),
         10,
     )
     executor = SingleThreadedExecutor()
@@ -178,33 +192,36 @@ def run_exploration(args: argparse.Namespace, started: float) -> int:
         if not future.done():
             print(f"demo: no answer within {args.timeout:g} s", file=sys.stderr)
             return 1
-        end = time.monotonic() + 2.0
-        while time.monotonic() < end and not estimates:
+        end = time.monotonic() + 2.0  # the status, and the estimate if it is published
+        while time.monotonic() < end and not (statuses and estimates):
             executor.spin_once(timeout_sec=0.1)
         result = future.result()
         print_summary(result, estimates, truths, statuses, time.monotonic() - started)
         return 0 if result.success else 1
     finally:
+        executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown()
 
 
 def print_summary(result, estimates, truths, statuses, wall: float) -> None:
+    """The service's answer, the estimate (from the estimator's status, with whether it
+    was published on ~/estimate), the ground truth held in the hand, the error."""
     print("\n=== summary ===")
     print(f"explore: {'success' if result.success else 'FAILED'}: {result.message}")
-    values = {kv.key: kv.value for kv in statuses[-1].values} if statuses else {}
-    if estimates:
-        e = estimates[-1]
-        stamp = e.header.stamp.sec * 10**9 + e.header.stamp.nanosec
-        held = [t for t in truths if t.header.stamp.sec * 10**9 + t.header.stamp.nanosec <= stamp]
-        com = [e.inertia.com.x, e.inertia.com.y, e.inertia.com.z]
-        sig = [float(values.get(f"sigma_com_{a}", "nan")) * 1e3 for a in "xyz"]
+    stamp, status = statuses[-1] if statuses else (0, None)
+    values = {kv.key: kv.value for kv in status.values} if status else {}
+    if "mass" in values:
+        com = [float(values[f"com_{a}"]) for a in "xyz"]
+        sig = [float(values[f"sigma_com_{a}"]) * 1e3 for a in "xyz"]
         print(
-            f"estimate: mass {e.inertia.m * 1e3:.2f} +- "
-            f"{float(values.get('sigma_mass', 'nan')) * 1e3:.2f} g, COM "
+            f"estimate: mass {float(values['mass']) * 1e3:.2f} +- "
+            f"{float(values['sigma_mass']) * 1e3:.2f} g, COM "
             f"({', '.join(f'{c * 1e3:.2f}' for c in com)}) +- "
             f"({', '.join(f'{s:.2f}' for s in sig)}) mm in ft_sensor"
+            + ("" if estimates else " (flagged: not published on ~/estimate)")
         )
+        held = [t for t in truths if t.header.stamp.sec * 10**9 + t.header.stamp.nanosec <= stamp]
         if held:
             t = held[-1].inertia
             truth = [t.com.x, t.com.y, t.com.z]
@@ -214,7 +231,7 @@ def print_summary(result, estimates, truths, statuses, wall: float) -> None:
                 f"({', '.join(f'{c * 1e3:.2f}' for c in truth)}) mm"
             )
             print(
-                f"error:    mass {(e.inertia.m - t.m) / t.m:+.2%}, COM "
+                f"error:    mass {(float(values['mass']) - t.m) / t.m:+.2%}, COM "
                 f"({', '.join(f'{x:+.2f}' for x in err)}) mm, |e| = "
                 f"{math.sqrt(sum(x * x for x in err)):.2f} mm"
             )

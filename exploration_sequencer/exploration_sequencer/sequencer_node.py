@@ -1,9 +1,14 @@
 """exploration_sequencer node: tare, grasp, tilt, release; one recorded bag per run.
 
 Service ``~/explore`` (std_srvs/Trigger) runs one exploration and answers with a one-line
-summary (mass, COM, sigma, predicted sigma, bag path); a second call while one runs is
-refused. Pose labels go out on ``~/pose`` (std_msgs/Header: frame_id = label, stamp =
-the sim time from which it applies; transient local) only once the arm has settled.
+summary (status, mass, COM, sigma, predicted sigma, bag path); ``success`` is true only
+when the estimator's status is OK (a WARN, e.g. the object moved in the grasp, answers
+false with the reason). A second call while one runs is refused. Each run starts from a
+known state: the estimator is reset, an arm that holds something (fingers closed) puts
+it back on the stand first, an arm away from home goes home; and the grasp must hold a
+load before the object pass. Pose labels go out on ``~/pose`` (std_msgs/Header:
+frame_id = label, stamp = the sim time from which it applies; transient local) only once
+the arm has settled.
 Every run is recorded to ``<bag_dir>/<run-id>/`` (rosbag2, MCAP) with a PNG report.
 
 Threads: the high-rate subscriptions (recording, joint states, sim clock) live on a
@@ -15,15 +20,16 @@ this node is spun by a MultiThreadedExecutor in another thread, so a running exp
 from __future__ import annotations
 
 import math
-import shutil
 import threading
 import time
 import traceback
 from collections import deque
 from collections.abc import Callable
+from dataclasses import replace
 from datetime import datetime
 from pathlib import Path
 
+import numpy as np
 import rclpy
 from builtin_interfaces.msg import Duration
 from diagnostic_msgs.msg import DiagnosticArray
@@ -47,7 +53,14 @@ from com_core.exploration import Exploration
 from com_core.planner import Plan, dwell_for_target, predict
 from com_core.rosenv import keep_dds_local
 from com_core.run_bag import DIAGNOSTIC_NAME, heard_stamps
-from com_core.tare_cache import BAG_TARE_FILE, drift, load_tares, save_tares
+from com_core.tare_cache import (
+    BAG_TARE_FILE,
+    drift,
+    load_tares,
+    save_tares,
+    tare_signature,
+    use_tares,
+)
 from com_core.windows import (
     DONE,
     MIN_SAMPLES_FOR_COVARIANCE,
@@ -57,12 +70,15 @@ from com_core.windows import (
     Window,
     reduce_window,
 )
-from com_core.wrench_model import SensorModel
+from com_core.wrench_model import STANDARD_GRAVITY, SensorModel
 from exploration_sequencer.choreography import motion_time, pose_joints
 from exploration_sequencer.recorder import Recorder
 
 ARM_JOINTS = [f"panda_joint{i}" for i in range(1, 8)]
+FINGER_JOINTS = ["panda_finger_joint1", "panda_finger_joint2"]
 FINGER_OPEN, FINGER_CLOSED = 0.04, 0.0
+ESTIMATOR_RESET = "/com_estimator/reset"
+ESTIMATOR_PARAMETERS = "/com_estimator/get_parameters"
 
 PARAMETERS: dict[str, tuple[object, str]] = {
     "tilt": (math.pi / 6, "rad; wrist tilt from home about each axis"),
@@ -73,6 +89,7 @@ PARAMETERS: dict[str, tuple[object, str]] = {
     "settle": (0.3, "s to wait after a motion before a window starts"),
     "speed": (1.35, "rad/s mean joint speed, capped per joint by the Panda's limits"),
     "max_tilt": (math.pi / 6, "rad; the largest tilt the object allows (a full mug: small)"),
+    "raise_tilt": (False, "with target_com_sigma: the tilt may be raised up to max_tilt"),
     "target_com_sigma": (0.0, "m; extend dwell until the predicted COM sigma meets it (0: off)"),
     "max_object_time": (20.0, "s (sim) the object pass may take when meeting target_com_sigma"),
     "sigma_f": (0.1, "N; the sensor's force noise per sample (for the prediction)"),
@@ -90,6 +107,8 @@ PARAMETERS: dict[str, tuple[object, str]] = {
     "tare_max_age": (3600.0, "s; a cached tare older than this is taken again"),
     "drift_dwell": (0.5, "s of the fresh tare window at home that checks the cache"),
     "hand_id": ("panda_hand", "names the hand: a cached tare serves this hand only"),
+    "min_load": (0.005, "kg; the grasp must hold at least this before the object pass"),
+    "grasp_check_dwell": (0.2, "s of samples at home after lifting that check the grasp"),
 }
 DRIFT_ALPHA = 1e-3  # false-alarm rate of the tare drift test
 DRIFT_CHECK_SUFFIX = "_check"  # the drift window's pose: tare/home_check
@@ -150,7 +169,12 @@ class SequencerNode(Node):
     """Runs explorations on request; see module."""
 
     def __init__(self, io: IoNode) -> None:
-        super().__init__("exploration_sequencer")
+        # Sim time is the I/O node's (``io.now_ns``): this node keeps no /clock
+        # subscription, whose 250 Hz callbacks would only load its executor.
+        super().__init__(
+            "exploration_sequencer",
+            parameter_overrides=[Parameter("use_sim_time", Parameter.Type.BOOL, False)],
+        )
         for name, (default, text) in PARAMETERS.items():
             self.declare_parameter(name, default, ParameterDescriptor(description=text))
         self.add_on_set_parameters_callback(self.validate_parameters)
@@ -171,6 +195,10 @@ class SequencerNode(Node):
         self._sim_params = self.create_client(
             GetParameters, "/wrench_sim/get_parameters", callback_group=group
         )
+        self._estimator_reset = self.create_client(Trigger, ESTIMATOR_RESET, callback_group=group)
+        self._estimator_params = self.create_client(
+            GetParameters, ESTIMATOR_PARAMETERS, callback_group=group
+        )
         self.get_logger().info("ready: call ~/explore to run an exploration")
 
     # --- parameters ------------------------------------------------------------------
@@ -187,9 +215,16 @@ class SequencerNode(Node):
                 bad = "must be a non-empty list of 'x' and 'y'"
             elif prm.name in ("home_joints", "pick_joints") and len(v) not in (1, 7):
                 bad = "must hold 7 joint positions (or [0.0] to read them from /wrench_sim)"
-            elif prm.name in ("dwell", "tare_dwell", "speed", "rate", "mass_guess") and v <= 0:
+            elif (
+                prm.name
+                in ("dwell", "tare_dwell", "speed", "rate", "mass_guess", "grasp_check_dwell")
+                and v <= 0
+            ):
                 bad = "must be > 0"
-            elif prm.name in ("settle", "target_com_sigma", "sigma_f", "sigma_tau") and v < 0:
+            elif (
+                prm.name in ("settle", "target_com_sigma", "sigma_f", "sigma_tau", "min_load")
+                and v < 0
+            ):
                 bad = "must be >= 0"
             if bad:
                 reason = f"{prm.name}={v!r} refused: {bad}"
@@ -197,9 +232,37 @@ class SequencerNode(Node):
                 return SetParametersResult(successful=False, reason=reason)
         return SetParametersResult(successful=True)
 
+    def _planned(self, method: str) -> Plan:
+        """The plan of the parameters, within ``max_tilt`` and, with ``target_com_sigma``,
+        its dwell (and with ``raise_tilt`` its tilt) set by the planner for the estimator's
+        ``method``; every change is logged with its reason. RunError when the target
+        cannot be met (the reason says what would)."""
+        plan = self.plan()
+        changes = []
+        if plan.tilt > self.p("max_tilt"):
+            changes.append(f"tilt {plan.tilt:.3g} -> {self.p('max_tilt'):.3g} rad (max_tilt)")
+            plan = replace(plan, tilt=self.p("max_tilt"))
+        target = self.p("target_com_sigma")
+        if target > 0:
+            advice = dwell_for_target(
+                plan,
+                target,
+                max_tilt=self.p("max_tilt"),
+                max_time=self.p("max_object_time"),
+                raise_tilt=self.p("raise_tilt"),
+                method=method,
+            )
+            if not advice.feasible:
+                raise RunError(f"target COM sigma cannot be met: {advice.reason}")
+            plan, changes = advice.plan, changes + list(advice.changes)
+        for change in changes:
+            self.get_logger().warning(f"plan changed: {change}")
+        return plan
+
     def plan(self) -> Plan:
+        """The plan the parameters ask for, as set."""
         return Plan(
-            tilt=min(self.p("tilt"), self.p("max_tilt")),
+            tilt=self.p("tilt"),
             axes=tuple(self.p("tilt_axes")),
             both_directions=self.p("both_directions"),
             dwell=self.p("dwell"),
@@ -256,18 +319,19 @@ class SequencerNode(Node):
             "waiting for the estimator to hear /ft_sensor/wrench and ~/pose",
             wall_timeout=self.p("estimate_timeout"),
         )
+        self._call(self._estimator_reset, Trigger.Request(), "resetting the estimator")
         home, pick = self._joint_sets()
-        plan = self.plan()
-        target = self.p("target_com_sigma")
-        if target > 0:
-            advice = dwell_for_target(
-                plan, target, max_tilt=self.p("max_tilt"), max_time=self.p("max_object_time")
+        method = (
+            self._call(
+                self._estimator_params,
+                GetParameters.Request(names=["method"]),
+                "reading the estimator's method",
             )
-            if not advice.feasible:
-                raise RunError(f"target COM sigma cannot be met: {advice.reason}")
-            plan = advice.plan
-            log.info(f"target COM sigma {target * 1e3:.3g} mm: dwell {plan.dwell:.3g} s per pose")
-        prediction = predict(plan)
+            .values[0]
+            .string_value
+        )
+        plan = self._planned(method)
+        prediction = predict(plan, method)
         poses = pose_joints(plan, home)
         log.info(
             f"run {run_id}: poses {[n for n, _ in poses]}, tilt {plan.tilt:.3f} rad, "
@@ -277,55 +341,54 @@ class SequencerNode(Node):
         self._labels = []
         self.io.recorder.start(bag)
 
+        self._to_known_state(home, pick)
         self._gripper(FINGER_OPEN)
-        self._tare(plan, poses, bag)
+        tare_home = self._tare(plan, poses, bag)
         log.info("phase 2/4: grasp and lift")
         self._move(home, "home")
         self._move(pick, "the object")
         self._gripper(FINGER_CLOSED, wait=0.6)
-        self._move(home, "lifting")
+        self._check_grasp(home, tare_home, pick)
         log.info("phase 3/4: object pass")
         start = self.io.now_ns()
         self._pass(OBJECT_PREFIX, poses, plan.dwell)
         done = self._labels[-1][0]  # the last window's end: the same windows if "moving" is lost
         self._label(done, DONE)
+        self._label(max(done, self.io.now_ns()), MOVING)  # the latched label is no "done"
         object_time = (done - start) * 1e-9
         log.info("phase 4/4: return and release")
-        self._move(home, "home")
-        self._move(pick, "the stand", must_arrive=False)  # a shifted object may hit it
-        self._gripper(FINGER_OPEN, wait=0.6)
-        self._move(home, "home")
+        self._release(home, pick)
         status = self._estimator_answer(done)
         counts = self._stop_recording()
         summary = _summary(status, prediction, object_time, bag)
         log.info(f"run {run_id}: {summary} ({sum(counts.values())} messages recorded)")
         self._write_report(bag)
-        return status is not None and status.level != b"\x02", summary
+        return status is not None and status.level == b"\x00", summary
 
     # --- steps ------------------------------------------------------------------------
 
-    def _tare(self, plan: Plan, poses: list[tuple[str, list[float]]], bag: Path) -> None:
-        """Phase 1: reuse the cached tare pass if still valid, else take a new one.
+    def _tare(self, plan: Plan, poses: list[tuple[str, list[float]]], bag: Path) -> Window:
+        """Phase 1: reuse the cached tare pass of this hand and plan if still valid, else
+        take a new one; returns the tare window at home.
 
-        Valid: same hand and plan (signature), younger than ``tare_max_age``, and a fresh
-        ``drift_dwell`` window at home agrees with the cached one (chi-square, 6 dof, at
-        false-alarm rate DRIFT_ALPHA). A reused cache is copied beside the bag.
+        Valid: an entry for the same hand and plan (signature), younger than
+        ``tare_max_age``, and a fresh ``drift_dwell`` window at home agrees with it
+        (chi-square, 6 dof, at false-alarm rate DRIFT_ALPHA). A reused entry becomes the
+        cache's current one (which the estimator reads) and is copied beside the bag.
         """
         log = self.get_logger()
         path = Path(self.p("tare_cache") or Path(self.p("bag_dir")) / "tare_cache.json")
-        signature = (
-            f"{self.p('hand_id')}|tilt {plan.tilt:.6f}|axes {','.join(plan.axes)}"
-            f"|both {plan.both_directions}|home {[round(q, 4) for q in poses[0][1]]}"
+        home_name, home = poses[0]
+        signature = tare_signature(
+            self.p("hand_id"), plan.tilt, plan.axes, plan.both_directions, home
         )
         try:
-            cache = load_tares(path)
+            cache = load_tares(path, signature)
         except (ValueError, KeyError, OSError) as exc:
             log.warning(f"tare cache {path} unreadable ({exc}): taking a new tare")
             cache = None
-        home_name, home = poses[0]
         if (
             cache is not None
-            and cache.signature == signature
             and cache.age() < self.p("tare_max_age")
             and {name for name, _ in poses} <= cache.windows.keys()
         ):
@@ -337,15 +400,72 @@ class SequencerNode(Node):
             ).get(check)
             chi2, p = drift(cache.windows[home_name], fresh) if fresh else (math.inf, 0.0)
             if p >= DRIFT_ALPHA:
-                shutil.copyfile(path, bag / BAG_TARE_FILE)
+                use_tares(path, cache)
+                use_tares(bag / BAG_TARE_FILE, cache)
                 log.info(f"tare: reusing the cache (drift chi2 {chi2:.1f}, 6 dof, p {p:.2g})")
-                return
+                return cache.windows[home_name]
             log.warning(f"tare drifted (chi2 {chi2:.1f}, 6 dof, p {p:.2g}): new tare pass")
         log.info("phase 1/4: tare pass with the empty hand")
         windows = self._captured_windows(TARE_PREFIX, poses, plan.tare_dwell or plan.dwell)
+        if home_name not in windows:
+            raise RunError(f"the tare window at {home_name} was not recorded")
         if len(windows) == len(poses):
             save_tares(path, signature, windows)
             log.info(f"tare: saved to {path}")
+        return windows[home_name]
+
+    def _to_known_state(self, home: list[float], pick: list[float]) -> None:
+        """Start from the empty hand at home: fingers that are not open may hold an object
+        (a run that stopped mid-way), so it is put back on the stand first; an arm away
+        from home goes home."""
+        log = self.get_logger()
+        fingers = [self.io.joints.get(j, (FINGER_OPEN, 0.0))[0] for j in FINGER_JOINTS]
+        if min(fingers) < FINGER_OPEN - 1e-3:
+            log.warning(
+                f"the fingers are closed to {min(fingers) * 1e3:.1f} mm: the hand may hold "
+                "an object; putting it back on the stand before the run"
+            )
+            self._release(home, pick)
+        elif not _resting(self.io.joints, home):
+            log.warning("the arm is away from home: moving it home before the run")
+            self._move(home, "home")
+
+    def _release(self, home: list[float], pick: list[float]) -> None:
+        """Carry what the hand holds home, down to the stand, open, and back home."""
+        self._move(home, "home")
+        self._move(pick, "the stand", must_arrive=False)  # a shifted object may hit it
+        self._gripper(FINGER_OPEN, wait=0.6)
+        self._move(home, "home")
+
+    def _check_grasp(self, home: list[float], tare_home: Window, pick: list[float]) -> None:
+        """Lift and weigh: the wrench at home beyond the tare must hold ``min_load`` kg
+        along gravity, else the object was not picked up (RunError, hand emptied)."""
+        kept = self.io.recorder.capture(WRENCH_TOPIC)
+        try:
+            ready = self._move(home, "lifting")
+            end = ready + round(self.p("grasp_check_dwell") * 1e9)
+            self._sleep_until(end, "weighing the grasp")
+            self._wait(
+                lambda: bool(kept) and decode_wrench_batch(kept[-1:])[0][0] >= end,
+                "waiting for the wrenches of the grasp check",
+                wall_timeout=10.0,
+            )
+        finally:
+            raws = self.io.recorder.release(WRENCH_TOPIC)
+        stamps, wrenches, _ = decode_wrench_batch(raws)
+        held = wrenches[(stamps >= ready) & (stamps < end), :3]
+        if len(held) == 0:
+            raise RunError("no wrenches arrived while weighing the grasp")
+        gravity = tare_home.force / np.linalg.norm(tare_home.force)
+        mass = float((held.mean(axis=0) - tare_home.force) @ gravity) / STANDARD_GRAVITY
+        if mass < self.p("min_load"):
+            self._release(home, pick)
+            raise RunError(
+                f"grasp failed: after lifting the hand holds {mass * 1e3:.1f} g beyond the "
+                f"tare (< min_load {self.p('min_load') * 1e3:g} g): the object was not "
+                "picked up; check pick_joints and where the object stands"
+            )
+        self.get_logger().info(f"grasp holds {mass * 1e3:.1f} g")
 
     def _captured_windows(
         self, prefix: str, poses: list[tuple[str, list[float]]], dwell: float
@@ -467,6 +587,11 @@ class SequencerNode(Node):
         while not done():
             age = time.monotonic() - self.io.joints_wall
             if age > self.p("sim_timeout") and time.monotonic() - start > self.p("sim_timeout"):
+                if math.isinf(age):
+                    raise RunError(
+                        f"no /joint_states since this node started (is wrench_sim running?) "
+                        f"while {what}"
+                    )
                 raise RunError(
                     f"wrench_sim stopped answering (no /joint_states for {age:.1f} s) while {what}"
                 )
@@ -481,24 +606,31 @@ class SequencerNode(Node):
         home, pick = self.p("home_joints"), self.p("pick_joints")
         if len(home) == 7 and len(pick) == 7:
             return list(home), list(pick)
-        if not self._sim_params.wait_for_service(timeout_sec=self.p("sim_timeout")):
-            raise RunError("home_joints/pick_joints unset and /wrench_sim does not answer")
         request = GetParameters.Request(names=["home_joints", "pick_joints"])
-        for attempt in range(1, 4):  # a request sent before the service matched is lost
-            future = self._sim_params.call_async(request)
-            try:
-                self._wait(future.done, "reading /wrench_sim's joint sets", wall_timeout=3.0)
-                break
-            except TimeoutRunError:
-                self._sim_params.remove_pending_request(future)
-                if attempt == 3:
-                    raise
-                self.get_logger().warning("/wrench_sim did not answer; asking again")
-        values = [list(v.double_array_value) for v in future.result().values]
+        answer = self._call(self._sim_params, request, "reading /wrench_sim's joint sets")
+        values = [list(v.double_array_value) for v in answer.values]
         return (
             list(home) if len(home) == 7 else values[0],
             list(pick) if len(pick) == 7 else values[1],
         )
+
+    def _call(self, client, request, what: str):
+        """The answer of a service; RunError if it is not there within ``sim_timeout`` s,
+        or does not answer three tries of 3 s (a request sent before the service matched
+        is lost)."""
+        if not client.wait_for_service(timeout_sec=self.p("sim_timeout")):
+            raise RunError(f"{client.srv_name} is not available ({what})")
+        for attempt in range(1, 4):
+            future = client.call_async(request)
+            try:
+                self._wait(future.done, what, wall_timeout=3.0)
+                break
+            except TimeoutRunError:
+                client.remove_pending_request(future)
+                if attempt == 3:
+                    raise
+                self.get_logger().warning(f"{client.srv_name} did not answer; asking again")
+        return future.result()
 
     def _estimator_answer(self, done_ns: int):
         """The estimator's diagnostics status for this run's 'done', or None."""
@@ -573,9 +705,15 @@ def main(args: list[str] | None = None) -> None:
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        # In this order: the service thread ends with the context, a running exploration
+        # ends ("shutting down"), then the recording, the executors and the nodes.
+        worker.join(timeout=5.0)
+        if node._lock.acquire(timeout=10.0):
+            node._lock.release()
         if io.recorder.recording:
             io.recorder.stop()
-        executor.shutdown(timeout_sec=1.0)
+        executor.shutdown()
+        io_executor.shutdown()
         node.destroy_node()
         io.destroy_node()
         rclpy.try_shutdown()

@@ -5,7 +5,12 @@ mug: the centre of the cup, handle excluded), z along the height, y the axis the
 along when it stands on the stand. The centre of mass (COM) is the geometric centre plus
 ``com_offset`` (m, object frame); pybullet places the body's inertial frame there through
 ``createMultiBody(baseInertialFramePosition=...)``, so ``getBasePositionAndOrientation``
-returns the COM, not the geometric centre.
+returns the COM, not the geometric centre. Only the inertial frame moves: the body (and so what
+the fingers close on) is where it would be without an offset.
+
+The object stands on a stand, on its bottom face, from start-up until the fingers close on it,
+so it can be grasped only if it stays upright there: its COM must lie above that footprint.
+``holdable_com_range`` gives the COM offsets the simulator accepts for each shape.
 """
 
 from __future__ import annotations
@@ -17,9 +22,12 @@ from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
     "SHAPES",
+    "ComRange",
     "ObjectSpec",
     "ShapeGeometry",
+    "com_offset_problem",
     "create_object_body",
+    "holdable_com_range",
     "object_spec",
     "random_com_offset",
 ]
@@ -30,6 +38,7 @@ _HANDLE_BAR = (0.004, 0.006, 0.025)  # half extents, m
 _HANDLE_ARM = (0.009, 0.006, 0.004)
 _LATERAL_FRICTION = 1.0
 _SPINNING_FRICTION = 0.001
+_FOOTPRINT_FRACTION = 0.8  # of the footprint's half width / radius the COM may be off-centre
 
 
 @dataclass(frozen=True)
@@ -41,10 +50,13 @@ class ShapeGeometry:
     half_extents : shape (3,); m; half size of the body's bounding box in the object frame
         (the mug's handle excluded).
     grasp_half_width : m; half the width the fingers close on (along object y).
+    round : the body stands on a disc of radius ``half_extents[0]`` (cylinder, mug) rather
+        than on a rectangle of half extents ``half_extents[:2]`` (box).
     """
 
     half_extents: tuple[float, float, float]
     grasp_half_width: float
+    round: bool = False
 
     @property
     def height(self) -> float:
@@ -54,8 +66,8 @@ class ShapeGeometry:
 
 SHAPES: dict[str, ShapeGeometry] = {
     "box": ShapeGeometry((0.025, 0.025, 0.04), 0.025),
-    "cylinder": ShapeGeometry((0.025, 0.025, 0.04), 0.025),
-    "mug": ShapeGeometry((_MUG_RADIUS, _MUG_RADIUS, _MUG_HEIGHT / 2.0), _MUG_RADIUS),
+    "cylinder": ShapeGeometry((0.025, 0.025, 0.04), 0.025, round=True),
+    "mug": ShapeGeometry((_MUG_RADIUS, _MUG_RADIUS, _MUG_HEIGHT / 2.0), _MUG_RADIUS, round=True),
 }
 """The shapes the simulator offers, by name."""
 
@@ -81,11 +93,95 @@ class ObjectSpec:
         return SHAPES[self.shape]
 
 
+@dataclass(frozen=True)
+class ComRange:
+    """The COM offsets (COM minus geometric centre, m, object frame) the simulator can hold.
+
+    Attributes
+    ----------
+    shape : one of ``SHAPES``.
+    half_xy : m; bound of the horizontal offset: |x| <= half_xy and |y| <= half_xy, or for a
+        round shape hypot(x, y) <= half_xy.
+    half_z : m; bound of the vertical offset, |z| <= half_z.
+    round : the horizontal bound is a disc (cylinder, mug) rather than a square (box).
+    """
+
+    shape: str
+    half_xy: float
+    half_z: float
+    round: bool
+
+    def contains(self, offset: ArrayLike, tolerance: float = 1e-12) -> bool:
+        """Whether ``offset`` (3,), m, object frame, lies in the range (``tolerance`` m)."""
+        x, y, z = np.asarray(offset, dtype=np.float64)
+        horizontal = np.hypot(x, y) if self.round else max(abs(x), abs(y))
+        return bool(horizontal <= self.half_xy + tolerance and abs(z) <= self.half_z + tolerance)
+
+    def __str__(self) -> str:
+        horizontal = "hypot(x, y)" if self.round else "|x|, |y|"
+        return f"{horizontal} <= {self.half_xy:.4f} m and |z| <= {self.half_z:.4f} m"
+
+
+def holdable_com_range(shape: str) -> ComRange:
+    """The COM offsets the simulator can hold for ``shape``, the same in both grasp modes.
+
+    Only the inertial frame moves with the offset (``create_object_body``): whatever the
+    offset, the body stands centred on the stand between the open fingers (0.04 m per finger
+    against a half width of 0.025 m, mug 0.028 m) and the finger pads (0.085-0.11 m below the
+    flange) close on it 0.01-0.035 m below its top, so the grasp reaches every offset. What
+    limits the offset is the stand: the object rests there on its bottom face until the
+    fingers close, and it stays upright only while its COM lies above that footprint, the
+    box's 0.05 m square, the cylinder's 0.025 m and the mug's 0.028 m radius disc (the handle
+    ends 0.02 m above the bottom). Bullet rocks it over a little inside the edge (16
+    directions at the bottom, middle and top of the body: the cylinder and mug stay upright
+    at 0.9 of the radius and tip over at 0.95; the box stays up at 0.95 and tips over at the
+    edge), so the range keeps 0.8 of the footprint: box |x|, |y| <= 0.02 m, cylinder
+    hypot(x, y) <= 0.02 m, mug hypot(x, y) <= 0.0224 m. Along z the footprint sets no limit:
+    the range is the body's half height (0.04 m, mug 0.045 m).
+
+    In friction mode a grasped object can still slip or drop when gravity's torque about the
+    finger pads exceeds what ``grip_force`` holds; that depends on the mass and grip force
+    as well as the offset, and is not refused here.
+
+    Raises ValueError for an unknown shape.
+    """
+    if shape not in SHAPES:
+        raise ValueError(f"object must be one of {sorted(SHAPES)}, got {shape!r}")
+    geometry = SHAPES[shape]
+    footprint = min(geometry.half_extents[0], geometry.half_extents[1])
+    return ComRange(
+        shape, _FOOTPRINT_FRACTION * footprint, geometry.half_extents[2], geometry.round
+    )
+
+
+def com_offset_problem(shape: str, offset: ArrayLike) -> str | None:
+    """Why the simulator cannot hold ``shape`` with COM offset ``offset``, or None.
+
+    Parameters
+    ----------
+    shape : one of ``SHAPES``.
+    offset : shape (3,); m; COM minus geometric centre, object frame.
+    """
+    values = np.asarray(offset, dtype=np.float64)
+    if values.shape != (3,) or not np.all(np.isfinite(values)):
+        return f"object_com_offset must be 3 finite values (m), got {offset}"
+    reach = holdable_com_range(shape)
+    if reach.contains(values):
+        return None
+    return (
+        f"object_com_offset {values.tolist()} m is outside what the sim can hold for the "
+        f"{shape}: {reach} (object frame); the {shape} stands on its "
+        f"{'round ' if reach.round else ''}base until grasped and tips over when its COM "
+        "is near or beyond the base's edge"
+    )
+
+
 def random_com_offset(shape: str, rng: np.random.Generator) -> NDArray[np.float64]:
     """Draw a COM offset uniformly inside the shape's inner half.
 
-    The offset is uniform in the box of half the body's half extents, which lies inside the
-    body for every shape (for round bodies: its corners are at 0.71 of the radius).
+    The offset is uniform in the box of half the body's half extents, which lies inside
+    ``holdable_com_range(shape)`` for every shape (its corners are at 0.71 of the footprint's
+    half width or radius, the range reaches 0.8).
 
     Returns
     -------
@@ -100,7 +196,8 @@ def object_spec(
 ) -> ObjectSpec:
     """Validate an object's description, drawing the COM offset from ``rng`` if not given.
 
-    Raises ValueError naming the bad value.
+    Raises ValueError naming the bad value; for a COM offset outside
+    ``holdable_com_range(shape)`` it states the range.
     """
     if shape not in SHAPES:
         raise ValueError(f"object must be one of {sorted(SHAPES)}, got {shape!r}")
@@ -109,14 +206,10 @@ def object_spec(
     if com_offset is None or len(np.atleast_1d(com_offset)) == 0:
         offset = random_com_offset(shape, rng)
     else:
+        problem = com_offset_problem(shape, com_offset)
+        if problem is not None:
+            raise ValueError(problem)
         offset = np.asarray(com_offset, dtype=np.float64)
-        if offset.shape != (3,) or not np.all(np.isfinite(offset)):
-            raise ValueError(f"object_com_offset must be 3 finite values (m), got {com_offset}")
-        if np.any(np.abs(offset) > np.asarray(SHAPES[shape].half_extents)):
-            raise ValueError(
-                f"object_com_offset {offset.tolist()} m lies outside the {shape}'s body "
-                f"(half extents {list(SHAPES[shape].half_extents)} m)"
-            )
     return ObjectSpec(shape, float(mass), (float(offset[0]), float(offset[1]), float(offset[2])))
 
 

@@ -8,7 +8,7 @@ from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from wrench_sim.objects import SHAPES
+from wrench_sim.objects import SHAPES, com_offset_problem
 from wrench_sim.physics import GRASP_MODES, HOME_JOINTS, PICK_JOINTS
 
 __all__ = ["PARAMETERS", "SENSOR_PARAMETERS", "check_parameter", "declare_parameters"]
@@ -18,7 +18,9 @@ PARAMETERS = [  # name, default, description, read-only, lower bound of a float
     ("object", "box", f"shape: {sorted(SHAPES)}; {_START}", True, None),
     ("object_mass", 0.1, f"object mass, kg; {_START}", True, 1e-6),
     ("object_com_offset", Parameter.Type.DOUBLE_ARRAY, "COM minus geometric centre, 3 values, m, "
-     f"object frame; unset: drawn from the seed; {_START}", True, None),
+     "object frame, inside wrench_sim.objects.holdable_com_range(object) (box |x|, |y| <= 0.02; "
+     "cylinder hypot(x, y) <= 0.02; mug hypot(x, y) <= 0.0224; |z| <= half height); unset: "
+     f"drawn from the seed; {_START}", True, None),
     ("seed", 0, f"seeds the COM draw, sensor noise and grasp shifts; {_START}", True, None),
     ("grasp_mode", "rigid", f"rigid | friction; {_START}", True, None),
     ("slip_sigma", 0.0, "rigid mode: sigma of the object's shift at each new tilt, m", False, 0.0),
@@ -46,15 +48,22 @@ SENSOR_PARAMETERS = tuple(
 )
 
 
-def check_parameter(parameter: Parameter) -> str | None:
-    """Reason why a parameter value is refused, or None when it is fine."""
+def check_parameter(parameter: Parameter, shape: str | None = None) -> str | None:
+    """Reason why a parameter value is refused, or None when it is fine.
+
+    ``shape`` is the ``object`` parameter's value if known: ``object_com_offset`` must then lie
+    in ``holdable_com_range(shape)``.
+    """
     name, value = parameter.name, parameter.value
     if name == "object" and value not in SHAPES:
         return f"object must be one of {sorted(SHAPES)}"
     if name == "grasp_mode" and value not in GRASP_MODES:
         return f"grasp_mode must be one of {list(GRASP_MODES)}"
-    if name == "object_com_offset" and value is not None and len(value) != 3:
-        return "object_com_offset must be 3 values (m), or unset to draw it from the seed"
+    if name == "object_com_offset" and value is not None:
+        if len(value) != 3:
+            return "object_com_offset must be 3 values (m), or unset to draw it from the seed"
+        if shape in SHAPES:
+            return com_offset_problem(shape, value)
     if name in ("home_joints", "pick_joints") and len(value) != 7:
         return f"{name} must be 7 values (rad)"
     if name in ("rate", "clock_rate") and not (

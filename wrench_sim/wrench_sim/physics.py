@@ -114,8 +114,10 @@ class SimConfig:
     ----------
     object_shape : 'box', 'cylinder' or 'mug'.
     object_mass : kg.
-    object_com_offset : m, object frame, COM minus geometric centre; None draws it from
-        ``seed`` (uniform inside the body's inner half).
+    object_com_offset : m, object frame, COM minus geometric centre, inside
+        ``objects.holdable_com_range(object_shape)`` (``PandaWorld`` refuses others with a
+        ValueError stating the range); None draws it from ``seed`` (uniform inside the body's
+        inner half, which lies in that range).
     seed : seeds the COM draw, the sensor noise and the grasp shifts (separate streams).
     grasp_mode : 'rigid' (a fixed constraint; the paper's immobilised object) or 'friction'
         (finger contact; the object may slip).

@@ -17,7 +17,7 @@ from builtin_interfaces.msg import Time
 from geometry_msgs.msg import InertiaStamped, WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.exceptions import ParameterUninitializedException
-from rclpy.executors import SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
@@ -119,8 +119,9 @@ class SimNode(Node):
 
     def parameters_callback(self, parameters: list[Parameter]) -> SetParametersResult:
         """Refuse invalid values with a reason; apply sensor and timing changes at run time."""
+        shape = self.get_parameter("object").value if self.has_parameter("object") else None
         for parameter in parameters:
-            reason = check_parameter(parameter)
+            reason = check_parameter(parameter, shape)
             if reason is not None:
                 return SetParametersResult(successful=False, reason=reason)
         if not hasattr(self, "world"):
@@ -307,8 +308,11 @@ def main(args: list[str] | None = None) -> int:
         return 1
     try:
         node.run()
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except Exception:  # rclpy calls on a context SIGINT just shut down fail: that is the end
+        if rclpy.ok():
+            raise
     finally:
         node.close()
         node.destroy_node()

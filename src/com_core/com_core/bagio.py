@@ -3,20 +3,32 @@
 Messages stay serialized (CDR bytes) end to end: the reader hands them to ``cdr`` for
 decoding, exactly as the node's raw subscriptions do. Bags are written by
 ``com_core.recording.CrashSafeBagWriter``.
+
+A bag rosbags cannot read is read record by record with the ``mcap`` package instead,
+up to where its MCAP file ends: rosbags needs the file's Footer, which a copy cut short
+(a full disk, an interrupted transfer) does not have, and metadata.yaml, whose topic
+list it trusts (it drops the channels not listed). ``BagReading`` says what was read,
+how, and whether the file was cut.
 """
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from .cdr import decode_header, decode_wrench_batch
 from .exploration import Exploration
 
 __all__ = [
+    "INCOMPLETE_TEXT",
     "POSE_TOPIC",
     "WRENCH_TOPIC",
+    "BagReading",
     "feed_bag",
+    "read_metadata",
     "read_raw",
 ]
 
@@ -24,16 +36,221 @@ WRENCH_TOPIC = "/ft_sensor/wrench"
 POSE_TOPIC = "/exploration_sequencer/pose"
 _BATCH = 4096
 
+RawMessage = tuple[str, str, int, bytes]
+"""(topic, msgtype, log time ns, CDR bytes)."""
 
-def read_raw(bag: Path | str, topics: Iterable[str]) -> Iterator[tuple[str, str, int, bytes]]:
-    """(topic, msgtype, log time ns, CDR bytes) of ``topics`` in log-time order."""
-    from rosbags.rosbag2 import Reader
+INCOMPLETE_TEXT = (
+    "metadata.yaml says the recording is incomplete (custom_data.complete: false): "
+    "its recorder never closed it"
+)
 
-    with Reader(Path(bag)) as reader:
-        wanted = set(topics)
+
+@dataclass
+class BagReading:
+    """What reading a bag found; ``read_raw`` fills it in as it reads.
+
+    Attributes
+    ----------
+    read : messages read per requested topic.
+    listed : messages per requested topic that metadata.yaml counts (a topic it does not
+        list, or a bag without metadata.yaml, is absent). The crash-safe writer's counts
+        may lag its MCAP file by up to a second after a crash.
+    complete : metadata.yaml's ``custom_data.complete``: False for a recording that was
+        never closed (the crash-safe writer's state while recording and after a crash);
+        None when the bag does not say.
+    fallback : why rosbags did not read the bag ('' when it did): it could not open it,
+        or metadata.yaml does not list a requested topic the MCAP file holds (rosbags
+        drops those). The MCAP files were then read record by record with ``mcap``.
+    cut_short : an MCAP file ends before its Footer (a truncated file): every message
+        in complete records before the cut was read, the rest is lost.
+    stopped : the error that ended the read of a cut file, with the file's name.
+    file_bytes : size of the MCAP files read, bytes.
+    """
+
+    read: dict[str, int] = field(default_factory=dict)
+    listed: dict[str, int] = field(default_factory=dict)
+    complete: bool | None = None
+    fallback: str = ""
+    cut_short: bool = False
+    stopped: str = ""
+    file_bytes: int = 0
+
+    def counts_text(self) -> str:
+        """'/ft_sensor/wrench: 7681 of 15982 listed in metadata.yaml (48.1 %); ...'."""
+        parts = []
+        for topic in dict.fromkeys([*self.listed, *self.read]):
+            n, listed = self.read.get(topic, 0), self.listed.get(topic)
+            if listed is None:
+                parts.append(f"{topic}: {n} (not listed in metadata.yaml)")
+            else:
+                share = f" ({100 * n / listed:.1f} %)" if listed else ""
+                parts.append(f"{topic}: {n} of {listed} listed in metadata.yaml{share}")
+        return "; ".join(parts) or "no messages"
+
+    def cut_text(self) -> str:
+        """One line on a cut file ('' when no file was cut)."""
+        if not self.cut_short:
+            return ""
+        return (
+            f"the bag's MCAP file is cut short ({self.file_bytes} bytes, no Footer; "
+            f"{self.stopped}), read up to the cut: {self.counts_text()}"
+        )
+
+    def notes(self) -> list[str]:
+        """Lines for the user: a fallback read, a cut file, an unclosed recording."""
+        out = []
+        if self.fallback:
+            out.append(f"{self.fallback}: read record by record with the mcap package")
+        if self.cut_short:
+            out.append(self.cut_text())
+        if self.complete is False:
+            out.append(INCOMPLETE_TEXT)
+        return out
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready: the attributes above."""
+        return {
+            "read": dict(self.read),
+            "listed": dict(self.listed),
+            "complete": self.complete,
+            "fallback": self.fallback,
+            "cut_short": self.cut_short,
+            "stopped": self.stopped,
+            "file_bytes": self.file_bytes,
+        }
+
+
+def read_metadata(bag: Path | str) -> tuple[dict[str, int], bool | None, list[str]]:
+    """metadata.yaml of a rosbag2 directory: (messages per topic, complete, MCAP files).
+
+    ``complete`` is ``custom_data.complete`` (None when absent); the files are the
+    relative paths it names. A missing or unreadable metadata.yaml gives ({}, None, []).
+    """
+    from ruamel.yaml import YAML, YAMLError
+
+    path = Path(bag) / "metadata.yaml"
+    try:
+        info = YAML(typ="safe").load(path.read_text("utf8"))["rosbag2_bagfile_information"]
+    except (OSError, YAMLError, KeyError, TypeError):
+        return {}, None, []
+    if not isinstance(info, dict):
+        return {}, None, []
+    counts: dict[str, int] = {}
+    for entry in info.get("topics_with_message_count") or []:
+        try:
+            counts[str(entry["topic_metadata"]["name"])] = int(entry["message_count"])
+        except (KeyError, TypeError, ValueError):
+            continue
+    custom = info.get("custom_data") or {}
+    flag = str(custom.get("complete", "")).lower() if isinstance(custom, dict) else ""
+    complete = {"true": True, "false": False}.get(flag)
+    files = [str(f) for f in info.get("relative_file_paths") or []]
+    return counts, complete, files
+
+
+def read_raw(
+    bag: Path | str, topics: Iterable[str], reading: BagReading | None = None
+) -> Iterator[RawMessage]:
+    """(topic, msgtype, log time ns, CDR bytes) of ``topics`` in log-time order.
+
+    ``reading``, if given, is filled in while reading (see ``BagReading``). When rosbags
+    cannot open the bag, the MCAP files are read in file order (the log-time order of a
+    bag recorded as it came) up to where they end.
+    """
+    from rosbags.rosbag2 import Reader, ReaderError
+
+    bag = Path(bag)
+    wanted = set(topics)
+    reading = BagReading() if reading is None else reading
+    counts, reading.complete, files = read_metadata(bag)
+    reading.listed = {t: n for t, n in counts.items() if t in wanted}
+    try:
+        reader = Reader(bag)
+        reader.open()
+    except (ReaderError, FileNotFoundError) as exc:
+        paths = _mcap_files(bag, files)
+        if not paths:
+            raise
+        reading.fallback = f"rosbags could not open the bag ({exc})"
+        yield from _stream_mcap_files(paths, wanted, reading)
+        return
+    unlisted = _unlisted_topics(wanted - {c.topic for c in reader.connections}, bag, files)
+    if unlisted:
+        reader.close()
+        names = ", ".join(sorted(unlisted))
+        reading.fallback = f"metadata.yaml does not list {names}, which the MCAP file holds"
+        yield from _stream_mcap_files(_mcap_files(bag, files), wanted, reading)
+        return
+    try:
+        reading.file_bytes = sum(p.stat().st_size for p in _mcap_files(bag, files))
         conns = [c for c in reader.connections if c.topic in wanted]
         for conn, stamp, raw in reader.messages(connections=conns):
+            reading.read[conn.topic] = reading.read.get(conn.topic, 0) + 1
             yield conn.topic, conn.msgtype, stamp, raw
+    finally:
+        reader.close()
+
+
+def _unlisted_topics(missing: set[str], bag: Path, files: list[str]) -> set[str]:
+    """Of the topics rosbags did not find (``missing``), those the MCAP files' summaries
+    hold: rosbags drops the channels metadata.yaml does not list. A file without a
+    summary (one being recorded) is not searched."""
+    from mcap.exceptions import McapError
+    from mcap.reader import make_reader
+
+    found: set[str] = set()
+    if not missing:
+        return found
+    for path in _mcap_files(bag, files):
+        with path.open("rb") as stream:
+            try:
+                summary = make_reader(stream).get_summary()
+            except (McapError, ValueError, struct.error, OSError):
+                continue
+        if summary is not None:
+            found |= {c.topic for c in summary.channels.values()} & missing
+    return found
+
+
+def _mcap_files(bag: Path, named: list[str]) -> list[Path]:
+    """The MCAP files of ``bag``: those metadata.yaml names that exist, else ``*.mcap``."""
+    paths = [bag / name for name in named if (bag / name).is_file()]
+    return paths or sorted(bag.glob("*.mcap"))
+
+
+def _stream_mcap_files(
+    paths: list[Path], wanted: set[str], reading: BagReading
+) -> Iterator[RawMessage]:
+    """Messages of ``wanted`` topics from MCAP files read record by record, up to where
+    each file ends; a file that ends before its Footer sets ``reading.cut_short``."""
+    from mcap.exceptions import McapError
+    from mcap.reader import StreamReader
+    from mcap.records import Channel, Message, Schema
+
+    for path in paths:
+        reading.file_bytes += path.stat().st_size
+        schemas: dict[int, str] = {}
+        channels: dict[int, tuple[str, str]] = {}  # id -> (topic, msgtype)
+        with path.open("rb") as stream:
+            try:
+                for record in StreamReader(stream, validate_crcs=True).records:
+                    if isinstance(record, Message):
+                        channel = channels.get(record.channel_id)
+                        if channel is not None:
+                            topic, msgtype = channel
+                            reading.read[topic] = reading.read.get(topic, 0) + 1
+                            yield topic, msgtype, record.log_time, record.data
+                    elif isinstance(record, Schema):
+                        schemas[record.id] = record.name
+                    elif isinstance(record, Channel) and record.topic in wanted:
+                        msgtype = schemas.get(record.schema_id, "")
+                        channels[record.id] = (record.topic, msgtype)
+            except (McapError, ValueError, struct.error) as exc:
+                # a record that runs past the end of the file: EndOfFile, or a short read
+                # of its header (struct.error), or a chunk whose CRC fails (ValueError)
+                reading.cut_short = True
+                detail = f": {exc}" if str(exc) else ""
+                reading.stopped = f"{path.name}: {type(exc).__name__}{detail}"
 
 
 def feed_bag(
@@ -41,11 +258,13 @@ def feed_bag(
     exploration: Exploration,
     wrench_topic: str = WRENCH_TOPIC,
     pose_topic: str = POSE_TOPIC,
+    reading: BagReading | None = None,
 ) -> tuple[int, int]:
     """Feed a bag's wrenches and pose labels to ``exploration`` in recorded order.
 
-    Returns (wrench messages, label messages) read. Wrenches are decoded in batches, as
-    the node does; the result does not depend on the batching.
+    Returns (wrench messages, label messages) read; ``reading`` as in ``read_raw``.
+    Wrenches are decoded in batches, as the node does; the result does not depend on the
+    batching.
     """
     pending: list[bytes] = []
     n_wrench = n_label = 0
@@ -56,7 +275,7 @@ def feed_bag(
             exploration.add_samples(stamps, wrenches, frames)
             pending.clear()
 
-    for topic, msgtype, _, raw in read_raw(bag, (wrench_topic, pose_topic)):
+    for topic, msgtype, _, raw in read_raw(bag, (wrench_topic, pose_topic), reading):
         if topic == wrench_topic:
             pending.append(raw)
             n_wrench += 1

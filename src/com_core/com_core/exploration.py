@@ -11,17 +11,25 @@ topics:
 - labels ``tare/<pose>`` and ``object/<pose>`` name static windows; any other label
   (``moving``, ``done``, ...) closes the current window; ``done`` asks for a solution
   from the labels up to it;
-- samples are kept in arrival order; one whose stamp is not after the previous one's
-  is dropped and counted (out of time order), as are non-finite samples and samples in
-  another frame than the expected one; a jump back by more than 1 s is a restarted
-  clock, not a late sample: what came before it is dropped (``time_resets``).
+- samples are kept in arrival order; one whose stamp equals the latest kept stamp is
+  dropped and counted as a duplicate stamp, one stamped before it as out of time order,
+  as are non-finite samples and samples in another frame than the expected one; a jump
+  back by more than 1 s is a restarted clock, not a late sample: what came before it is
+  dropped (``time_resets``);
+- a label stamped more than ``max_label_gap`` s after the latest label starts a new
+  exploration: the earlier labels and samples belong to a run that stopped (a killed
+  sequencer) and are dropped (``stale_drops``), so two runs' windows of the same name
+  never merge; labels longer than ``MAX_LABEL_LENGTH`` characters are refused.
 
-Statuses: ERROR (no estimate: too few poses, ill-conditioned, no tare, no load),
-WARN (an estimate, but: the object moved in the grasp, or input was dropped), OK.
+Statuses: ERROR (no estimate: no windows, too few poses, ill-conditioned, no tare, no
+load), WARN (an estimate, but: the object moved in the grasp, or input was dropped), OK.
+``Solution.usable`` tells the estimates to hand on (OK, or WARN for dropped input only)
+from those kept for diagnosis (an inconsistent fit).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -40,7 +48,6 @@ from .estimators import (
 )
 from .windows import (
     DONE,
-    MOVING,
     OBJECT_PREFIX,
     TARE_PREFIX,
     Window,
@@ -51,6 +58,8 @@ from .wrench_model import STANDARD_GRAVITY, SensorModel
 
 __all__ = [
     "ERROR",
+    "MAX_LABEL_GAP",
+    "MAX_LABEL_LENGTH",
     "METHODS",
     "OK",
     "WARN",
@@ -58,13 +67,19 @@ __all__ = [
     "Solution",
     "done_stamp",
     "format_solution",
-    "label_static_windows",
+    "shorten",
 ]
 
 OK, WARN, ERROR = "OK", "WARN", "ERROR"
 _NO_STAMP = -(2**62)
 TIME_RESET_NS = 1_000_000_000
 """A sample stamped this much before its predecessor starts a new clock, not a late one."""
+MAX_LABEL_GAP = 120.0
+"""s (sensor time) without a label after which the next label starts a new exploration."""
+MAX_LABEL_LENGTH = 128
+"""Characters; a longer label is refused (pose names are short: ``object/tilt_x+``)."""
+LOAD_SIGMAS = 5.0
+"""A window's load along the tare's gravity must exceed this many sigma to count as held."""
 METHODS = {"ml": ml, "two_pose": two_pose}
 
 
@@ -84,6 +99,17 @@ class Solution:
     windows: tuple[Window, ...] = ()
     notes: tuple[str, ...] = ()
     window_samples: Mapping[str, int] = field(default_factory=dict)
+
+    @property
+    def usable(self) -> bool:
+        """An estimate the estimator stands behind: the fit is consistent with one rigid
+        load (status OK, or WARN for dropped input only). An inconsistent fit (the object
+        moved in the grasp) still carries its numbers, for diagnosis, but is not usable."""
+        return (
+            self.estimate is not None
+            and self.consistency is not None
+            and self.consistency.consistent
+        )
 
     def diagnostic_values(self) -> list[tuple[str, str]]:
         """``as_dict`` as diagnostic_msgs/KeyValue pairs (the reason is the status's
@@ -147,6 +173,8 @@ class Exploration:
         exploration's own tare windows take precedence.
     untared : estimate the whole load beyond the sensor (hand + object) without any
         tare; the solution is then at best WARN and says so.
+    max_label_gap : s (sensor time); a label this long after the previous one starts a
+        new exploration (0: never).
     """
 
     method: str = "ml"
@@ -157,12 +185,15 @@ class Exploration:
     g: float = STANDARD_GRAVITY
     tares: Mapping[str, Window] = field(default_factory=dict)
     untared: bool = False
+    max_label_gap: float = MAX_LABEL_GAP
     _stamps: list[NDArray[np.int64]] = field(default_factory=list, repr=False)
     _wrenches: list[NDArray[np.float64]] = field(default_factory=list, repr=False)
     _labels: list[tuple[int, str]] = field(default_factory=list, repr=False)
     _last_stamp: int = field(default=_NO_STAMP, repr=False)
     dropped: dict[str, int] = field(default_factory=dict)
+    dropped_labels: dict[str, int] = field(default_factory=dict)
     time_resets: int = 0
+    stale_drops: int = 0
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -221,11 +252,11 @@ class Exploration:
                 self._restart_clock(int(s[first]))
                 keep[kept_idx[:first]] = False
                 kept_idx, s = kept_idx[first:], s[first:]
-            # out of time order: not after the latest stamp kept so far
+            # not after the latest stamp kept so far: a duplicate, or out of time order
             prior = np.maximum.accumulate(np.concatenate([[self._last_stamp], s[:-1]]))
-            late = s <= prior
-            self._count("out of time order", int(late.sum()))
-            keep[kept_idx[late]] = False
+            self._count("with a duplicate stamp", int((s == prior).sum()))
+            self._count("out of time order", int((s < prior).sum()))
+            keep[kept_idx[s <= prior]] = False
             self._last_stamp = max(self._last_stamp, int(s.max()))
         self._stamps.append(stamps[keep])
         self._wrenches.append(w[keep])
@@ -249,7 +280,27 @@ class Exploration:
 
     def add_label(self, stamp_ns: int, label: str) -> None:
         """A pose label applying from ``stamp_ns`` (see module)."""
-        self._labels.append((int(stamp_ns), label))
+        stamp_ns = int(stamp_ns)
+        if len(label) > MAX_LABEL_LENGTH:
+            what = f"longer than {MAX_LABEL_LENGTH} characters ({shorten(label)})"
+            self.dropped_labels[what] = self.dropped_labels.get(what, 0) + 1
+            return
+        if self._labels and self.max_label_gap > 0:
+            latest = max(t for t, _ in self._labels)
+            if stamp_ns - latest > self.max_label_gap * 1e9:
+                self._drop_before(stamp_ns)
+        self._labels.append((stamp_ns, label))
+
+    def _drop_before(self, stamp_ns: int) -> None:
+        """Forget the labels and the samples before ``stamp_ns``: they belong to an
+        exploration that stopped (see module); counted in ``stale_drops``."""
+        self.stale_drops += 1
+        self._labels.clear()
+        self.dropped.clear()
+        self.dropped_labels.clear()
+        kept = [(t >= stamp_ns, t, w) for t, w in zip(self._stamps, self._wrenches, strict=True)]
+        self._stamps = [t[k] for k, t, _ in kept]
+        self._wrenches = [w[k] for k, _, w in kept]
 
     def done_stamp(self) -> int | None:
         """Stamp of the ``done`` that ends this exploration (see ``done_stamp``)."""
@@ -283,6 +334,7 @@ class Exploration:
     def solve(self, until_ns: int | None = None) -> Solution:
         """Windows, per-pose tare, estimate and consistency test, with a status."""
         notes = [f"dropped {n} samples {what}" for what, n in self.dropped.items()]
+        notes += [f"dropped {n} labels {what}" for what, n in self.dropped_labels.items()]
         tares = dict(self.tares)
         objects: list[Window] = []
         segments = self.segments(until_ns)
@@ -290,7 +342,7 @@ class Exploration:
         for label, samples in segments:
             kind, pose = label.split("/", 1)
             if len(samples) == 0:
-                notes.append(f"window {label!r} has no samples")
+                notes.append(f"window {shorten(label)!r} has no samples")
                 continue
             try:
                 window = reduce_window(pose, samples, self.sensor)
@@ -302,9 +354,17 @@ class Exploration:
             else:
                 objects.append(window)
         try:
+            if not segments:
+                seen = ", ".join(sorted({shorten(lbl) for _, lbl in self._labels}))
+                raise EstimationError(
+                    f"no windows: no tare/ or object/ label before the end (labels seen: "
+                    f"{shorten(seen or 'none', 200)})"
+                )
             if not objects:
-                seen = ", ".join(sorted({lbl for _, lbl in self._labels})) or "none"
-                raise EstimationError(f"no object windows (labels seen: {seen})")
+                seen = ", ".join(sorted({shorten(lbl) for _, lbl in self._labels}))
+                raise EstimationError(
+                    f"no object windows (labels seen: {shorten(seen or 'none', 200)})"
+                )
             if self.untared:
                 notes.append(
                     "no tare: the estimate is of the whole load beyond the sensor (hand + object)"
@@ -354,75 +414,29 @@ def done_stamp(labels: Sequence[tuple[int, str]]) -> int | None:
     return None
 
 
-def label_static_windows(
-    stamps_ns: NDArray[np.int64],
-    wrenches: NDArray[np.float64],
-    min_duration: float = 0.3,
-    block_duration: float = 0.05,
-    z: float = 6.0,
-) -> list[tuple[int, str]]:
-    """Labels for the static windows of an unlabelled stream (``object/static_<k>``).
-
-    1. Cut the stream into blocks of ``block_duration`` s (at least 10 samples).
-    2. The noise per axis is the median of the blocks' standard deviations (most of an
-       exploration is static, so the median is the sensor's noise).
-    3. A block is quiet when its standard deviation is below twice the noise on every
-       axis (no motion inside it).
-    4. Consecutive quiet blocks form one window while each block's mean stays within
-       ``z`` standard errors of the window's running mean on every axis.
-    5. Windows shorter than ``min_duration`` s are dropped; the first and last block of
-       each are trimmed as a guard against the end of a motion.
-    A ``moving`` label ends every window.
-    """
-    n = len(stamps_ns)
-    if n < 20:
-        return []
-    dt = float(np.median(np.diff(stamps_ns))) * 1e-9
-    size = max(10, round(block_duration / dt)) if dt > 0 else 10
-    n_blocks = n // size
-    if n_blocks < 3:
-        return []
-    blocks = wrenches[: n_blocks * size].reshape(n_blocks, size, 6)
-    means, sds = blocks.mean(axis=1), blocks.std(axis=1, ddof=1)
-    noise = np.maximum(np.median(sds, axis=0), 1e-12)
-    quiet = np.all(sds < 2.0 * noise, axis=1)
-    runs: list[list[int]] = []
-    total = np.zeros(6)
-    for k in range(n_blocks):
-        if runs and quiet[k] and quiet[runs[-1][-1]] and runs[-1][-1] == k - 1:
-            run_mean = total / len(runs[-1])
-            se = noise * np.sqrt(1.0 / size + 1.0 / (size * len(runs[-1])))
-            if np.all(np.abs(means[k] - run_mean) < z * se):
-                runs[-1].append(k)
-                total += means[k]
-                continue
-        if quiet[k]:
-            runs.append([k])
-            total = means[k].copy()
-    labels: list[tuple[int, str]] = []
-    for run in runs:
-        run = run[1:-1]
-        if not run or len(run) * size * dt < min_duration:
-            continue
-        start, stop = run[0] * size, (run[-1] + 1) * size
-        labels.append((int(stamps_ns[start]), f"{OBJECT_PREFIX}static_{len(labels) // 2 + 1}"))
-        labels.append((int(stamps_ns[min(stop, n - 1)]), MOVING))
-    return labels
-
-
 def _check_load_direction(windows: Sequence[Window], tares: Mapping[str, Window]) -> None:
-    """The object's force must point the way the hand's does (both are gravity).
+    """The object's force must point the way the hand's does (both are gravity), and be
+    more than ``LOAD_SIGMAS`` sigma of its own noise along it.
 
-    A load pulling against gravity means a mass at or below zero: the tare was taken
-    with the object in the hand, or the windows are swapped.
+    No load along gravity: the object was not held (an empty grasp, or it fell). A load
+    against gravity: a mass below zero, the tare was taken with the object in the hand.
     """
     for w in windows:
-        tare_f = tares[w.pose].force
-        if float(w.force @ tare_f) < 0.0:
+        along = tares[w.pose].force / np.linalg.norm(tares[w.pose].force)
+        load = float(w.force @ along)  # N, along gravity
+        sd = math.sqrt(max(float(along @ w.cov[:3, :3] @ along), 0.0))
+        if load > LOAD_SIGMAS * sd:
+            continue
+        grams = f"{load / STANDARD_GRAVITY * 1e3:.3g} +- {sd / STANDARD_GRAVITY * 1e3:.2g} g"
+        if load < -LOAD_SIGMAS * sd:
             raise NonPositiveMassError(
-                f"pose {w.pose!r}: the load's force points against gravity (mass at or below "
-                f"zero; was the tare taken with the object in the hand?)"
+                f"pose {w.pose!r}: the load's force points against gravity ({grams}; was "
+                f"the tare taken with the object in the hand?)"
             )
+        raise NonPositiveMassError(
+            f"pose {w.pose!r}: no load beyond the hand ({grams}): the object was not held "
+            f"(an empty grasp, or it fell)"
+        )
 
 
 def _summary(e: Estimate) -> str:
@@ -432,6 +446,13 @@ def _summary(e: Estimate) -> str:
         f"{c[1]:.2f}, {c[2]:.2f}) +- ({s[0]:.2f}, {s[1]:.2f}, {s[2]:.2f}) mm "
         f"from {len(e.poses)} poses"
     )
+
+
+def shorten(text: str, limit: int = 40) -> str:
+    """``text`` cut to ``limit`` characters, with the number of characters left out."""
+    if len(text) <= limit:
+        return text
+    return f"{text[:limit]}... ({len(text) - limit} more characters)"
 
 
 def format_solution(solution: Solution) -> str:

@@ -1,14 +1,26 @@
 """Exploration planner: predict the accuracy of a tilt plan before moving, and invert it.
 
-The prediction is the Cramer-Rao bound of the ``ml`` estimator (``estimators.crlb``)
-evaluated at a guess of the object, for windows whose covariance follows from the
-sensor noise, the rate and the dwell: cov = S (1/N + 1/N_tare) with S the per-sample
-covariance and N = dwell * rate samples. The ML estimator reaches the bound, so the
-prediction is the spread a user will see.
+``predict(plan, method)`` is the 1-sigma of the estimate that ``method`` will give,
+evaluated at the plan's guess of the object, for windows whose covariance follows from
+the sensor noise, the rate and the dwell: cov = S (1/N + 1/N_tare) with S the per-sample
+covariance and N = dwell * rate samples (the window mean minus its pose's tare mean).
+
+- ``ml``: the Cramer-Rao bound of the wrench-only model (``estimators.crlb``). The ML
+  estimator reaches the bound, so the prediction is the spread a user will see.
+- ``two_pose`` (the paper's eqs. 3, 7, 8, 11): ``estimators.two_pose``'s own first-order
+  covariance, J cov J^T, evaluated at noise-free windows built from the guess with the
+  wrench model (f = m g_s, tau = p x f). It uses the first two windows in exploration
+  order, home and the first tilt, so a plan's further poses do not improve it; with
+  five poses it is 1.8-2.9x the ``ml`` bound.
+
+Both covariances are linear in the window variance factor c = 1/N + 1/N_tare (J does
+not depend on the noise; the Fisher information scales with 1/c), which is how
+``dwell_for_target`` solves the dwell for a requested COM sigma in closed form.
 
 Information about the COM component along gravity grows with sin^2(tilt): at 0.05 rad
 a plan needs ~100x the dwell of pi/6 for the same sigma. ``dwell_for_target`` says so
-before the robot moves.
+before the robot moves, names every change it makes to the plan, and keeps the plan's
+tilt unless told it may raise it.
 """
 
 from __future__ import annotations
@@ -19,12 +31,25 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from .estimators import crlb
-from .wrench_model import SensorModel, as_vector, rotation_about
+from .estimators import crlb, two_pose
+from .windows import Window
+from .wrench_model import STANDARD_GRAVITY, SensorModel, as_vector, gravity_wrench, rotation_about
 
-__all__ = ["HOME", "Advice", "Plan", "Prediction", "dwell_for_target", "predict"]
+__all__ = ["HOME", "METHODS", "Advice", "Plan", "Prediction", "dwell_for_target", "predict"]
 
 HOME = "home"
+
+METHODS: tuple[str, ...] = ("ml", "two_pose")
+"""Estimators the planner predicts for (``com_core.estimators``)."""
+
+_TILT_CEILING = 1.5
+"""rad; the largest tilt the planner ever suggests as a remedy (Plan needs < pi/2)."""
+
+_TWO_POSE_EVAL_FACTOR = 1e-6
+"""Variance factor at which ``two_pose`` is evaluated for a prediction, then scaled.
+
+Its covariance is exactly linear in the factor; a small one keeps the estimator's
+own refusals (no load above 3 sigma, tilt not resolved) out of the prediction."""
 
 
 @dataclass(frozen=True)
@@ -107,44 +132,168 @@ class Plan:
 
 @dataclass(frozen=True)
 class Prediction:
-    """Predicted 1-sigma of the ML estimate for a plan."""
+    """Predicted 1-sigma of the estimate ``method`` will give for a plan.
 
-    sigma_mass: float  # kg
-    sigma_com: NDArray[np.float64]  # (3,) m, sensor frame
-    cov: NDArray[np.float64]  # (4, 4)
+    Attributes
+    ----------
+    sigma_mass : kg.
+    sigma_com : shape (3,); m; sensor frame.
+    cov : shape (4, 4); covariance of (mass, com_x, com_y, com_z); kg, m.
+    method : the estimator predicted for, one of ``METHODS``.
+    """
+
+    sigma_mass: float
+    sigma_com: NDArray[np.float64]
+    cov: NDArray[np.float64]
+    method: str = "ml"
 
     def __str__(self) -> str:
         s = self.sigma_com * 1e3
         return (
-            f"sigma mass {self.sigma_mass * 1e3:.3g} g, COM ({s[0]:.3g}, {s[1]:.3g}, "
-            f"{s[2]:.3g}) mm"
+            f"{self.method}: sigma mass {self.sigma_mass * 1e3:.3g} g, COM ({s[0]:.3g}, "
+            f"{s[1]:.3g}, {s[2]:.3g}) mm"
         )
 
 
-def predict(plan: Plan) -> Prediction:
-    """Predicted sigma of mass and each COM axis for ``plan`` (the CRLB; see module)."""
-    n = len(plan.poses())
-    cov = crlb(
-        plan.mass_guess,
-        plan.com_guess,
-        plan.gravity_directions(),
-        np.repeat(plan.window_cov()[None], n, axis=0),
-    )
-    return Prediction(math.sqrt(cov[0, 0]), np.sqrt(np.diag(cov)[1:]), cov)
+def predict(plan: Plan, method: str = "ml") -> Prediction:
+    """Predicted sigma of mass and each COM axis for ``plan`` and estimator ``method``.
+
+    ``method`` 'ml': the CRLB at the guess (``estimators.crlb``); 'two_pose': the
+    paper's method's own first-order covariance at noise-free windows of the guess
+    (home and the first tilt; see the module). Raises ValueError for another method.
+    """
+    _check_method(method)
+    if method == "two_pose":
+        cov = _two_pose_cov(plan) * plan._variance_factor(plan.dwell)
+    else:
+        n = len(plan.poses())
+        cov = crlb(
+            plan.mass_guess,
+            plan.com_guess,
+            plan.gravity_directions(),
+            np.repeat(plan.window_cov()[None], n, axis=0),
+        )
+    return Prediction(math.sqrt(cov[0, 0]), np.sqrt(np.diag(cov)[1:]), cov, method)
+
+
+def _check_method(method: str) -> None:
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+
+
+def _two_pose_cov(plan: Plan, g: float = STANDARD_GRAVITY) -> NDArray[np.float64]:
+    """``two_pose``'s covariance (4, 4) of (m, p) per unit variance factor; kg, m.
+
+    Windows in the order an exploration delivers them (``plan.poses()``: home first),
+    means f = m g d_i, tau = p x f from the guess (``wrench_model.gravity_wrench``),
+    covariance S * eps; two_pose propagates J cov J^T, so dividing by eps gives the
+    covariance at c = 1 exactly (the Jacobian does not depend on the covariance).
+    """
+    cov = plan.sensor.sample_covariance() * _TWO_POSE_EVAL_FACTOR
+    windows = [
+        Window(name, gravity_wrench(plan.mass_guess, plan.com_guess, g * d), cov, 1)
+        for (name, _), d in zip(plan.poses(), plan.gravity_directions(), strict=True)
+    ]
+    return two_pose(windows, g, min_tilt_sigmas=0.0).cov / _TWO_POSE_EVAL_FACTOR
 
 
 @dataclass(frozen=True)
 class Advice:
-    """Answer to "what dwell meets this COM sigma?".
+    """Answer to "what dwell meets this COM sigma?" (``dwell_for_target``).
 
-    ``feasible`` False comes with ``reason``; ``plan`` is then the best plan within the
-    limits and ``prediction`` what it reaches.
+    Attributes
+    ----------
+    feasible : the target is met within the limits by ``plan``.
+    plan : the plan to run; when infeasible, the best plan within the limits (the
+        longest dwell the time limit allows, else the input plan with the tilt rule
+        applied).
+    prediction : ``predict(plan, method)`` of that plan; ``prediction.method`` names
+        the estimator it is for.
+    reason : empty when feasible; else what fails, what would make it feasible (the
+        tilt, the time limit or the tare that would) and what the limits reach.
+    changes : one human-readable line per field of the input plan that ``plan``
+        changes, with the reason, e.g. "tilt 0.05 -> 0.524 rad (raise_tilt: more tilt,
+        less dwell)", "dwell 0.9 -> 12.3 s per pose (...)"; empty when unchanged.
+        Log them before moving: nothing is changed silently.
     """
 
     feasible: bool
     plan: Plan
     prediction: Prediction
     reason: str = ""
+    changes: tuple[str, ...] = ()
+
+    def __str__(self) -> str:
+        if not self.feasible:
+            return f"infeasible: {self.reason}"
+        changed = "; ".join(self.changes) if self.changes else "plan unchanged"
+        return f"{changed}; predicted {self.prediction}"
+
+
+@dataclass(frozen=True)
+class _Need:
+    """What a plan (at its tilt) needs for a target; see ``_need``."""
+
+    worst_unit: float  # m; worst COM-axis sigma at variance factor c = 1
+    c_needed: float  # the largest variance factor that meets the target
+    tare_term: float  # 1/N_tare of a fixed tare, 0 for tare_dwell None or inf
+    dwell: float | None  # s per pose; None when the tare alone exceeds the target
+    duration: float  # s of the object pass at that dwell (inf when dwell is None)
+
+
+def _need(plan: Plan, target: float, method: str) -> _Need:
+    """Shortest dwell at ``plan``'s tilt whose predicted worst COM sigma is <= target.
+
+    sigma^2 = c * worst_unit^2 with c = 1/N + 1/N_tare (module): c_needed =
+    (target / worst_unit)^2; a fixed tare leaves 1/N = c_needed - 1/N_tare, a tare of
+    the same dwell (tare_dwell None) 2/N = c_needed.
+    """
+    c_now = plan._variance_factor(plan.dwell)
+    worst_unit = float(predict(plan, method).sigma_com.max()) / math.sqrt(c_now)
+    c_needed = (target / worst_unit) ** 2
+    rate = plan.sensor.rate_hz
+    fixed_tare = plan.tare_dwell is not None
+    tare_term = 0.0
+    if fixed_tare and not math.isinf(plan.tare_dwell):
+        tare_term = 1.0 / max(1.0, round(plan.tare_dwell * rate))
+    if fixed_tare and c_needed <= tare_term:
+        return _Need(worst_unit, c_needed, tare_term, None, math.inf)
+    per_window = (1.0 if fixed_tare else 2.0) / (c_needed - tare_term)
+    dwell = math.ceil(per_window) / rate
+    return _Need(worst_unit, c_needed, tare_term, dwell, replace(plan, dwell=dwell).duration())
+
+
+def _up(x: float) -> float:
+    """``x`` rounded up to 3 significant digits (a remedy quoted must suffice)."""
+    if not math.isfinite(x) or x <= 0:
+        return x
+    scale = 10.0 ** (math.floor(math.log10(x)) - 2)
+    return math.ceil(x / scale * (1 - 1e-12)) * scale
+
+
+def _least_tilt(
+    plan: Plan, target: float, method: str, max_time: float, hi: float
+) -> float | None:
+    """Smallest tilt in (plan.tilt, hi] rad at which the target fits in ``max_time``.
+
+    Bisection (the COM information grows with the tilt); None when even ``hi`` fails.
+    The answer is rounded up to 1 mrad.
+    """
+
+    def fits(tilt: float) -> bool:
+        need = _need(replace(plan, tilt=tilt), target, method)
+        return need.dwell is not None and need.duration <= max_time
+
+    lo = plan.tilt
+    if hi <= lo or not fits(hi):
+        return None
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if fits(mid) else (mid, hi)
+        if hi - lo < 1e-5:
+            break
+    tilt = math.ceil(hi * 1e3) / 1e3
+    return tilt if tilt < math.pi / 2 and fits(tilt) else hi
 
 
 def dwell_for_target(
@@ -152,54 +301,141 @@ def dwell_for_target(
     target_com_sigma: float,
     max_tilt: float | None = None,
     max_time: float = math.inf,
+    *,
+    raise_tilt: bool = False,
+    method: str = "ml",
 ) -> Advice:
     """Shortest dwell whose predicted worst COM-axis sigma is <= ``target_com_sigma`` (m).
 
-    The tilt is raised to ``max_tilt`` (more tilt only helps); the CRLB scales with the
-    window variance factor c = 1/N + 1/N_tare, so the needed N is solved in closed form.
-    Infeasible when the tare's own noise already exceeds the target, or when the pass
-    would take longer than ``max_time`` s; the answer then states the limit and the
-    sigma reachable within it.
+    The one entry point for "meet this COM sigma": a sequencer passes its plan and
+    limits, logs ``Advice.changes`` and runs ``Advice.plan`` when ``feasible``, or
+    refuses with ``Advice.reason``.
+
+    Parameters
+    ----------
+    plan : the plan as the user set it; its tilt is a limit (see ``raise_tilt``).
+    target_com_sigma : m; the worst COM axis (sensor frame) must predict at most this.
+    max_tilt : rad, in (0, pi/2); the largest tilt the object allows. A plan tilt above
+        it is lowered to it (reported in ``changes``). None: no limit.
+    max_time : s; the longest object pass (``Plan.duration``: motion, settle and dwell
+        of every pose).
+    raise_tilt : False (default): the plan's tilt is kept and only the dwell changes.
+        True: the tilt is raised to ``max_tilt`` (more tilt, less dwell; needs
+        ``max_tilt``).
+    method : the estimator that will run, 'ml' or 'two_pose'; the prediction and the
+        dwell are for it (``predict``).
+
+    Returns an ``Advice``; its ``plan`` differs from ``plan`` only in tilt (by the rule
+    above) and dwell (with tare_dwell None the tare windows follow the dwell), each
+    named in ``changes``. The dwell is solved in closed form from the linear scaling
+    of the covariance with c = 1/N + 1/N_tare (module docstring). Infeasible when the
+    tare's own noise already exceeds the target, or when the pass would take longer
+    than ``max_time``; the reason then states the limit, what would meet the target
+    (the least tilt, the time limit, or the tare needed) and the sigma reachable
+    within the limits.
+
+    Raises ValueError for a target <= 0, an unknown method, max_tilt outside
+    (0, pi/2), max_time <= 0, or raise_tilt without max_tilt.
     """
     if not target_com_sigma > 0:
         raise ValueError(f"target_com_sigma must be > 0 m, got {target_com_sigma}")
-    tilt = plan.tilt if max_tilt is None else max_tilt
-    base = replace(plan, tilt=tilt)
-    unit = predict(base)  # at base.dwell
-    c_now = base._variance_factor(base.dwell)
-    worst_unit = float(unit.sigma_com.max()) / math.sqrt(c_now)  # sigma at c = 1
-    c_needed = (target_com_sigma / worst_unit) ** 2
-    rate = base.sensor.rate_hz
-    fixed_tare = base.tare_dwell is not None
-    tare_term = 0.0
-    if fixed_tare and not math.isinf(base.tare_dwell):
-        tare_term = 1.0 / max(1.0, round(base.tare_dwell * rate))
-    if fixed_tare and c_needed <= tare_term:
-        best = predict(replace(base, dwell=max(base.dwell, 1e3)))
-        return Advice(
-            False,
-            base,
-            best,
-            f"the tare ({base.tare_dwell:g} s per pose) alone gives COM sigma "
-            f"{worst_unit * math.sqrt(tare_term) * 1e3:.3g} mm > target "
-            f"{target_com_sigma * 1e3:.3g} mm; take a longer tare",
+    _check_method(method)
+    if max_tilt is not None and not 0.0 < max_tilt < math.pi / 2:
+        raise ValueError(f"max_tilt must be in (0, pi/2) rad, got {max_tilt}")
+    if not max_time > 0:
+        raise ValueError(f"max_time must be > 0 s, got {max_time}")
+    if raise_tilt and max_tilt is None:
+        raise ValueError("raise_tilt needs max_tilt (the tilt to raise to)")
+
+    changes: list[str] = []
+    tilt = plan.tilt
+    if max_tilt is not None and plan.tilt > max_tilt:
+        tilt = max_tilt
+        changes.append(
+            f"tilt {plan.tilt:.3g} -> {tilt:.3g} rad (the plan's tilt exceeds max_tilt)"
         )
-    per_window = (1.0 if fixed_tare else 2.0) / (c_needed - tare_term)
-    dwell = math.ceil(per_window) / rate
-    needed = replace(base, dwell=dwell)
-    if needed.duration() <= max_time:
-        return Advice(True, needed, predict(needed))
+    elif raise_tilt and max_tilt is not None and max_tilt > plan.tilt:
+        tilt = max_tilt
+        changes.append(
+            f"tilt {plan.tilt:.3g} -> {tilt:.3g} rad (raise_tilt: more tilt, less dwell)"
+        )
+    base = replace(plan, tilt=tilt)
+    target_mm = target_com_sigma * 1e3
+    need = _need(base, target_com_sigma, method)
+
+    def with_dwell(dwell: float, why: str) -> Plan:
+        if dwell != plan.dwell:
+            tare = " and per tare pose (tare_dwell None)" if plan.tare_dwell is None else ""
+            changes.append(
+                f"dwell {plan.dwell:.3g} -> {dwell:.3g} s per pose{tare} ({why}; object pass "
+                f"{replace(base, dwell=plan.dwell).duration():.3g} -> "
+                f"{replace(base, dwell=dwell).duration():.3g} s)"
+            )
+        return replace(base, dwell=dwell)
+
+    if need.dwell is not None and need.duration <= max_time:
+        out = with_dwell(need.dwell, f"the shortest for {method} COM sigma {target_mm:.3g} mm")
+        return Advice(True, out, predict(out, method), "", tuple(changes))
+
+    # Infeasible: what fails, what would make it feasible, what the limits reach.
     n = len(base.poses())
+    if need.dwell is None:
+        floor = need.worst_unit * math.sqrt(need.tare_term) * 1e3
+        fails = (
+            f"the tare ({base.tare_dwell:g} s per pose) alone gives {method} COM sigma "
+            f"{floor:.3g} mm > target {target_mm:.3g} mm; take a longer tare"
+        )
+    else:
+        fails = (
+            f"{method} COM sigma {target_mm:.3g} mm at tilt {tilt:.3g} rad needs "
+            f"{need.dwell:.3g} s per pose ({need.duration:.3g} s in all) > limit {max_time:g} s"
+        )
+    remedies = []
+    # the least tilt that meets it within max_time (at most max_tilt, else above it)
+    within = None if max_tilt is None or tilt >= max_tilt else max_tilt
+    least = _least_tilt(base, target_com_sigma, method, max_time, within) if within else None
+    if least is not None:
+        remedies.append(
+            f"tilt >= {least:.3f} rad (max_tilt {max_tilt:.3g} allows it: set the tilt, "
+            "or raise_tilt)"
+        )
+    else:
+        least = _least_tilt(base, target_com_sigma, method, max_time, _TILT_CEILING)
+        if least is not None:
+            above = f", above max_tilt {max_tilt:.3g} rad" if max_tilt is not None else ""
+            remedies.append(f"tilt >= {least:.3f} rad{above}")
+    if need.dwell is not None:
+        remedies.append(f"max_time >= {_up(need.duration):.3g} s")
+    else:
+        # a tare long enough to leave room for a dwell within max_time, else the tare
+        # and dwell that meet it, with the time they take
+        rate = base.sensor.rate_hz
+        n_obj = 0
+        if math.isfinite(max_time):
+            n_obj = max(0, math.floor((max_time / n - base.move_time - base.settle) * rate))
+        room = need.c_needed - 1.0 / max(1, n_obj)
+        if n_obj >= 1 and room > 0:
+            remedies.append(
+                f"tare_dwell >= {_up(math.ceil(1.0 / room) / rate):.3g} s per pose "
+                f"(with dwell {n_obj / rate:.3g} s)"
+            )
+        else:
+            both = _up(math.ceil(2.0 / need.c_needed) / rate)
+            time = f" and max_time >= {_up(replace(base, dwell=both).duration()):.3g} s"
+            remedies.append(
+                f"tare_dwell >= {both:.3g} s and dwell >= {both:.3g} s per pose"
+                + (time if math.isfinite(max_time) else "")
+            )
+    remedy = f"; feasible with {', or '.join(remedies)}" if remedies else ""
+
     dwell_max = max_time / n - base.move_time - base.settle
-    if dwell_max <= 0:
-        return Advice(False, base, unit, f"{n} poses cannot even be visited in {max_time:g} s")
-    best_plan = replace(base, dwell=dwell_max)
-    best = predict(best_plan)
-    return Advice(
-        False,
-        best_plan,
-        best,
-        f"COM sigma {target_com_sigma * 1e3:.3g} mm at tilt {tilt:.3g} rad needs "
-        f"{dwell:.3g} s per pose ({needed.duration():.3g} s in all) > limit {max_time:g} s; "
-        f"within the limit: {best}",
-    )
+    if math.isfinite(max_time) and dwell_max <= 0:
+        reason = f"{n} poses cannot even be visited in {max_time:g} s{remedy}"
+        return Advice(False, base, predict(base, method), reason, tuple(changes))
+    if math.isfinite(max_time):
+        best_plan = with_dwell(dwell_max, f"the longest within {max_time:g} s; target not met")
+    else:
+        best_plan = base
+    best = predict(best_plan, method)
+    reason = f"{fails}{remedy}; within the limits: {best}"
+    return Advice(False, best_plan, best, reason, tuple(changes))

@@ -1,12 +1,15 @@
-"""A tare pass kept in a file and reused while it stays valid.
+"""Tare passes kept in a file and reused while they stay valid.
 
 The empty hand's wrench in every pose of a plan (its tare windows) depends on the hand
-and the plan only, so one tare pass serves many objects. The file holds the windows
-(mean and covariance of the mean per pose, to the last bit: JSON floats round-trip)
-and a signature of what they were taken for (hand, plan); a run reuses it when the
-signature matches, it is young enough, and a short fresh tare window at home agrees
-with the cached one (``drift``). A run that reuses it keeps a copy beside its bag
-(``tare.json``) so the offline replay sees the same tare as the node did.
+and the plan only, so one tare pass serves many objects. The file holds one entry per
+hand and plan: the windows (mean and covariance of the mean per pose, to the last bit:
+JSON floats round-trip), the signature of what they were taken for (``signature``), and
+when; and which entry is ``current`` (the one the running exploration uses, which the
+estimator reads). A run reuses an entry when its signature matches, it is young enough,
+and a short fresh tare window at home agrees with it (``drift``); a run with another
+plan adds its own entry beside it. A run that reuses one keeps a copy beside its bag
+(``tare.json``, one entry) so the offline replay sees the same tare as the node did.
+Files of one entry without ``entries`` (written before there were several) still load.
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -22,7 +26,15 @@ import numpy as np
 from .stats import chi2_sf
 from .windows import Window, window_from_mean
 
-__all__ = ["BAG_TARE_FILE", "TareCache", "drift", "load_tares", "save_tares"]
+__all__ = [
+    "BAG_TARE_FILE",
+    "TareCache",
+    "drift",
+    "load_tares",
+    "save_tares",
+    "tare_signature",
+    "use_tares",
+]
 
 BAG_TARE_FILE = "tare.json"
 
@@ -38,35 +50,78 @@ class TareCache:
     def age(self) -> float:
         return time.time() - self.created
 
+    def as_json(self) -> dict:
+        return {
+            "signature": self.signature,
+            "created": self.created,
+            "windows": {
+                pose: {"mean": w.mean.tolist(), "cov": w.cov.tolist(), "n": w.n}
+                for pose, w in self.windows.items()
+            },
+        }
 
-def save_tares(path: Path | str, signature: str, windows: dict[str, Window]) -> None:
-    """Write the tare windows atomically (a reader never sees half a file)."""
-    path = Path(path)
+    @staticmethod
+    def from_json(data: dict) -> TareCache:
+        windows = {
+            pose: window_from_mean(pose, w["mean"], w["cov"], w["n"])
+            for pose, w in data["windows"].items()
+        }
+        return TareCache(data["signature"], float(data["created"]), windows)
+
+
+def tare_signature(
+    hand_id: str, tilt: float, axes: Sequence[str], both_directions: bool, home: Sequence[float]
+) -> str:
+    """What a tare pass was taken for: the hand, the plan's tilt (rad), axes and
+    directions, and the home joints (rad, to 0.1 mrad)."""
+    return (
+        f"{hand_id}|tilt {tilt:.6f}|axes {','.join(axes)}|both {both_directions}"
+        f"|home {[round(q, 4) for q in home]}"
+    )
+
+
+def _read(path: Path) -> tuple[dict[str, TareCache], str | None]:
+    """(entries by signature, current signature) of a cache file; ({}, None) if none."""
+    if not path.is_file():
+        return {}, None
+    data = json.loads(path.read_text())
+    if "entries" not in data:  # one entry
+        entry = TareCache.from_json(data)
+        return {entry.signature: entry}, entry.signature
+    entries = {sig: TareCache.from_json(e) for sig, e in data["entries"].items()}
+    return entries, data.get("current")
+
+
+def _write(path: Path, entries: dict[str, TareCache], current: str | None) -> None:
+    """Write atomically (a reader never sees half a file)."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    data = {
-        "signature": signature,
-        "created": time.time(),
-        "windows": {
-            pose: {"mean": w.mean.tolist(), "cov": w.cov.tolist(), "n": w.n}
-            for pose, w in windows.items()
-        },
-    }
+    data = {"current": current, "entries": {sig: e.as_json() for sig, e in entries.items()}}
     tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps(data, indent=1))
     tmp.replace(path)
 
 
-def load_tares(path: Path | str) -> TareCache | None:
-    """The cache in ``path``, or None when there is no file (a broken file raises)."""
+def save_tares(path: Path | str, signature: str, windows: dict[str, Window]) -> None:
+    """Add (or replace) the entry for ``signature``, taken now, and make it current."""
     path = Path(path)
-    if not path.is_file():
-        return None
-    data = json.loads(path.read_text())
-    windows = {
-        pose: window_from_mean(pose, w["mean"], w["cov"], w["n"])
-        for pose, w in data["windows"].items()
-    }
-    return TareCache(data["signature"], float(data["created"]), windows)
+    entries, _ = _read(path)
+    entries[signature] = TareCache(signature, time.time(), dict(windows))
+    _write(path, entries, signature)
+
+
+def use_tares(path: Path | str, entry: TareCache) -> None:
+    """Make ``entry`` the current one of the cache in ``path`` (adding it if missing)."""
+    path = Path(path)
+    entries, _ = _read(path)
+    entries.setdefault(entry.signature, entry)
+    _write(path, entries, entry.signature)
+
+
+def load_tares(path: Path | str, signature: str | None = None) -> TareCache | None:
+    """The entry for ``signature`` in ``path`` (default: the current one), or None when
+    there is no file or no such entry (a broken file raises)."""
+    entries, current = _read(Path(path))
+    return entries.get(signature if signature is not None else current or "")
 
 
 def drift(cached: Window, fresh: Window) -> tuple[float, float]:

@@ -1,0 +1,235 @@
+"""Replays of bags as they reach a user: a copy cut short, a run that died before ``done``,
+a recording without pose labels. All are made from the real run kept in bags/sample
+(its full replay: mass 99.97 +- 0.17 g from 5 poses, 15982 wrenches, 14 labels)."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import WORKSPACE
+
+from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC, read_metadata, read_raw
+from com_core.cdr import decode_header
+from com_core.exploration import Exploration
+from com_core.planner import Plan
+from com_core.recording import CrashSafeBagWriter
+from com_core.static_windows import (
+    find_static_windows,
+    label_static_windows,
+    split_load_levels,
+)
+from com_core.synthetic import Load, exploration_stream
+from com_estimator import replay
+
+SAMPLE = WORKSPACE / "bags" / "sample"
+SAMPLE_WRENCHES = 15982
+TARE_FILE = "tare.json"
+
+
+def run_replay(capsys: pytest.CaptureFixture[str], bag: Path, *args: str) -> dict:
+    """The replay's --json object for ``bag``."""
+    replay.main([str(bag), "--json", *args])
+    return json.loads(capsys.readouterr().out)
+
+
+def copy_sample(tmp_path: Path, name: str) -> Path:
+    """A copy of the sample bag (MCAP file, metadata.yaml, tare.json)."""
+    bag = tmp_path / name
+    shutil.copytree(SAMPLE, bag, ignore=shutil.ignore_patterns("*.png"))
+    return bag
+
+
+def rewrite(
+    bag: Path, topics: tuple[str, ...], stop_log_ns: int | None = None
+) -> CrashSafeBagWriter:
+    """A bag of the sample's messages of ``topics`` logged before ``stop_log_ns``, with the
+    sample's cached tare beside it; its writer is flushed and left open (what a recorder
+    that died leaves: metadata.yaml says ``complete: false``)."""
+    writer = CrashSafeBagWriter(bag)
+    writer.open()
+    for topic, msgtype, log_ns, raw in read_raw(SAMPLE, topics):
+        if stop_log_ns is not None and log_ns >= stop_log_ns:
+            break
+        writer.write(topic, msgtype, log_ns, raw)
+    writer.flush()
+    shutil.copy(SAMPLE / TARE_FILE, bag / TARE_FILE)
+    return writer
+
+
+@pytest.fixture(scope="module")
+def full() -> dict:
+    """The sample's own replay."""
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        replay.main([str(SAMPLE), "--json"])
+    result = json.loads(out.getvalue())
+    assert result["status"] == "OK" and result["messages"] == SAMPLE_WRENCHES
+    return result
+
+
+# --- a copy cut short ------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("fraction", "read_at_least"),
+    [(0.5, 0.45), (0.9, 0.85)],
+)
+def test_a_copy_cut_short_is_read_up_to_the_cut(tmp_path, capsys, full, fraction, read_at_least):
+    """rosbags refuses a file without its Footer; the replay reads the MCAP records up to
+    the cut (all but the chunk the cut falls in: 48.1 % of the wrenches at 50 %, 88.4 %
+    at 90 %) and says so."""
+    bag = copy_sample(tmp_path, f"cut{int(fraction * 100)}")
+    (mcap,) = bag.glob("*.mcap")
+    os.truncate(mcap, int(mcap.stat().st_size * fraction))
+    out = run_replay(capsys, bag)
+    read = out["bag"]
+    assert read["cut_short"] and "EndOfFile" in read["stopped"]
+    assert "File end magic is invalid" in read["fallback"]
+    assert read["listed"][WRENCH_TOPIC] == SAMPLE_WRENCHES  # from metadata.yaml
+    share = read["read"][WRENCH_TOPIC] / SAMPLE_WRENCHES
+    assert read_at_least < share < fraction
+    assert out["messages"] == read["read"][WRENCH_TOPIC]
+    if fraction == 0.5:
+        # the run stops after the third object window: no done label, WARN with both
+        # reasons, and the estimate of the three poses it has
+        assert read["read"][POSE_TOPIC] == 9
+        assert out["status"] == "WARN"
+        assert "the run has no done label: cut short after object/tilt_y-" in out["reason"]
+        assert "the bag's MCAP file is cut short" in out["reason"]
+        assert out["poses"] == ["home", "tilt_y+", "tilt_y-"]
+        assert abs(out["mass"] - full["mass"]) < 4 * out["sigma_mass"]
+    else:
+        # every label and every sample up to done is before the cut: the full estimate
+        assert read["read"][POSE_TOPIC] == 14
+        assert out["status"] == "OK"
+        assert out["window_samples"] == full["window_samples"]
+        assert (out["mass"], out["com"]) == (full["mass"], full["com"])
+    replay.main([str(bag)])
+    text = capsys.readouterr().out
+    assert "bag: the bag's MCAP file is cut short" in text
+    n = read["read"][WRENCH_TOPIC]
+    assert f"{WRENCH_TOPIC}: {n} of {SAMPLE_WRENCHES} listed in metadata.yaml" in text
+    assert ("every window of the run was read" in text) is (fraction == 0.9)
+
+
+def test_topics_metadata_yaml_does_not_list_are_read_from_the_mcap_file(tmp_path, capsys, full):
+    """rosbags drops the channels metadata.yaml does not list; the MCAP file has them."""
+    bag = copy_sample(tmp_path, "unlisted")
+    meta = bag / "metadata.yaml"
+    text = meta.read_text()
+    head, _, tail = text.partition("  topics_with_message_count:\n")
+    meta.write_text(head + "  topics_with_message_count: []\n" + tail[tail.index("  version:") :])
+    assert read_metadata(bag)[:2] == ({}, True)  # still valid, with no topic list
+    out = run_replay(capsys, bag)
+    assert "metadata.yaml does not list" in out["bag"]["fallback"]
+    assert not out["bag"]["cut_short"]
+    assert out["messages"] == SAMPLE_WRENCHES
+    assert (out["status"], out["mass"]) == ("OK", full["mass"])
+
+
+# --- a run that died before done -------------------------------------------------------
+
+
+def label_log_time(label: str) -> int:
+    """Log time (ns) of the sample's label ``label``."""
+    for _, _, log_ns, raw in read_raw(SAMPLE, (POSE_TOPIC,)):
+        if decode_header(raw)[1] == label:
+            return log_ns
+    raise KeyError(label)
+
+
+@pytest.mark.parametrize("closed", [False, True])
+def test_a_run_without_done_is_warned_as_cut_short(tmp_path, capsys, full, closed):
+    """The recording stops as object/tilt_x- arrives: 4 object windows, no done. Its
+    estimate is kept, but never as OK; an unclosed recording is named as such."""
+    bag = tmp_path / "aborted"
+    writer = rewrite(bag, (WRENCH_TOPIC, POSE_TOPIC), label_log_time("object/tilt_x-"))
+    try:
+        if closed:
+            writer.close()
+        assert read_metadata(bag)[1] is closed  # custom_data.complete
+        out = run_replay(capsys, bag)
+    finally:
+        writer.close()
+    assert out["status"] == "WARN"
+    assert out["reason"].startswith("the run has no done label: cut short after object/tilt_x+")
+    assert out["poses"] == ["home", "tilt_y+", "tilt_y-", "tilt_x+"]
+    assert abs(out["mass"] - full["mass"]) < 4 * out["sigma_mass"]
+    assert out["bag"]["complete"] is closed
+    assert ("custom_data.complete: false" in out["reason"]) is not closed
+    replay.main([str(bag)])
+    assert "[WARN] ml: the run has no done label" in capsys.readouterr().out
+
+
+# --- a recording without labels ----------------------------------------------------------
+
+
+def test_an_unlabelled_recording_is_tared_by_load_level(tmp_path, capsys, full):
+    """Only the wrenches of the sample: its static windows are three of the empty hand
+    (9.90 N; the drift check at home among them) and five of the loaded hand (10.88 N,
+    the five poses). The object windows are tared with the cached tare's
+    windows of the same gravity direction: the estimate is the labelled one's within 4 of
+    its sigmas (they share the tare and most samples; a fit of both levels together is
+    off by ~0.9 kg)."""
+    bag = tmp_path / "unlabelled"
+    rewrite(bag, (WRENCH_TOPIC,)).close()
+    out = run_replay(capsys, bag)
+    assert out["windows_from"].startswith(
+        "no pose labels in the bag: 0 tare and 5 object windows by load level (9.90, 10.88 N)"
+    )
+    assert "5 of them with the cached tare" in out["windows_from"]
+    assert out["status"] == "OK", out["reason"]
+    assert out["poses"] == ["home", "tilt_y+", "tilt_y-", "tilt_x+", "tilt_x-"]
+    assert abs(out["mass"] - full["mass"]) < 4 * full["sigma_mass"]
+    com_error = np.abs(np.subtract(out["com"], full["com"]))
+    assert np.all(com_error < 4 * np.array(full["sigma_com"]))
+
+    # without the cached tare only home has a tare window (the drift check): the tilted
+    # object windows are left out, not fitted against a tare of another orientation
+    (bag / TARE_FILE).unlink()
+    out = run_replay(capsys, bag)
+    assert "1 tare and 1 object windows by load level" in out["windows_from"]
+    assert "4 object windows left out: no tare window within 2 deg" in out["windows_from"]
+    assert out["status"] == "ERROR"
+
+
+LOAD, HAND = Load(0.1, (0.01, -0.02, 0.1)), Load(0.73, (0.0, 0.0, 0.04))
+
+
+def test_load_levels_split_a_synthetic_exploration_into_tare_and_object():
+    """A tare pass and an object pass in one unlabelled stream: five windows at each load
+    level, each object window paired with the tare window of its pose, and the tared fit
+    finds the object (not hand + object, 830 g)."""
+    rng = np.random.default_rng(5)
+    stream = exploration_stream(Plan(dwell=0.5, gravity_home=(0, 0, 1)), LOAD, HAND, rng)
+    labels = label_static_windows(stream.stamps, stream.wrenches)
+    windows = [label for _, label in labels if label != "moving"]
+    assert windows == [f"tare/static_{k}" for k in range(1, 6)] + [
+        f"object/static_{k}" for k in range(1, 6)
+    ]
+    ex = Exploration()
+    ex.add_samples(stream.stamps, stream.wrenches, "ft_sensor")
+    for stamp, label in labels:
+        ex.add_label(stamp, label)
+    solution = ex.solve()
+    assert solution.status == "OK", solution.reason
+    e = solution.estimate
+    assert abs(e.mass - LOAD.mass) < 4 * e.sigma_mass
+    assert np.all(np.abs(e.com - LOAD.com) < 4 * e.sigma_com)
+
+    found = find_static_windows(stream.stamps, stream.wrenches)
+    # one load level (the object pass alone): untared, as before, and said so
+    levels = split_load_levels(found[5:])
+    assert levels.untared and levels.object_windows == 5
+    assert "5 static windows at one load level" in levels.describe()
+    # a tare of home alone: the tilted object windows have no tare of their direction
+    levels = split_load_levels(found[:1] + found[5:])
+    assert (levels.tare_windows, levels.object_windows, levels.unpaired) == (1, 1, 4)
+    assert levels.max_angle < np.radians(0.5)
