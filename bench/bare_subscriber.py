@@ -1,4 +1,4 @@
-"""The fastest bare rclpy subscriber of WrenchStamped (DESIGN.md): the reference.
+"""The fastest bare rclpy subscriber of WrenchStamped (docs/design.md, Numbers): the reference.
 
 EventsExecutor, raw CDR bytes, the estimator's QoS (best effort, depth 5000); it only
 counts. ``~/reset`` (std_srvs/Trigger) answers "cleared N samples" like the estimator.

@@ -4,7 +4,7 @@
 
 Two subscribers, each a separate process, receive the same paced bursts of
 WrenchStamped from this process at rising rates: the reference (bench/bare_subscriber.py:
-EventsExecutor, raw bytes, counting only; the fastest bare rclpy subscriber, DESIGN.md)
+EventsExecutor, raw bytes, counting only; the fastest bare rclpy subscriber, docs/design.md)
 and the estimator node. Before a burst each is reset, after it each is asked how many
 samples it holds (``~/reset`` answers "cleared N samples"). The lossless rate is the
 highest rate below which no burst lost a message. CPU is the process's user + system

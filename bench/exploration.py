@@ -2,7 +2,7 @@
 
     source ./env.sh && python bench/exploration.py [--runs 50] [--seed 0]
 
-DESIGN.md's reference: a 0.1 kg object (the paper's), sensor noise sigma_f 0.1 N and
+docs/design.md's reference: a 0.1 kg object (the paper's), sensor noise sigma_f 0.1 N and
 sigma_tau 0.005 N m per sample at 1 kHz, tilt at most pi/6, rigid grasp. The estimator
 and the sequencer run once (the tare pass is cached per hand, so it is taken in the
 first run only); each run starts a simulator with its own object (box, cylinder, mug in

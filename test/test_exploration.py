@@ -5,12 +5,14 @@ from __future__ import annotations
 import os
 import re
 import signal
+import subprocess
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import WORKSPACE, replay_json, spin_until
+from conftest import UNCLEAN_EXIT, WORKSPACE, replay_json, spin_until
 
 from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC, read_raw
 from com_core.cdr import decode_header
@@ -51,13 +53,22 @@ class Client:
         import rclpy
         from geometry_msgs.msg import InertiaStamped
         from rclpy.qos import DurabilityPolicy, QoSProfile
+        from std_msgs.msg import Header
         from std_srvs.srv import Trigger
 
         self.node = rclpy.create_node("test_client", context=context)
         latched = QoSProfile(depth=50, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.truths: list = []
+        self.estimates: list = []
+        self.labels: list[str] = []
         self.node.create_subscription(
             InertiaStamped, "/wrench_sim/ground_truth", self.truths.append, latched
+        )
+        self.node.create_subscription(
+            InertiaStamped, "/com_estimator/estimate", self.estimates.append, latched
+        )
+        self.node.create_subscription(
+            Header, POSE_TOPIC, lambda m: self.labels.append(m.frame_id), latched
         )
         self.explore_client = self.node.create_client(Trigger, "/exploration_sequencer/explore")
         self.Trigger = Trigger
@@ -65,6 +76,18 @@ class Client:
     def call(self):
         assert self.explore_client.wait_for_service(timeout_sec=30.0), "no ~/explore service"
         return self.explore_client.call_async(self.Trigger.Request())
+
+    def call_accepted(self, log_path: Path):
+        """Call ~/explore until the sequencer logging to ``log_path`` takes the call (a
+        request sent before a new server matched this client is lost; a killed server's
+        endpoint can make ``wait_for_service`` true before then)."""
+        assert spin_until(self.node, lambda: "ready" in log_path.read_text(), 30.0)
+        for _ in range(3):
+            future = self.call()
+            if spin_until(self.node, lambda: "run " in log_path.read_text(), 10.0):
+                return future
+            self.explore_client.remove_pending_request(future)
+        raise AssertionError(f"{log_path.name}: ~/explore never took the call")
 
     def wait(self, future, timeout: float = 120.0):
         assert spin_until(self.node, future.done, timeout), "~/explore did not answer"
@@ -127,10 +150,14 @@ def test_rigid_grasp_estimate_is_within_tolerance_of_ground_truth(
 
 
 def test_the_papers_reconfiguration_is_flagged(start_node, client, tmp_path):
+    """A flagged estimate does not look like a good one: the call fails with the WARN and
+    its reason, and nothing is published on ~/estimate."""
     start_system(start_node, tmp_path, {"object": "box", "seed": 4, "slip_sigma": 0.01})
     result = client.wait(client.call())
-    assert result.success and result.message.startswith("[WARN]"), result.message
+    assert not result.success and result.message.startswith("[WARN]"), result.message
     assert "moved in the grasp" in result.message
+    spin_until(client.node, lambda: bool(client.estimates), 1.0)
+    assert not client.estimates
 
 
 def test_a_sim_that_stops_answering_fails_the_call_within_its_timeout(
@@ -186,6 +213,115 @@ def test_a_friction_grasp_is_flagged(start_node, client, tmp_path):
     follows a slip is tested with a grip too weak for a tilt in test_sim_physics.py."""
     start_system(start_node, tmp_path, {"object": "box", "grasp_mode": "friction"})
     result = client.wait(client.call())
-    assert result.success and result.message.startswith("[WARN]"), result.message
+    assert not result.success and result.message.startswith("[WARN]"), result.message
     assert "moved in the grasp at pose" in result.message
     assert any(abs(t.inertia.com.z) < 0.2 for t in client.truths)  # it was held
+    spin_until(client.node, lambda: bool(client.estimates), 1.0)
+    assert not client.estimates, "a flagged estimate was published on ~/estimate"
+
+
+def test_a_run_after_a_sequencer_killed_mid_run_starts_clean(start_node, client, tmp_path):
+    """The sequencer dies during the object pass with the object in the hand; a new one
+    puts the object back, resets the estimator, and the next run is right (before: the
+    estimator merged the dead run's windows into the new ones, seen as motion of m g,
+    and the new sequencer opened the fingers wherever the arm stood)."""
+    cache = {"tare_cache": str(tmp_path / "bags" / "tare_cache.json")}
+    sequencer = {"use_sim_time": True, "bag_dir": str(tmp_path / "bags"), **cache}
+    sim = {"real_time_factor": 5.0, "object": "box", "seed": 6, "object_mass": 0.5, **NOISE}
+    start_node("sim_node", "wrench_sim", params=sim)
+    start_node("estimator_node", "com_estimator", params={"use_sim_time": True, **NOISE, **cache})
+    first = start_node("sequencer_node", "exploration_sequencer", params=sequencer)
+    client.call()
+    assert spin_until(client.node, lambda: "object/tilt_y+" in client.labels, 90.0)
+    first.send_signal(signal.SIGKILL)
+    first.wait(timeout=10)
+    second = start_node("sequencer_node", "exploration_sequencer", params=sequencer)
+    result = client.wait(client.call_accepted(second.log_path))
+    assert result.success and result.message.startswith("[OK]"), result.message
+    assert "putting it back on the stand" in second.log_path.read_text()
+    mass = float(re.search(r"mass ([\d.]+)", result.message).group(1)) * 1e-3
+    assert abs(mass - 0.5) < 0.005 * 0.5
+
+
+def test_a_grasp_that_holds_nothing_fails_before_the_object_pass(start_node, client, tmp_path):
+    """Fingers closed on air (pick_joints at home): the sequencer weighs the grasp after
+    lifting and says so, rather than an estimator's hint about the tare."""
+    from wrench_sim.physics import HOME_JOINTS
+
+    start_system(start_node, tmp_path, {"object": "box"}, {"pick_joints": list(HOME_JOINTS)})
+    result = client.wait(client.call())
+    assert not result.success and "grasp failed" in result.message, result.message
+    assert "the object was not picked up" in result.message
+    assert not any(label.startswith("object/") for label in client.labels)
+
+
+def test_a_sequencer_without_a_sim_says_the_sim_never_published(start_node, client, tmp_path):
+    start_node("sequencer_node", "exploration_sequencer", params={"sim_timeout": 2.0})
+    result = client.wait(client.call(), timeout=30.0)
+    assert not result.success
+    assert "no /joint_states since this node started" in result.message, result.message
+
+
+def test_plan_changes_are_logged_and_the_prediction_is_the_estimators_method(
+    start_node, client, tmp_path
+):
+    """A tilt the user set is kept unless raise_tilt allows more; every change is logged
+    before moving; the prediction is for the method the estimator runs (two_pose)."""
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
+
+    start_node("sim_node", "wrench_sim", params={"real_time_factor": 5.0, **NOISE})
+    start_node(
+        "estimator_node",
+        "com_estimator",
+        params={"use_sim_time": True, "method": "two_pose", **NOISE},
+    )
+    sequencer = start_node(
+        "sequencer_node",
+        "exploration_sequencer",
+        params={
+            "use_sim_time": True,
+            "bag_dir": str(tmp_path / "bags"),
+            "tilt": 0.05,
+            "target_com_sigma": 0.002,
+        },
+    )
+    refused = client.wait(client.call())
+    assert not refused.success and "cannot be met" in refused.message, refused.message
+    assert "tilt >=" in refused.message  # what would meet it
+    setter = client.node.create_client(SetParameters, "/exploration_sequencer/set_parameters")
+    raise_tilt = Parameter(
+        name="raise_tilt", value=ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=True)
+    )
+    future = setter.call_async(SetParameters.Request(parameters=[raise_tilt]))
+    assert spin_until(client.node, future.done, 10.0) and future.result().results[0].successful
+    result = client.wait(client.call())
+    assert result.success, result.message
+    assert "predicted two_pose:" in result.message and "from 2 poses" in result.message
+    log = sequencer.log_path.read_text()
+    assert "plan changed: tilt 0.05 -> 0.524 rad" in log
+    assert "plan changed: dwell 0.9 ->" in log
+
+
+def test_the_demo_prints_its_summary_and_exits_cleanly(ros_env, tmp_path):
+    demo = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "exploration_sequencer.demo",
+            "--bag-dir",
+            str(tmp_path),
+            "--seed",
+            "2",
+        ],
+        env=ros_env,
+        capture_output=True,
+        text=True,
+        timeout=240,
+    )
+    out = demo.stdout + demo.stderr
+    assert demo.returncode == 0, out
+    assert "=== summary ===" in out and "error:    mass" in out, out
+    logs = "".join(p.read_text() for p in (tmp_path / "logs").glob("*.log"))
+    for text in UNCLEAN_EXIT:
+        assert text not in out + logs, out + logs

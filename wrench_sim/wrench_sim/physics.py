@@ -9,7 +9,7 @@ Frame ``ft_sensor`` has the axes of the fixed joint ``panda_hand_joint`` (the ax
 ``panda_hand``) and its origin at that joint, the flange/hand interface. The published wrench
 is the wrench the load beyond the sensor (hand, fingers and a grasped object) exerts on the
 sensor, expressed in ``ft_sensor``: a static load of mass m with COM p gives f = m g_s,
-tau = p x f (DESIGN.md).
+tau = p x f (docs/design.md, Conventions).
 
 pybullet's joint force/torque sensor on ``panda_hand_joint`` reports (F, M), the wrench the
 flange (parent) applies to the hand (child), in the hand's axes. In the default feedback mode M

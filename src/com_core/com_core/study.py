@@ -60,7 +60,7 @@ __all__ = ["PAPER_LOAD", "Cell", "main", "run_cell", "table_cells"]
 PAPER_LOAD = Load(mass=0.1, com=(0.010, -0.020, -0.060))
 THETAS = (0.05, math.pi / 6, math.pi / 3)
 THETA_NAMES = {0.05: "0.05", math.pi / 6: "pi/6", math.pi / 3: "pi/3"}
-REFERENCE_SENSOR = (0.1, 0.005)  # sigma_f N, sigma_tau N m per sample (DESIGN.md)
+REFERENCE_SENSOR = (0.1, 0.005)  # sigma_f N, sigma_tau N m per sample (docs/design.md)
 
 # The paper's Table I as printed (labelled mm, in metres): (theta, noise) -> (x, y, z).
 PAPER_TABLE_I = {

@@ -1,0 +1,62 @@
+"""com_core.tare_cache: one entry per hand and plan, the current one, the drift test."""
+
+from __future__ import annotations
+
+import numpy as np
+from conftest import WORKSPACE
+
+from com_core.tare_cache import (
+    BAG_TARE_FILE,
+    drift,
+    load_tares,
+    save_tares,
+    tare_signature,
+    use_tares,
+)
+from com_core.windows import window_from_mean
+
+HOME = [0.0, -0.1559, 0.0, -2.1983, 0.0, 2.0424, 0.7854]
+
+
+def windows(fz: float) -> dict:
+    cov = np.eye(6) * 1e-6
+    return {pose: window_from_mean(pose, [0, 0, fz, 0, 0, 0], cov, 5000) for pose in ("home",)}
+
+
+def test_a_run_with_another_plan_keeps_the_first_plans_tare(tmp_path):
+    """Two plans share one cache file: each keeps its entry, the last used is current."""
+    path = tmp_path / "tare_cache.json"
+    default = tare_signature("panda_hand", np.pi / 6, ("x", "y"), True, HOME)
+    paper = tare_signature("panda_hand", 0.05, ("x",), False, HOME)
+    assert default != paper
+    save_tares(path, default, windows(9.9))
+    save_tares(path, paper, windows(9.8))
+    assert load_tares(path, default).windows["home"].force[2] == 9.9
+    assert load_tares(path, paper).windows["home"].force[2] == 9.8
+    assert load_tares(path).signature == paper  # current: what the estimator reads
+    use_tares(path, load_tares(path, default))
+    assert load_tares(path).signature == default
+    assert load_tares(path, "another hand") is None
+    assert load_tares(tmp_path / "none.json") is None
+
+
+def test_a_bag_copy_holds_one_entry_and_old_single_entry_files_load(tmp_path):
+    sample = load_tares(WORKSPACE / "bags" / "sample" / BAG_TARE_FILE)  # one entry, no index
+    assert sample is not None and "home" in sample.windows
+    copy = tmp_path / BAG_TARE_FILE
+    use_tares(copy, sample)
+    again = load_tares(copy)
+    assert again.signature == sample.signature and again.created == sample.created
+    np.testing.assert_array_equal(again.windows["home"].mean, sample.windows["home"].mean)
+    np.testing.assert_array_equal(again.windows["home"].cov, sample.windows["home"].cov)
+
+
+def test_drift_is_chi_square_in_the_noise_and_large_beyond_it():
+    cached = windows(9.9)["home"]
+    same = window_from_mean("home", cached.mean + 1e-3, cached.cov, 5000)  # 1 sigma per axis
+    moved = window_from_mean(
+        "home", cached.mean + np.array([0, 0, 0.05, 0, 0, 0]), cached.cov, 5000
+    )
+    chi2, p = drift(cached, same)
+    assert abs(chi2 - 3.0) < 1e-9 and p > 0.5  # 6 axes x (1e-3)^2 / 2e-6
+    assert drift(cached, moved)[1] < 1e-6
