@@ -84,7 +84,7 @@ class Client:
         assert spin_until(self.node, lambda: "ready" in log_path.read_text(), 30.0)
         for _ in range(3):
             future = self.call()
-            if spin_until(self.node, lambda: "run " in log_path.read_text(), 10.0):
+            if spin_until(self.node, lambda: "]: run 2" in log_path.read_text(), 10.0):
                 return future
             self.explore_client.remove_pending_request(future)
         raise AssertionError(f"{log_path.name}: ~/explore never took the call")

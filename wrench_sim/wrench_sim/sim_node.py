@@ -21,6 +21,7 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
+from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
@@ -299,7 +300,9 @@ def _inertia(stamp, mass: float, com: np.ndarray) -> InertiaStamped:
 def main(args: list[str] | None = None) -> int:
     """Console script ``sim_node``."""
     keep_dds_local()
-    rclpy.init(args=args)
+    # SIGINT raises KeyboardInterrupt in the physics loop, which then tears down in order
+    # (rclpy's own handler would shut the context down under the running loop).
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = SimNode()
     except Exception as error:  # report a bad parameter, exit cleanly
@@ -310,9 +313,6 @@ def main(args: list[str] | None = None) -> int:
         node.run()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    except Exception:  # rclpy calls on a context SIGINT just shut down fail: that is the end
-        if rclpy.ok():
-            raise
     finally:
         node.close()
         node.destroy_node()

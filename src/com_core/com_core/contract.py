@@ -1,0 +1,161 @@
+"""The wire contract: every name the nodes, the replay, the recorder, the benchmarks and
+the tests share, written once (docs/design.md, Wire contract).
+
+Topics, services, message types, the estimator's status names and keys, the pose labels,
+the arm's joint names and the diagnostic levels. Nothing here imports rclpy; QoS profiles
+stay with the nodes that create them (docs/design.md lists them).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Protocol
+
+__all__ = [
+    "ARM_COMMAND_TOPIC",
+    "ARM_JOINTS",
+    "CLOCK_TOPIC",
+    "DIAGNOSTICS_TOPIC",
+    "DIAGNOSTIC_NAME",
+    "DONE",
+    "ERROR",
+    "ESTIMATE_TOPIC",
+    "ESTIMATOR_PARAMETERS_SERVICE",
+    "ESTIMATOR_RESET_SERVICE",
+    "ESTIMATOR_SOLVE_SERVICE",
+    "EXPLORE_SERVICE",
+    "FINGER_CLOSED",
+    "FINGER_JOINTS",
+    "FINGER_OPEN",
+    "HAND_COMMAND_TOPIC",
+    "HAND_TRUTH_TOPIC",
+    "INPUT_STATUS_NAME",
+    "JOINT_STATES_TOPIC",
+    "LATEST_LABEL_KEY",
+    "LATEST_STAMP_KEY",
+    "MOVING",
+    "OBJECT_PREFIX",
+    "OBJECT_TOPIC",
+    "OK",
+    "POSE_TOPIC",
+    "SIM_PARAMETERS_SERVICE",
+    "TARE_PREFIX",
+    "TOPIC_TYPES",
+    "TRUTH_MOVE_M",
+    "TRUTH_TOPIC",
+    "WARN",
+    "WRENCH_TOPIC",
+    "heard_stamps",
+    "level_of",
+    "status_of",
+]
+
+# --- topics (absolute names; remap with --ros-args -r) ---------------------------------
+WRENCH_TOPIC = "/ft_sensor/wrench"
+"""geometry_msgs/WrenchStamped: the load's wrench on the sensor, frame ``ft_sensor``."""
+JOINT_STATES_TOPIC = "/joint_states"
+CLOCK_TOPIC = "/clock"
+TRUTH_TOPIC = "/wrench_sim/ground_truth"
+"""geometry_msgs/InertiaStamped: the object's mass and COM in ``ft_sensor`` (latched)."""
+HAND_TRUTH_TOPIC = "/wrench_sim/hand_ground_truth"
+OBJECT_TOPIC = "/wrench_sim/object"
+"""std_msgs/String: ``shape=box mass=0.1000 grasp_mode=rigid state=held`` (latched)."""
+ARM_COMMAND_TOPIC = "/panda_arm_controller/joint_trajectory"
+HAND_COMMAND_TOPIC = "/panda_hand_controller/commands"
+"""std_msgs/Float64MultiArray: one value, the opening per finger, m."""
+POSE_TOPIC = "/exploration_sequencer/pose"
+"""std_msgs/Header: frame_id the label, stamp the sensor time from which it applies."""
+ESTIMATE_TOPIC = "/com_estimator/estimate"
+"""geometry_msgs/InertiaStamped: usable estimates only (docs/design.md, Statuses)."""
+DIAGNOSTICS_TOPIC = "/diagnostics"
+
+TOPIC_TYPES = {
+    CLOCK_TOPIC: "rosgraph_msgs/msg/Clock",
+    WRENCH_TOPIC: "geometry_msgs/msg/WrenchStamped",
+    JOINT_STATES_TOPIC: "sensor_msgs/msg/JointState",
+    TRUTH_TOPIC: "geometry_msgs/msg/InertiaStamped",
+    HAND_TRUTH_TOPIC: "geometry_msgs/msg/InertiaStamped",
+    OBJECT_TOPIC: "std_msgs/msg/String",
+    ARM_COMMAND_TOPIC: "trajectory_msgs/msg/JointTrajectory",
+    HAND_COMMAND_TOPIC: "std_msgs/msg/Float64MultiArray",
+    POSE_TOPIC: "std_msgs/msg/Header",
+    ESTIMATE_TOPIC: "geometry_msgs/msg/InertiaStamped",
+    DIAGNOSTICS_TOPIC: "diagnostic_msgs/msg/DiagnosticArray",
+}
+"""Every topic of a run and its message type (what a run bag records)."""
+
+# --- services -----------------------------------------------------------------------
+EXPLORE_SERVICE = "/exploration_sequencer/explore"
+ESTIMATOR_SOLVE_SERVICE = "/com_estimator/solve"
+ESTIMATOR_RESET_SERVICE = "/com_estimator/reset"
+ESTIMATOR_PARAMETERS_SERVICE = "/com_estimator/get_parameters"
+SIM_PARAMETERS_SERVICE = "/wrench_sim/get_parameters"
+
+# --- pose labels (frame_id of a POSE_TOPIC message) -----------------------------------
+TARE_PREFIX = "tare/"
+"""``tare/<pose>``: a static window of the empty hand."""
+OBJECT_PREFIX = "object/"
+"""``object/<pose>``: a static window with the object in the hand."""
+MOVING = "moving"
+"""Ends a window; the arm moves (also the handshake label)."""
+DONE = "done"
+"""Ends the exploration: solve from the windows before it."""
+
+# --- the estimator's statuses on DIAGNOSTICS_TOPIC ------------------------------------
+DIAGNOSTIC_NAME = "com_estimator: exploration"
+"""The status of each solution: level, reason, mass, com_x..z, sigmas, chi2, ..."""
+INPUT_STATUS_NAME = "com_estimator: input"
+"""The 1 Hz status of the wrench input."""
+LATEST_STAMP_KEY = "latest_stamp_ns"
+"""Input status key: the stamp of the latest wrench the estimator heard, ns."""
+LATEST_LABEL_KEY = "latest_label_ns"
+"""Input status key: the stamp of the latest label it heard, ns (absent before one)."""
+
+OK, WARN, ERROR = "OK", "WARN", "ERROR"
+_LEVELS = {OK: 0, WARN: 1, ERROR: 2}
+_STATUSES = {0: OK, 1: WARN, 2: ERROR, 3: "STALE"}
+
+
+def level_of(status: str) -> int:
+    """diagnostic_msgs/DiagnosticStatus level (0 OK, 1 WARN, 2 ERROR) of a status."""
+    return _LEVELS[status]
+
+
+def status_of(level: int | bytes) -> str:
+    """The status text of a DiagnosticStatus level (an int, or the one byte rclpy gives)."""
+    if isinstance(level, bytes):
+        level = level[0]
+    return _STATUSES.get(int(level), "ERROR")
+
+
+class _KeyValue(Protocol):
+    key: str
+    value: str
+
+
+class _Status(Protocol):
+    name: str
+    level: int | bytes
+    values: Iterable[_KeyValue]
+
+
+def heard_stamps(status: _Status) -> tuple[int, int | None] | None:
+    """(latest wrench stamp, latest label stamp or None), ns, of the estimator's input
+    status; None for any other status or an input status that is not OK."""
+    if status.name != INPUT_STATUS_NAME or status_of(status.level) != OK:
+        return None
+    values = {kv.key: kv.value for kv in status.values}
+    if LATEST_STAMP_KEY not in values:
+        return None
+    label = values.get(LATEST_LABEL_KEY)
+    return int(values[LATEST_STAMP_KEY]), None if label is None else int(label)
+
+
+# --- the arm and hand -----------------------------------------------------------------
+ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
+FINGER_JOINTS = ("panda_finger_joint1", "panda_finger_joint2")
+FINGER_OPEN, FINGER_CLOSED = 0.04, 0.0
+"""m per finger from the hand's centre line."""
+
+TRUTH_MOVE_M = 5e-5
+"""m; the simulator republishes the ground truth when the COM moves this much in the hand."""

@@ -1,0 +1,70 @@
+"""Node processes started from their console scripts, as ``ros2 run`` would, and stopped.
+
+The demo, the benchmarks and the system tests start the nodes as processes (there are no
+launch files); these are the one way they do it. ``ros_args`` writes parameters as
+``--ros-args -p name:=value``; ``stop`` ends a process the way a terminal's Ctrl-C
+would, then harder.
+"""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+__all__ = ["STOP_SEQUENCE", "executable", "parameter_text", "ros_args", "stop"]
+
+STOP_SEQUENCE = ((signal.SIGINT, 10.0), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0))
+"""(signal, s to wait for the process after it): SIGINT lets a node leave DDS cleanly."""
+
+
+def executable(package: str, name: str) -> Path:
+    """<prefix>/lib/<package>/<name> of a built package, as ``ros2 run`` resolves it
+    through the ament index (FileNotFoundError with the fix when it is not built)."""
+    from ament_index_python.packages import PackageNotFoundError, get_package_prefix
+
+    try:
+        path = Path(get_package_prefix(package)) / "lib" / package / name
+    except PackageNotFoundError as error:
+        raise FileNotFoundError(f"{package}: not built (make setup)") from error
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: build the workspace (make setup)")
+    return path
+
+
+def parameter_text(value: Any) -> str:
+    """A parameter value as ``--ros-args -p name:=<text>`` reads it (YAML)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(parameter_text(v) for v in value) + "]"
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def ros_args(params: Mapping[str, Any], remaps: Mapping[str, str] | None = None) -> list[str]:
+    """``--ros-args`` with ``-r from:=to`` per remap and ``-p name:=value`` per parameter."""
+    out = ["--ros-args"]
+    for source, target in (remaps or {}).items():
+        out += ["-r", f"{source}:={target}"]
+    for key, value in params.items():
+        out += ["-p", f"{key}:={parameter_text(value)}"]
+    return out
+
+
+def stop(process: subprocess.Popen) -> signal.Signals | None:
+    """End ``process``: SIGINT, then SIGTERM, then SIGKILL (``STOP_SEQUENCE``); returns
+    the signal that ended it (None: it had ended before)."""
+    for sig, wait in STOP_SEQUENCE:
+        if process.poll() is not None:
+            return None
+        process.send_signal(sig)
+        try:
+            process.wait(timeout=wait)
+            return sig
+        except subprocess.TimeoutExpired:
+            continue
+    return None
