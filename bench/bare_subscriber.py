@@ -14,7 +14,7 @@ from rclpy.experimental import EventsExecutor
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_srvs.srv import Trigger
 
-from com_core.bagio import WRENCH_TOPIC
+from com_core.contract import WRENCH_TOPIC
 from com_core.rosenv import keep_dds_local
 
 

@@ -7,7 +7,7 @@ sigma_tau 0.005 N m per sample at 1 kHz, tilt at most pi/6, rigid grasp. The est
 and the sequencer run once (the tare pass is cached per hand, so it is taken in the
 first run only); each run starts a simulator with its own object (box, cylinder, mug in
 turn; COM offset drawn from the run's seed) at 5x real time and calls ~/explore. Each
-run's bag is read back for the estimate and the ground truth (``com_core.run_bag``), and
+run's bag is read back for the estimate and the ground truth (``com_core.bags.run``), and
 replayed offline with ``--method two_pose``: the paper's method on the same windows.
 Targets: COM error <= 1 mm at the 95th percentile, mass error <= 0.5 %, object pass
 <= 10 s of sim time.
@@ -27,8 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from com_core.bags.run import read_run
 from com_core.rosenv import keep_dds_local
-from com_core.run_bag import read_run
 
 INSTALL = Path(__file__).resolve().parents[1] / "install"
 SHAPES = ("box", "cylinder", "mug")

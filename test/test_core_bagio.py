@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC, feed_bag, read_raw
-from com_core.cdr import encode_header, encode_wrench_stamped
+from com_core.bags.cdr import encode_header, encode_wrench_stamped
+from com_core.bags.reader import feed_bag, read_raw
+from com_core.bags.writer import CrashSafeBagWriter
+from com_core.contract import POSE_TOPIC, WRENCH_TOPIC
 from com_core.exploration import OK, WARN, Exploration
 from com_core.planner import Plan
-from com_core.recording import CrashSafeBagWriter
 from com_core.static_windows import label_static_windows
 from com_core.synthetic import Load, exploration_stream
 

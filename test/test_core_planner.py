@@ -16,7 +16,7 @@ from com_core.estimators import ml, two_pose
 from com_core.planner import Plan, dwell_for_target, predict
 from com_core.study import Cell, run_cell
 from com_core.synthetic import Load, exploration_samples, object_windows
-from com_core.windows import pose_of_label, reduce_window, subtract_tare
+from com_core.windows import reduce_window, subtract_tare
 from com_core.wrench_model import SensorModel
 
 LOAD = Load(0.1, (0.01, -0.02, 0.08))
@@ -41,8 +41,9 @@ def test_prediction_is_within_10_percent_of_raw_sample_runs():
 
     def windows():
         reduced = [
-            (pose_of_label(label)[0], reduce_window(pose_of_label(label)[1], x, SENSOR))
+            (kind, reduce_window(pose, x, SENSOR))
             for label, x in exploration_samples(plan, LOAD, HAND, rng)
+            for kind, pose in [label.split("/", 1)]
         ]
         tares = [w for kind, w in reduced if kind == "tare"]
         return subtract_tare([w for kind, w in reduced if kind == "object"], tares)

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from conftest import replay_json, spin_until
 
+from com_core.contract import DIAGNOSTIC_NAME, INPUT_STATUS_NAME
 from com_core.planner import Plan, predict
-from com_core.run_bag import DIAGNOSTIC_NAME, INPUT_STATUS_NAME
 from com_core.wrench_model import SensorModel
 
 PACKAGE = "com_estimator"

@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 from conftest import UNCLEAN_EXIT, WORKSPACE, replay_json, spin_until
 
-from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC, read_raw
-from com_core.cdr import decode_header
+from com_core.bags.cdr import decode_header
+from com_core.bags.reader import read_raw
+from com_core.contract import POSE_TOPIC, WRENCH_TOPIC
 
 PACKAGES = ("com_estimator", "wrench_sim", "exploration_sequencer")
 NOISE = {"sigma_f": 0.1, "sigma_tau": 0.005}

@@ -23,10 +23,10 @@ from mcap.exceptions import EndOfFile
 from mcap.reader import NonSeekingReader, make_reader
 from rosbags.rosbag2 import Reader
 
-from com_core import recording
-from com_core.bagio import read_raw
-from com_core.cdr import decode_header, decode_wrench_batch
-from com_core.recording import PAGE, CrashSafeBagWriter
+from com_core.bags import writer as bag_writer
+from com_core.bags.cdr import decode_header, decode_wrench_batch
+from com_core.bags.reader import read_raw
+from com_core.bags.writer import PAGE, CrashSafeBagWriter
 
 STRING = "std_msgs/msg/String"
 WRENCH = "/ft_sensor/wrench"
@@ -72,14 +72,14 @@ def test_round_trip_reads_back_every_message_exactly(tmp_path):
     messages = expected_messages(5000)
     bag = tmp_path / "run"
     pads = []
-    original = recording._padding_before
+    original = bag_writer._padding_before
 
     def spy(at: int) -> bytes:
         pad = original(at)
         pads.append(len(pad))
         return pad
 
-    recording._padding_before = spy
+    bag_writer._padding_before = spy
     try:
         with CrashSafeBagWriter(bag, {"/a": STRING, "/b": STRING}, reserve=PAGE) as writer:
             with Reader(bag) as reader:  # a bag from the first moment
@@ -93,7 +93,7 @@ def test_round_trip_reads_back_every_message_exactly(tmp_path):
                 if i == 2500:
                     assert read_all(bag) == messages[: writer.flushed]
     finally:
-        recording._padding_before = original
+        bag_writer._padding_before = original
     assert any(pads), "no flush ended next to a page boundary: the padding path is untested"
     assert writer.counts == Counter(topic for topic, _, _ in messages)
     assert read_all(bag) == messages
@@ -204,7 +204,7 @@ def test_every_state_a_kill_can_leave_is_readable(tmp_path):
 KILLED_WRITER = textwrap.dedent(
     """
     import struct, sys
-    from com_core.recording import CrashSafeBagWriter
+    from com_core.bags.writer import CrashSafeBagWriter
 
     {string_cdr}
     writer = CrashSafeBagWriter(

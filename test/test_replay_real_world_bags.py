@@ -15,11 +15,12 @@ import numpy as np
 import pytest
 from conftest import WORKSPACE
 
-from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC, read_metadata, read_raw
-from com_core.cdr import decode_header
+from com_core.bags.cdr import decode_header
+from com_core.bags.reader import read_metadata, read_raw
+from com_core.bags.writer import CrashSafeBagWriter
+from com_core.contract import POSE_TOPIC, WRENCH_TOPIC
 from com_core.exploration import Exploration
 from com_core.planner import Plan
-from com_core.recording import CrashSafeBagWriter
 from com_core.static_windows import (
     find_static_windows,
     label_static_windows,

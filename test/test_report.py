@@ -12,25 +12,27 @@ import numpy as np
 import pytest
 from rosbags.typesys import Stores, get_typestore
 
-from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC
-from com_core.cdr import encode_header, encode_wrench_stamped
-from com_core.exploration import ERROR, OK, WARN, Exploration, Solution
-from com_core.planner import Plan
-from com_core.recording import CrashSafeBagWriter
-from com_core.report import write_report
-from com_core.run_bag import (
+from com_core.bags.cdr import encode_header, encode_wrench_stamped
+from com_core.bags.report import write_report
+from com_core.bags.run import read_run
+from com_core.bags.writer import CrashSafeBagWriter
+from com_core.contract import (
     DIAGNOSTIC_NAME,
     DIAGNOSTICS_TOPIC,
     ESTIMATE_TOPIC,
     HAND_TRUTH_TOPIC,
     INPUT_STATUS_NAME,
+    MOVING,
     OBJECT_TOPIC,
+    POSE_TOPIC,
+    TARE_PREFIX,
     TRUTH_TOPIC,
+    WRENCH_TOPIC,
     heard_stamps,
-    read_run,
 )
+from com_core.exploration import ERROR, OK, WARN, Exploration, Solution
+from com_core.planner import Plan
 from com_core.synthetic import Load, exploration_stream
-from com_core.windows import MOVING, TARE_PREFIX
 
 LOAD, HAND = Load(0.1, (0.01, -0.02, 0.1)), Load(0.73, (0.0, 0.0, 0.04))
 TS = get_typestore(Stores.ROS2_JAZZY)
@@ -241,7 +243,7 @@ def test_report_of_a_path_that_is_not_a_bag(tmp_path):
 
 def test_report_module_is_ros_free_and_leaves_pyplot_alone():
     code = (
-        "import sys, com_core.report; "
+        "import sys, com_core.bags.report; "
         "assert 'rclpy' not in sys.modules and 'matplotlib.pyplot' not in sys.modules"
     )
     subprocess.run([sys.executable, "-c", code], check=True)

@@ -37,8 +37,16 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
-from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC
-from com_core.cdr import decode_header, decode_wrench_batch
+from com_core.bags.cdr import decode_header, decode_wrench_batch
+from com_core.contract import (
+    DIAGNOSTIC_NAME,
+    DONE,
+    INPUT_STATUS_NAME,
+    LATEST_LABEL_KEY,
+    LATEST_STAMP_KEY,
+    POSE_TOPIC,
+    WRENCH_TOPIC,
+)
 from com_core.exploration import (
     ERROR,
     METHODS,
@@ -50,14 +58,7 @@ from com_core.exploration import (
     shorten,
 )
 from com_core.rosenv import keep_dds_local
-from com_core.run_bag import (
-    DIAGNOSTIC_NAME,
-    INPUT_STATUS_NAME,
-    LATEST_LABEL_KEY,
-    LATEST_STAMP_KEY,
-)
 from com_core.tare_cache import load_tares
-from com_core.windows import DONE
 from com_core.wrench_model import SensorModel
 
 DEFAULTS = Exploration()

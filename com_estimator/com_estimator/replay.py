@@ -30,7 +30,8 @@ import json
 import sys
 from pathlib import Path
 
-from com_core.bagio import INCOMPLETE_TEXT, POSE_TOPIC, WRENCH_TOPIC, BagReading, feed_bag
+from com_core.bags.reader import INCOMPLETE_TEXT, BagReading, feed_bag
+from com_core.contract import OBJECT_PREFIX, POSE_TOPIC, TARE_PREFIX, WRENCH_TOPIC
 from com_core.exploration import (
     ERROR,
     OK,
@@ -41,7 +42,6 @@ from com_core.exploration import (
 )
 from com_core.static_windows import find_static_windows, split_load_levels
 from com_core.tare_cache import BAG_TARE_FILE, load_tares
-from com_core.windows import OBJECT_PREFIX, TARE_PREFIX
 from com_core.wrench_model import SensorModel
 
 DEFAULTS = Exploration()

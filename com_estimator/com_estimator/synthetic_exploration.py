@@ -36,13 +36,11 @@ from rclpy.serialization import serialize_message
 from rclpy.utilities import remove_ros_args
 from std_msgs.msg import Header
 
-from com_core.bagio import POSE_TOPIC, WRENCH_TOPIC
+from com_core.bags.writer import CrashSafeBagWriter
+from com_core.contract import DONE, MOVING, POSE_TOPIC, TARE_PREFIX, WRENCH_TOPIC, heard_stamps
 from com_core.planner import Plan
-from com_core.recording import CrashSafeBagWriter
 from com_core.rosenv import keep_dds_local
-from com_core.run_bag import heard_stamps
 from com_core.synthetic import Load, Stream, exploration_stream
-from com_core.windows import DONE, MOVING, TARE_PREFIX
 from com_core.wrench_model import SensorModel
 
 GROUND_TRUTH_TOPIC = "/wrench_sim/ground_truth"

@@ -19,8 +19,8 @@ import sys
 import time
 from pathlib import Path
 
+from com_core.contract import DIAGNOSTIC_NAME
 from com_core.rosenv import keep_dds_local
-from com_core.run_bag import DIAGNOSTIC_NAME
 
 
 def executable(package: str, name: str) -> str:

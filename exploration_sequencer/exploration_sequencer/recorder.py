@@ -12,7 +12,7 @@ run starts. ``start(bag_dir)`` begins a recording, ``stop()`` ends it::
     counts = recorder.stop()        # messages written per topic
 
 Callbacks only append ``(topic, receive time, bytes)`` to a deque; a writer thread moves
-them to a ``com_core.recording.CrashSafeBagWriter``, so the executor thread never waits on
+them to a ``com_core.bags.writer.CrashSafeBagWriter``, so the executor thread never waits on
 I/O and a run that dies leaves a bag readable up to ~0.1 s before the end. The last message
 of each latched topic is remembered even when not recording and written first when a
 recording starts, with the start time as its log time.
@@ -39,7 +39,7 @@ from typing import Any
 import rclpy.node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from com_core.recording import CrashSafeBagWriter
+from com_core.bags.writer import CrashSafeBagWriter
 
 __all__ = ["BEST_EFFORT_TOPICS", "LATCHED", "RUN_TOPICS", "Recorder"]
 

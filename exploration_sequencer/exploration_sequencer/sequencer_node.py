@@ -46,13 +46,20 @@ from std_msgs.msg import Float64MultiArray, Header
 from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from com_core.bagio import WRENCH_TOPIC
-from com_core.cdr import decode_wrench_batch
+from com_core.bags.cdr import decode_wrench_batch
+from com_core.contract import (
+    DIAGNOSTIC_NAME,
+    DONE,
+    MOVING,
+    OBJECT_PREFIX,
+    TARE_PREFIX,
+    WRENCH_TOPIC,
+    heard_stamps,
+)
 from com_core.errors import WindowError
 from com_core.exploration import Exploration
 from com_core.planner import Plan, dwell_for_target, predict
 from com_core.rosenv import keep_dds_local
-from com_core.run_bag import DIAGNOSTIC_NAME, heard_stamps
 from com_core.tare_cache import (
     BAG_TARE_FILE,
     drift,
@@ -61,15 +68,7 @@ from com_core.tare_cache import (
     tare_signature,
     use_tares,
 )
-from com_core.windows import (
-    DONE,
-    MIN_SAMPLES_FOR_COVARIANCE,
-    MOVING,
-    OBJECT_PREFIX,
-    TARE_PREFIX,
-    Window,
-    reduce_window,
-)
+from com_core.windows import MIN_SAMPLES_FOR_COVARIANCE, Window, reduce_window
 from com_core.wrench_model import STANDARD_GRAVITY, SensorModel
 from exploration_sequencer.choreography import motion_time, pose_joints
 from exploration_sequencer.recorder import Recorder
@@ -654,7 +653,7 @@ class SequencerNode(Node):
 
     def _write_report(self, bag: Path) -> None:
         try:
-            from com_core.report import write_report
+            from com_core.bags.report import write_report
 
             self.get_logger().info(f"report: {write_report(bag)}")
         except Exception as exc:  # a report must never fail a run

@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .contract import DONE, OBJECT_PREFIX, TARE_PREFIX
 from .errors import EstimationError, NonPositiveMassError, WindowError
 from .estimators import (
     DEFAULT_ALPHA,
@@ -46,14 +47,7 @@ from .estimators import (
     ml,
     two_pose,
 )
-from .windows import (
-    DONE,
-    OBJECT_PREFIX,
-    TARE_PREFIX,
-    Window,
-    reduce_window,
-    subtract_tare,
-)
+from .windows import Window, reduce_window, subtract_tare
 from .wrench_model import STANDARD_GRAVITY, SensorModel
 
 __all__ = [

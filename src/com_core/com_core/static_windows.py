@@ -18,7 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .windows import MOVING, OBJECT_PREFIX, TARE_PREFIX, Window
+from .contract import MOVING, OBJECT_PREFIX, TARE_PREFIX
+from .windows import Window
 
 __all__ = [
     "LoadLevels",

@@ -12,8 +12,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from .contract import DONE, MOVING, OBJECT_PREFIX, TARE_PREFIX
 from .planner import Plan
-from .windows import DONE, MOVING, OBJECT_PREFIX, TARE_PREFIX, Window
+from .windows import Window
 from .wrench_model import STANDARD_GRAVITY, as_vector, gravity_wrench
 
 __all__ = ["Load", "Stream", "exploration_samples", "exploration_stream", "object_windows"]

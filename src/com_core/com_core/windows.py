@@ -21,13 +21,8 @@ from .errors import MissingTareError, MotionError, NonFiniteError, SaturationErr
 from .wrench_model import AXES, SensorModel
 
 __all__ = [
-    "DONE",
     "MIN_SAMPLES_FOR_COVARIANCE",
-    "MOVING",
-    "OBJECT_PREFIX",
-    "TARE_PREFIX",
     "Window",
-    "pose_of_label",
     "reduce_window",
     "subtract_tare",
     "window_from_mean",
@@ -35,13 +30,6 @@ __all__ = [
 
 MIN_SAMPLES_FOR_COVARIANCE = 30
 """Below this many samples the covariance comes from the sensor model, not the samples."""
-
-TARE_PREFIX = "tare/"
-OBJECT_PREFIX = "object/"
-MOVING = "moving"
-DONE = "done"
-"""Labels: ``tare/<pose>`` and ``object/<pose>`` name static windows; ``moving`` marks
-motion between them; ``done`` ends an exploration."""
 
 _MOTION_Z = 6.0
 """Threshold (standard scores) of the motion tests; a false alarm < 1e-8 per axis."""
@@ -73,17 +61,6 @@ class Window:
     def torque(self) -> NDArray[np.float64]:
         """Mean torque, shape (3,); N m."""
         return self.mean[3:]
-
-
-def pose_of_label(label: str) -> tuple[str, str]:
-    """Split a window label into (kind, pose): ``tare/home`` -> ('tare', 'home').
-
-    A label without a known prefix is an object window.
-    """
-    for prefix in (TARE_PREFIX, OBJECT_PREFIX):
-        if label.startswith(prefix):
-            return prefix[:-1], label[len(prefix) :]
-    return OBJECT_PREFIX[:-1], label
 
 
 def window_from_mean(pose: str, mean: ArrayLike, cov: ArrayLike, n: int = 1) -> Window:

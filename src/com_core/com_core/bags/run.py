@@ -10,7 +10,7 @@ truth message counts as held. If none qualifies, the last truth message is used 
 report says so. If the truth moved while held before ``done`` (a slip), the report
 gives by how much.
 
-Messages are decoded from their CDR bytes with ``com_core.cdr`` (wrenches, labels) and
+Messages are decoded from their CDR bytes with ``com_core.bags.cdr`` (wrenches, labels) and
 the rosbags type store (the rest); nothing here imports rclpy.
 """
 
@@ -22,37 +22,23 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from .bagio import POSE_TOPIC, WRENCH_TOPIC, read_raw
+from ..contract import (
+    DIAGNOSTIC_NAME,
+    DIAGNOSTICS_TOPIC,
+    ESTIMATE_TOPIC,
+    HAND_TRUTH_TOPIC,
+    OBJECT_TOPIC,
+    POSE_TOPIC,
+    TRUTH_MOVE_M,
+    TRUTH_TOPIC,
+    WRENCH_TOPIC,
+    status_of,
+)
+from ..exploration import done_stamp
 from .cdr import decode_header, decode_wrench_batch
-from .exploration import done_stamp
+from .reader import read_raw
 
-__all__ = [
-    "DIAGNOSTICS_TOPIC",
-    "DIAGNOSTIC_NAME",
-    "ESTIMATE_TOPIC",
-    "HAND_TRUTH_TOPIC",
-    "INPUT_STATUS_NAME",
-    "LATEST_LABEL_KEY",
-    "LATEST_STAMP_KEY",
-    "LEVELS",
-    "OBJECT_TOPIC",
-    "RUN_BAG_TOPICS",
-    "TRUTH_TOPIC",
-    "Inertia",
-    "RunData",
-    "heard_stamps",
-    "read_run",
-]
-
-ESTIMATE_TOPIC = "/com_estimator/estimate"
-DIAGNOSTICS_TOPIC = "/diagnostics"
-TRUTH_TOPIC = "/wrench_sim/ground_truth"
-HAND_TRUTH_TOPIC = "/wrench_sim/hand_ground_truth"
-OBJECT_TOPIC = "/wrench_sim/object"
-DIAGNOSTIC_NAME = "com_estimator: exploration"  # the estimator's status of each solution
-INPUT_STATUS_NAME = "com_estimator: input"  # its 1 Hz status of the wrench input
-LATEST_STAMP_KEY = "latest_stamp_ns"  # its keys: the latest wrench stamp it has heard
-LATEST_LABEL_KEY = "latest_label_ns"  # and the latest label stamp (absent before one)
+__all__ = ["RUN_BAG_TOPICS", "Inertia", "RunData", "read_run"]
 
 RUN_BAG_TOPICS = (
     WRENCH_TOPIC,
@@ -63,9 +49,8 @@ RUN_BAG_TOPICS = (
     HAND_TRUTH_TOPIC,
     OBJECT_TOPIC,
 )
+"""The topics a run's summary reads."""
 _BATCH = 16384
-LEVELS = {0: "OK", 1: "WARN", 2: "ERROR", 3: "STALE"}
-_TRUTH_MOVE_M = 5e-5  # the simulator republishes the truth on a 0.05 mm move
 
 
 @dataclass(frozen=True)
@@ -128,7 +113,7 @@ class RunData:
         """OK, WARN, ERROR (from the diagnostics), or UNKNOWN without them."""
         if self.diagnostic is None:
             return "UNKNOWN"
-        return LEVELS.get(self.diagnostic["level"], f"LEVEL {self.diagnostic['level']}")
+        return status_of(self.diagnostic["level"])
 
 
 def read_run(bag: Path | str) -> RunData:
@@ -246,21 +231,6 @@ def _choose_truth(
     note = f"t = {chosen.stamp_ns * 1e-9:.3f} s, the last of {n} published while held"
     note += " before done" if until_ns is not None else ""
     moved = max(float(np.linalg.norm(t.com - chosen.com)) for t in candidates)
-    if moved > _TRUTH_MOVE_M:
+    if moved > TRUTH_MOVE_M:
         note += f"; moved {moved * 1e3:.2f} mm in the grasp"
     return chosen, note
-
-
-def heard_stamps(status) -> tuple[int, int | None] | None:
-    """(latest wrench stamp, latest label stamp or None), ns, that an OK
-    ``com_estimator: input`` status reports; None for any other status.
-
-    status : a diagnostic_msgs/DiagnosticStatus (name, level, values of key/value).
-    """
-    if status.name != INPUT_STATUS_NAME or status.level not in (0, b"\x00"):
-        return None
-    values = {kv.key: kv.value for kv in status.values}
-    if LATEST_STAMP_KEY not in values:
-        return None
-    label = values.get(LATEST_LABEL_KEY)
-    return int(values[LATEST_STAMP_KEY]), None if label is None else int(label)

@@ -14,10 +14,10 @@
 
 Any topic may be missing: the report is still written and says what is missing.
 
-The ground truth shown is the one ``run_bag`` chooses (the last while held, before done).
+The ground truth shown is the one ``run`` chooses (the last while held, before done).
 
 The core never imports rclpy: messages are decoded from their CDR bytes with
-``com_core.cdr`` (wrenches, labels) and the rosbags type store (the rest).
+``com_core.bags.cdr`` (wrenches, labels) and the rosbags type store (the rest).
 """
 
 from __future__ import annotations
@@ -30,9 +30,16 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from .bagio import POSE_TOPIC, WRENCH_TOPIC
-from .run_bag import DIAGNOSTICS_TOPIC, ESTIMATE_TOPIC, RunData, read_run
-from .windows import DONE, OBJECT_PREFIX, TARE_PREFIX
+from ..contract import (
+    DIAGNOSTICS_TOPIC,
+    DONE,
+    ESTIMATE_TOPIC,
+    OBJECT_PREFIX,
+    POSE_TOPIC,
+    TARE_PREFIX,
+    WRENCH_TOPIC,
+)
+from .run import RunData, read_run
 
 __all__ = ["write_report"]
 

@@ -2,7 +2,7 @@
 
 Messages stay serialized (CDR bytes) end to end: the reader hands them to ``cdr`` for
 decoding, exactly as the node's raw subscriptions do. Bags are written by
-``com_core.recording.CrashSafeBagWriter``.
+``com_core.bags.writer.CrashSafeBagWriter``.
 
 A bag rosbags cannot read is read record by record with the ``mcap`` package instead,
 up to where its MCAP file ends: rosbags needs the file's Footer, which a copy cut short
@@ -19,21 +19,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..contract import POSE_TOPIC, WRENCH_TOPIC
+from ..exploration import Exploration
 from .cdr import decode_header, decode_wrench_batch
-from .exploration import Exploration
 
 __all__ = [
     "INCOMPLETE_TEXT",
-    "POSE_TOPIC",
-    "WRENCH_TOPIC",
     "BagReading",
     "feed_bag",
     "read_metadata",
     "read_raw",
 ]
 
-WRENCH_TOPIC = "/ft_sensor/wrench"
-POSE_TOPIC = "/exploration_sequencer/pose"
 _BATCH = 4096
 
 RawMessage = tuple[str, str, int, bytes]

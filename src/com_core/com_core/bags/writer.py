@@ -68,7 +68,7 @@ crash its counts and duration may be that much behind the MCAP file, and its
 ``custom_data.complete`` is ``"false"``. The directory is built under a temporary name
 and renamed into place, so it is a rosbag2 bag from the first moment it exists (a crash
 during ``open`` leaves a hidden ``.<name>.*`` directory). Message definitions come from
-rosbags' Jazzy type store, as in ``com_core.bagio``.
+rosbags' Jazzy type store, as in ``com_core.bags.reader``.
 """
 
 from __future__ import annotations
@@ -91,7 +91,7 @@ __all__ = ["CrashSafeBagWriter"]
 MAGIC = b"\x89MCAP0\r\n"
 PAGE = 4096
 PAD_OPCODE = 0x80  # private record: every reader skips it by its length
-PROFILE, LIBRARY = "ros2", "com_core.recording"
+PROFILE, LIBRARY = "ros2", "com_core.bags.writer"
 ROS_DISTRO = "jazzy"
 
 _OP_HEADER, _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE = 0x01, 0x02, 0x03, 0x04, 0x05
