@@ -21,8 +21,9 @@ from pathlib import Path
 import numpy as np
 import rclpy
 
+from com_core.contract import ARM_JOINTS
 from com_core.rosenv import keep_dds_local
-from wrench_sim.physics import ARM_JOINT_NAMES, HOME_JOINTS, PandaWorld, SimConfig
+from wrench_sim.physics import HOME_JOINTS, PandaWorld, SimConfig
 from wrench_sim.sim_node import SimNode
 
 TARGET = 5.0
@@ -35,9 +36,9 @@ def scenario(world: PandaWorld, run) -> float:
     tilted = np.array(HOME_JOINTS)
     tilted[5] += 0.5
     run(1.0)
-    world.command_arm(ARM_JOINT_NAMES, [2.0], [tilted.tolist()])
+    world.command_arm(ARM_JOINTS, [2.0], [tilted.tolist()])
     run(3.0)
-    world.command_arm(ARM_JOINT_NAMES, [2.0], [list(HOME_JOINTS)])
+    world.command_arm(ARM_JOINTS, [2.0], [list(HOME_JOINTS)])
     run(2.0)
     return 6.0
 

@@ -40,16 +40,26 @@ from std_srvs.srv import Trigger
 from com_core.bags.cdr import decode_header, decode_wrench_batch
 from com_core.contract import (
     DIAGNOSTIC_NAME,
+    DIAGNOSTICS_TOPIC,
     DONE,
+    ESTIMATE_TOPIC,
+    ESTIMATOR_RESET_SERVICE,
+    ESTIMATOR_SOLVE_SERVICE,
     INPUT_STATUS_NAME,
     LATEST_LABEL_KEY,
     LATEST_STAMP_KEY,
     POSE_TOPIC,
     WRENCH_TOPIC,
+    level_of,
+)
+from com_core.estimator_settings import (
+    SETTINGS,
+    exploration_from,
+    load_cached_tares,
+    setting_problem,
 )
 from com_core.exploration import (
     ERROR,
-    METHODS,
     OK,
     WARN,
     Exploration,
@@ -58,28 +68,11 @@ from com_core.exploration import (
     shorten,
 )
 from com_core.rosenv import keep_dds_local
-from com_core.tare_cache import load_tares
-from com_core.wrench_model import SensorModel
 
-DEFAULTS = Exploration()
 MAX_MESSAGE_LENGTH = 1000  # characters of a diagnostic message
-LEVELS = {OK: DiagnosticStatus.OK, WARN: DiagnosticStatus.WARN, ERROR: DiagnosticStatus.ERROR}
 
-PARAMETERS = {
-    "method": (DEFAULTS.method, "'ml' (multi-pose maximum likelihood) or 'two_pose' (paper)"),
-    "alpha": (DEFAULTS.alpha, "false-alarm rate of the object-moved test, (0, 0.5)"),
-    "expected_frame": (DEFAULTS.expected_frame, "frame_id wrenches must carry; others dropped"),
-    "sigma_f": (0.0, "sensor force noise per sample, N (0: unknown; motion test by drift)"),
-    "sigma_tau": (0.0, "sensor torque noise per sample, N m (0: unknown)"),
-    "limit_f": (0.0, "sensor force range, N (0: no saturation check)"),
-    "limit_tau": (0.0, "sensor torque range, N m (0: no saturation check)"),
-    "min_tilt_sigmas": (DEFAULTS.min_tilt_sigmas, "refuse tilts below this many sigma of noise"),
+PARAMETERS = SETTINGS | {
     "solve_timeout": (1.0, "s (wall) to wait after 'done' for samples up to its stamp"),
-    "tare_cache": ("", "file of cached tare windows for poses without a fresh tare ('': none)"),
-    "max_label_gap": (
-        DEFAULTS.max_label_gap,
-        "s (sensor time) without a label after which a label starts a new exploration (0: never)",
-    ),
 }
 
 
@@ -96,16 +89,16 @@ class EstimatorNode(Node):
         self._done_stamp: int | None = None
         self._done_wall = 0.0
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self._estimate_pub = self.create_publisher(InertiaStamped, "~/estimate", latched)
-        self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self._estimate_pub = self.create_publisher(InertiaStamped, ESTIMATE_TOPIC, latched)
+        self._diag_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10)
         wrench_qos = QoSProfile(depth=5000, reliability=ReliabilityPolicy.BEST_EFFORT)
         self.create_subscription(
             WrenchStamped, WRENCH_TOPIC, self.wrench_callback, wrench_qos, raw=True
         )
         pose_qos = QoSProfile(depth=100, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.create_subscription(Header, POSE_TOPIC, self.pose_callback, pose_qos, raw=True)
-        self.create_service(Trigger, "~/solve", self.solve_callback)
-        self.create_service(Trigger, "~/reset", self.reset_callback)
+        self.create_service(Trigger, ESTIMATOR_SOLVE_SERVICE, self.solve_callback)
+        self.create_service(Trigger, ESTIMATOR_RESET_SERVICE, self.reset_callback)
         steady = Clock(clock_type=ClockType.STEADY_TIME)  # keeps running if /clock stops
         self.create_timer(0.02, self.drain_callback, clock=steady)
         self._received = 0  # wrench messages since the last input status
@@ -122,57 +115,24 @@ class EstimatorNode(Node):
         return self.get_parameter(name).value
 
     def validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
-        checks = {
-            "tare_cache": lambda v: isinstance(v, str),
-            "method": lambda v: v in METHODS,
-            "alpha": lambda v: 0.0 < v < 0.5,
-            "expected_frame": lambda v: isinstance(v, str),
-            "min_tilt_sigmas": lambda v: v >= 0.0,
-            "solve_timeout": lambda v: v > 0.0,
-            "max_label_gap": lambda v: v >= 0.0,
-        }
+        """Refuse a value ``setting_problem`` refuses (they apply from the next exploration)."""
         for p in params:
-            ok = checks.get(p.name, lambda v: isinstance(v, float) and v >= 0.0)
-            try:
-                valid = ok(p.value)
-            except TypeError:
-                valid = False
-            if not valid:
-                reason = f"{p.name}={p.value!r} refused: {PARAMETERS[p.name][1]}"
-                self.get_logger().error(reason)
-                return SetParametersResult(successful=False, reason=reason)
+            if p.name == "solve_timeout":
+                problem = None if p.value > 0.0 else f"solve_timeout={p.value!r} refused: > 0 s"
+            else:
+                problem = setting_problem(p.name, p.value)
+            if problem:
+                self.get_logger().error(problem)
+                return SetParametersResult(successful=False, reason=problem)
         return SetParametersResult(successful=True)
 
-    def _settings(self) -> dict:
-        """Exploration settings from the current parameters."""
-        sigma = (self._param("sigma_f"), self._param("sigma_tau"))
-        limits = (self._param("limit_f"), self._param("limit_tau"))
-        sensor = None
-        if any(s > 0 for s in sigma) or any(lim > 0 for lim in limits):
-            sensor = SensorModel.from_scalars(
-                *sigma,
-                limit_f=limits[0],
-                limit_tau=limits[1],
-            )
-        cache = load_tares(self._param("tare_cache")) if self._param("tare_cache") else None
-        return {
-            "tares": cache.windows if cache else {},
-            "method": self._param("method"),
-            "expected_frame": self._param("expected_frame"),
-            "sensor": sensor,
-            "alpha": self._param("alpha"),
-            "min_tilt_sigmas": self._param("min_tilt_sigmas"),
-            "max_label_gap": self._param("max_label_gap"),
-        }
-
     def _new_exploration(self) -> Exploration:
-        return Exploration(**self._settings())
+        return exploration_from({name: self._param(name) for name in SETTINGS})
 
     def _solve(self, until_ns: int) -> Solution:
         """Solve the current exploration with the parameters in force now."""
-        for key, value in self._settings().items():
-            setattr(self._exploration, key, value)
         try:
+            self._exploration.tares = load_cached_tares(self._param("tare_cache"))
             solution = self._exploration.solve(until_ns=until_ns)
         except Exception as exc:  # a defect must not kill the node: report it as ERROR
             self.get_logger().error(f"solve failed: {traceback.format_exc()}")
@@ -307,7 +267,7 @@ class EstimatorNode(Node):
         values = [KeyValue(key=k, value=v) for k, v in solution.diagnostic_values()]
         values.append(KeyValue(key="samples", value=str(self._exploration.sample_count)))
         status = DiagnosticStatus(
-            level=LEVELS[solution.status],
+            level=level_of(solution.status),
             name=DIAGNOSTIC_NAME,
             message=shorten(solution.reason, MAX_MESSAGE_LENGTH),
             hardware_id=header.frame_id,

@@ -32,6 +32,12 @@ from pathlib import Path
 
 from com_core.bags.reader import INCOMPLETE_TEXT, BagReading, feed_bag
 from com_core.contract import OBJECT_PREFIX, POSE_TOPIC, TARE_PREFIX, WRENCH_TOPIC
+from com_core.estimator_settings import (
+    SETTINGS,
+    exploration_from,
+    load_cached_tares,
+    setting_problem,
+)
 from com_core.exploration import (
     ERROR,
     OK,
@@ -41,28 +47,20 @@ from com_core.exploration import (
     format_solution,
 )
 from com_core.static_windows import find_static_windows, split_load_levels
-from com_core.tare_cache import BAG_TARE_FILE, load_tares
-from com_core.wrench_model import SensorModel
-
-DEFAULTS = Exploration()
+from com_core.tare_cache import BAG_TARE_FILE
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The bag, the estimator's settings as options (``--sigma-f`` for ``sigma_f``, with
+    the node's defaults) but ``tare_cache`` (``--tare``), the topics, ``--json``."""
     parser = argparse.ArgumentParser(prog="replay", description=__doc__.split("\n\n")[0])
     parser.add_argument("bag", type=Path, help="rosbag2 directory (MCAP storage)")
-    parser.add_argument("--method", choices=("ml", "two_pose"), default=DEFAULTS.method)
-    parser.add_argument(
-        "--alpha",
-        type=float,
-        default=DEFAULTS.alpha,
-        help="false-alarm rate of the object-moved test",
-    )
-    parser.add_argument("--expected-frame", default=DEFAULTS.expected_frame)
-    parser.add_argument("--sigma-f", type=float, default=0.0, help="N per sample (0: unknown)")
-    parser.add_argument("--sigma-tau", type=float, default=0.0, help="N m per sample")
-    parser.add_argument("--limit-f", type=float, default=0.0, help="N (0: no check)")
-    parser.add_argument("--limit-tau", type=float, default=0.0, help="N m (0: no check)")
-    parser.add_argument("--min-tilt-sigmas", type=float, default=DEFAULTS.min_tilt_sigmas)
+    for name, (default, text) in SETTINGS.items():
+        if name != "tare_cache":
+            kind = {"method": str, "expected_frame": str}.get(name, float)
+            parser.add_argument(
+                f"--{name.replace('_', '-')}", type=kind, default=default, help=text
+            )
     parser.add_argument("--wrench-topic", default=WRENCH_TOPIC)
     parser.add_argument("--pose-topic", default=POSE_TOPIC)
     parser.add_argument(
@@ -80,23 +78,13 @@ def main(argv: list[str] | None = None) -> int:
     if not (args.bag / "metadata.yaml").exists() and not any(args.bag.glob("*.mcap")):
         print(f"replay: {args.bag} is not a rosbag2 directory", file=sys.stderr)
         return 2
-    sensor = None
-    if args.sigma_f or args.sigma_tau or args.limit_f or args.limit_tau:
-        sensor = SensorModel.from_scalars(
-            args.sigma_f,
-            args.sigma_tau,
-            limit_f=args.limit_f,
-            limit_tau=args.limit_tau,
-        )
-    cache = load_tares(args.tare or args.bag / BAG_TARE_FILE)
-    exploration = Exploration(
-        method=args.method,
-        expected_frame=args.expected_frame,
-        sensor=sensor,
-        alpha=args.alpha,
-        min_tilt_sigmas=args.min_tilt_sigmas,
-        tares=cache.windows if cache else {},
-    )
+    settings = {name: getattr(args, name) for name in SETTINGS if name != "tare_cache"}
+    problems = [p for name, v in settings.items() if (p := setting_problem(name, v))]
+    if problems:
+        print(f"replay: {'; '.join(problems)}", file=sys.stderr)
+        return 2
+    exploration = exploration_from(settings)
+    exploration.tares = load_cached_tares(args.tare or args.bag / BAG_TARE_FILE)
     reading = BagReading()
     n_wrench, n_label = feed_bag(
         args.bag, exploration, args.wrench_topic, args.pose_topic, reading=reading

@@ -51,15 +51,13 @@ import pybullet_data
 from numpy.typing import NDArray
 from pybullet_utils.bullet_client import BulletClient
 
+from com_core.contract import ARM_JOINTS, FINGER_JOINTS, FINGER_OPEN
 from com_core.wrench_model import STANDARD_GRAVITY
 from wrench_sim.objects import SHAPES, ObjectSpec, create_object_body, object_spec
 from wrench_sim.sensor import random_streams
 from wrench_sim.trajectory import JointLimits, QuinticTrajectory, trajectory_from_command
 
 __all__ = [
-    "ARM_JOINT_NAMES",
-    "FINGER_JOINT_NAMES",
-    "FINGER_OPEN",
     "GRASP_MODES",
     "HOME_JOINTS",
     "PICK_JOINTS",
@@ -72,9 +70,6 @@ __all__ = [
 TIME_STEP = 1e-3
 """s; physics step (1 kHz)."""
 STEP_NS = 1_000_000
-ARM_JOINT_NAMES = tuple(f"panda_joint{i}" for i in range(1, 8))
-FINGER_JOINT_NAMES = ("panda_finger_joint1", "panda_finger_joint2")
-FINGER_OPEN = 0.04
 """m; largest finger opening (per finger, from the hand's centre line)."""
 GRASP_MODES = ("rigid", "friction")
 HOME_JOINTS = (0.0, -0.1559, 0.0, -2.1983, 0.0, 2.0424, 0.7854)
@@ -238,7 +233,7 @@ class PandaWorld:
             c.resetDebugVisualizerCamera(1.2, 60.0, -25.0, [0.4, 0.0, 0.3])
         self.robot = self._load_robot()
         self._limits = JointLimits(
-            ARM_JOINT_NAMES,
+            ARM_JOINTS,
             np.array([c.getJointInfo(self.robot, j)[8] for j in _ARM]),
             np.array([c.getJointInfo(self.robot, j)[9] for j in _ARM]),
             np.array([c.getJointInfo(self.robot, j)[11] for j in _ARM]),
@@ -424,7 +419,7 @@ class PandaWorld:
 
     def move_arm(self, positions: Sequence[float], duration: float) -> None:
         """Move all 7 joints to ``positions`` (rad) in ``duration`` s and wait until settled."""
-        self.command_arm(ARM_JOINT_NAMES, [duration], [positions])
+        self.command_arm(ARM_JOINTS, [duration], [positions])
         self.run(duration)
         while not self.arm_settled:
             self.step()
@@ -672,7 +667,7 @@ class PandaWorld:
             positions += [s[0] for s in fingers]
             velocities += [s[1] for s in fingers]
             efforts += [s[3] for s in fingers]
-        return ARM_JOINT_NAMES + FINGER_JOINT_NAMES, positions, velocities, efforts
+        return ARM_JOINTS + FINGER_JOINTS, positions, velocities, efforts
 
     def close(self) -> None:
         """Disconnect from pybullet."""

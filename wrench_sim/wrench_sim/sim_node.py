@@ -27,6 +27,17 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 from trajectory_msgs.msg import JointTrajectory
 
+from com_core.contract import (
+    ARM_COMMAND_TOPIC,
+    CLOCK_TOPIC,
+    HAND_COMMAND_TOPIC,
+    HAND_TRUTH_TOPIC,
+    JOINT_STATES_TOPIC,
+    OBJECT_TOPIC,
+    TRUTH_MOVE_M,
+    TRUTH_TOPIC,
+    WRENCH_TOPIC,
+)
 from com_core.rosenv import keep_dds_local
 from com_core.wrench_model import SensorModel
 from wrench_sim.parameters import SENSOR_PARAMETERS, check_parameter, declare_parameters
@@ -37,7 +48,6 @@ SENSOR_FRAME = "ft_sensor"
 _SPIN_EVERY = 50  # steps between spin_once calls (50 ms of sim time; one costs ~0.2 ms)
 _JOINT_STATE_EVERY = 10  # steps: 100 Hz
 _REPORT_EVERY = 50  # steps between checks of events, saturation and ground truth
-_TRUTH_MOVE = 5e-5  # m; republish the ground truth when a COM moved more than this
 _LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
@@ -75,22 +85,16 @@ class SimNode(Node):
         self._clock_every = round(1000.0 / parameter("clock_rate").value)
         self._pace_origin: tuple[float, float] | None = None
 
-        self.clock_publisher = self.create_publisher(Clock, "/clock", 10)
-        self.wrench_publisher = self.create_publisher(WrenchStamped, "/ft_sensor/wrench", 1000)
-        self.joint_state_publisher = self.create_publisher(JointState, "/joint_states", 100)
-        self.truth_publisher = self.create_publisher(
-            InertiaStamped, "/wrench_sim/ground_truth", _LATCHED
-        )
+        self.clock_publisher = self.create_publisher(Clock, CLOCK_TOPIC, 10)
+        self.wrench_publisher = self.create_publisher(WrenchStamped, WRENCH_TOPIC, 1000)
+        self.joint_state_publisher = self.create_publisher(JointState, JOINT_STATES_TOPIC, 100)
+        self.truth_publisher = self.create_publisher(InertiaStamped, TRUTH_TOPIC, _LATCHED)
         self.hand_truth_publisher = self.create_publisher(
-            InertiaStamped, "/wrench_sim/hand_ground_truth", _LATCHED
+            InertiaStamped, HAND_TRUTH_TOPIC, _LATCHED
         )
-        self.object_publisher = self.create_publisher(String, "/wrench_sim/object", _LATCHED)
-        self.create_subscription(
-            JointTrajectory, "/panda_arm_controller/joint_trajectory", self.trajectory_callback, 10
-        )
-        self.create_subscription(
-            Float64MultiArray, "/panda_hand_controller/commands", self.gripper_callback, 10
-        )
+        self.object_publisher = self.create_publisher(String, OBJECT_TOPIC, _LATCHED)
+        self.create_subscription(JointTrajectory, ARM_COMMAND_TOPIC, self.trajectory_callback, 10)
+        self.create_subscription(Float64MultiArray, HAND_COMMAND_TOPIC, self.gripper_callback, 10)
         self.executor_ = SingleThreadedExecutor(context=self.context)
         self.executor_.add_node(self)
 
@@ -266,7 +270,7 @@ class SimNode(Node):
         changed = force or last is None or held != last[0]
         if changed or held:
             mass, com = world.object_ground_truth()
-            if changed or np.max(np.abs(com - last[1])) > _TRUTH_MOVE:
+            if changed or np.max(np.abs(com - last[1])) > TRUTH_MOVE_M:
                 self.truth_publisher.publish(_inertia(stamp, mass, com))
                 self._published_object = (held, com)
             if changed:
@@ -278,7 +282,7 @@ class SimNode(Node):
                 self.object_publisher.publish(String(data=description))
         hand_mass, hand_com = world.hand_ground_truth()
         last_hand = self._published_hand
-        if force or last_hand is None or np.max(np.abs(hand_com - last_hand)) > _TRUTH_MOVE:
+        if force or last_hand is None or np.max(np.abs(hand_com - last_hand)) > TRUTH_MOVE_M:
             self.hand_truth_publisher.publish(_inertia(stamp, hand_mass, hand_com))
             self._published_hand = hand_com
 

@@ -1,0 +1,89 @@
+"""The estimator's settings: one table, one check, one mapping to an ``Exploration``.
+
+The estimator node declares them as ROS parameters and the offline replay as command
+line options (``--sigma-f`` for ``sigma_f``), both from ``SETTINGS``, and both build
+their explorations with ``exploration_from``: "the replay uses the node's defaults"
+holds by construction. ``tare_cache`` names a file of cached tare windows (its current
+entry, ``com_core.tare_cache``), read by ``load_cached_tares`` once per exploration,
+when it is solved (a sequencer may take or choose the tare during the exploration).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from .estimators import DEFAULT_ALPHA, MIN_TILT_SIGMAS
+from .exploration import MAX_LABEL_GAP, METHODS, Exploration
+from .tare_cache import load_tares
+from .windows import Window
+from .wrench_model import SensorModel
+
+__all__ = ["SETTINGS", "exploration_from", "load_cached_tares", "setting_problem"]
+
+SETTINGS: dict[str, tuple[Any, str]] = {
+    "method": ("ml", "'ml' (multi-pose maximum likelihood) or 'two_pose' (the paper)"),
+    "alpha": (DEFAULT_ALPHA, "false-alarm rate of the object-moved test, in (0, 0.5)"),
+    "expected_frame": ("ft_sensor", "frame_id wrenches must carry; others are dropped"),
+    "sigma_f": (0.0, "sensor force noise per sample, N (0: unknown; motion test by drift)"),
+    "sigma_tau": (0.0, "sensor torque noise per sample, N m (0: unknown)"),
+    "limit_f": (0.0, "sensor force range, N (0: no saturation check)"),
+    "limit_tau": (0.0, "sensor torque range, N m (0: no saturation check)"),
+    "min_tilt_sigmas": (MIN_TILT_SIGMAS, "refuse tilts below this many sigma of noise"),
+    "max_label_gap": (
+        MAX_LABEL_GAP,
+        "s (sensor time) without a label after which a label starts a new exploration (0: never)",
+    ),
+    "tare_cache": ("", "file of cached tare windows for poses without a fresh tare ('': none)"),
+}
+"""name: (default, description with units)."""
+
+_CHECKS = {
+    "method": lambda v: v in METHODS,
+    "alpha": lambda v: 0.0 < v < 0.5,
+    "expected_frame": lambda v: isinstance(v, str),
+    "tare_cache": lambda v: isinstance(v, str),
+}
+
+
+def setting_problem(name: str, value: Any) -> str | None:
+    """Why ``value`` is refused for setting ``name`` (None: accepted). Numbers other than
+    ``alpha`` must be floats >= 0."""
+    check = _CHECKS.get(name, lambda v: isinstance(v, float) and v >= 0.0)
+    try:
+        ok = check(value)
+    except TypeError:
+        ok = False
+    return None if ok else f"{name}={value!r} refused: {SETTINGS[name][1]}"
+
+
+def exploration_from(settings: Mapping[str, Any]) -> Exploration:
+    """A new ``Exploration`` for ``settings`` (names of ``SETTINGS``; missing ones take
+    their defaults). The sensor model is set when a noise or a range is given. The cached
+    tare is not read here (``load_cached_tares``)."""
+    value = {name: settings.get(name, default) for name, (default, _) in SETTINGS.items()}
+    sensor = None
+    if any(value[k] > 0 for k in ("sigma_f", "sigma_tau", "limit_f", "limit_tau")):
+        sensor = SensorModel.from_scalars(
+            value["sigma_f"],
+            value["sigma_tau"],
+            limit_f=value["limit_f"],
+            limit_tau=value["limit_tau"],
+        )
+    return Exploration(
+        method=value["method"],
+        expected_frame=value["expected_frame"],
+        sensor=sensor,
+        alpha=value["alpha"],
+        min_tilt_sigmas=value["min_tilt_sigmas"],
+        max_label_gap=value["max_label_gap"],
+    )
+
+
+def load_cached_tares(path: str | Path) -> dict[str, Window]:
+    """The current entry's tare windows of the cache file ``path`` ({} for '' or none)."""
+    if not str(path):
+        return {}
+    cache = load_tares(path)
+    return dict(cache.windows) if cache else {}
