@@ -6,11 +6,14 @@
   ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and the test's own ROS_DOMAIN_ID.
 - ``start_node(executable, package, params=None, args=None, name=None)`` starts
   install/<package>/lib/<package>/<executable> as a process (as ``ros2 run`` would), logging
-  to a file under tmp_path; every node is stopped at teardown (SIGINT, then SIGTERM, then
-  SIGKILL), and its log tail is printed when the test failed; a node still running at
+  to a file under tmp_path (parameters as ``com_core.processes.ros_args`` writes them);
+  every node is stopped at teardown (``com_core.processes.stop``: SIGINT, then SIGTERM,
+  then SIGKILL), and its log tail is printed when the test failed; a node still running at
   teardown must end on SIGINT with exit code 0 and no traceback, or the test errors.
 - ``rclpy_context``: an rclpy Context on the same domain, shut down at teardown;
   ``wait_for_messages`` and ``spin_until`` wait on it with a timeout.
+- ``replay_json(bag)``: the installed replay's --json answer; ``write_stream_bag(path,
+  stream)``: a run bag of a synthetic exploration stream (no ROS).
 """
 
 from __future__ import annotations
@@ -28,6 +31,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+
+from com_core.processes import STOP_SEQUENCE, ros_args, stop
 
 # Nothing in the test process may talk DDS beyond this machine.
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
@@ -92,42 +97,17 @@ def ros_env() -> Iterator[dict[str, str]]:
     release_domain_id(domain)
 
 
-def _parameter_text(value: Any) -> str:
-    """A parameter value as ``--ros-args -p name:=<text>`` expects it (YAML)."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_parameter_text(v) for v in value) + "]"
-    if isinstance(value, float):
-        return repr(value)
-    return str(value)
-
-
-def _stop(process: subprocess.Popen) -> signal.Signals | None:
-    """SIGINT (clean DDS shutdown), then SIGTERM, then SIGKILL; returns the signal that
-    ended the process (None: it had ended before)."""
-    for sig, wait in ((signal.SIGINT, 10.0), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
-        if process.poll() is not None:
-            return None
-        process.send_signal(sig)
-        try:
-            process.wait(timeout=wait)
-            return sig
-        except subprocess.TimeoutExpired:
-            continue
-    return None
-
-
 UNCLEAN_EXIT = ("Traceback", "never retrieved", "terminate called")
 """Text a node's output must not hold after SIGINT: a shutdown that is not clean."""
 
 
 def unclean_exit(process: subprocess.Popen, sig: signal.Signals | None, log: str) -> str:
-    """Why a node stopped by ``_stop`` did not shut down cleanly ('' if it did): SIGINT
-    must end it, with exit code 0 and none of UNCLEAN_EXIT in its output."""
+    """Why a node stopped by ``stop`` did not shut down cleanly ('' if it did): the first
+    signal of STOP_SEQUENCE (SIGINT) must end it, with exit code 0 and none of UNCLEAN_EXIT
+    in its output."""
     if sig is None:
         return ""
-    if sig != signal.SIGINT or process.returncode != 0:
+    if sig != STOP_SEQUENCE[0][0] or process.returncode != 0:
         return f"needed {sig.name}, exit code {process.returncode}"
     return ", ".join(f"{text!r} in its output" for text in UNCLEAN_EXIT if text in log)
 
@@ -163,11 +143,8 @@ def start_node(
         path = INSTALL / package / "lib" / package / executable
         if not path.exists():
             raise FileNotFoundError(f"{path} not found: build the workspace (make setup)")
-        command = [str(path), *(args or []), "--ros-args"]
-        if name:
-            command += ["-r", f"__node:={name}"]
-        for key, value in (params or {}).items():
-            command += ["-p", f"{key}:={_parameter_text(value)}"]
+        remaps = {"__node": name} if name else None
+        command = [str(path), *(args or []), *ros_args(params or {}, remaps)]
         log_path = tmp_path / f"{name or executable}-{len(started)}.log"
         with open(log_path, "w") as log:
             process = subprocess.Popen(
@@ -178,7 +155,7 @@ def start_node(
         return process
 
     yield start
-    stopped_by = [_stop(process) for process, _ in reversed(started)][::-1]
+    stopped_by = [stop(process) for process, _ in reversed(started)][::-1]
     failed = any(
         getattr(getattr(request.node, f"rep_{when}", None), "failed", False)
         for when in ("setup", "call")
@@ -252,3 +229,22 @@ def replay_json(bag: Path, env: dict[str, str] | None = None) -> dict[str, Any]:
         check=True,
     ).stdout
     return json.loads(out)
+
+
+def write_stream_bag(path: Path, stream: Any, labels: bool = True, **writer: Any) -> None:
+    """A run bag of a synthetic ``stream`` (``com_core.synthetic.exploration_stream``): its
+    wrenches, and its pose labels unless ``labels`` is False, in stamp order; ``writer``
+    passes on to CrashSafeBagWriter (chunk_size, ...)."""
+    from com_core.bags.cdr import encode_header, encode_wrench_stamped
+    from com_core.bags.writer import CrashSafeBagWriter
+    from com_core.contract import POSE_TOPIC, TOPIC_TYPES, WRENCH_TOPIC
+
+    messages = [
+        (int(s), WRENCH_TOPIC, encode_wrench_stamped(int(s), "ft_sensor", w))
+        for s, w in zip(stream.stamps, stream.wrenches, strict=True)
+    ]
+    if labels:
+        messages += [(s, POSE_TOPIC, encode_header(s, lbl)) for s, lbl in stream.labels]
+    with CrashSafeBagWriter(path, **writer) as bag:
+        for stamp, topic, raw in sorted(messages, key=lambda m: m[0]):
+            bag.write(topic, TOPIC_TYPES[topic], stamp, raw)

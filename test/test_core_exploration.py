@@ -79,3 +79,13 @@ def test_an_empty_grasp_is_named_as_such_not_as_a_tare_with_the_object():
     assert solution.status == ERROR
     assert "no load beyond the hand" in solution.reason and "not held" in solution.reason
     assert "tare taken with the object" not in solution.reason
+
+
+def test_late_samples_are_dropped_but_a_restarted_clock_is_not():
+    ex = Exploration()
+    ex.add_samples([1, 2, 3, 8_000_000_000, 8_000_000_001], np.zeros((5, 6)), "ft_sensor")
+    late_and_restarted = [1_000_000_000, 1_000_000_001, 999_000_000, 1_000_000_002]
+    assert ex.add_samples(late_and_restarted, np.zeros((4, 6)), "ft_sensor") == 3
+    assert ex.dropped == {"out of time order": 1}
+    assert ex.time_resets == 1
+    assert ex.sample_count == 3  # the old timeline is gone

@@ -57,10 +57,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("bag", type=Path, help="rosbag2 directory (MCAP storage)")
     for name, (default, text) in SETTINGS.items():
         if name != "tare_cache":
-            kind = {"method": str, "expected_frame": str}.get(name, float)
-            parser.add_argument(
-                f"--{name.replace('_', '-')}", type=kind, default=default, help=text
-            )
+            option = "--" + name.replace("_", "-")
+            parser.add_argument(option, type=type(default), default=default, help=text)
     parser.add_argument("--wrench-topic", default=WRENCH_TOPIC)
     parser.add_argument("--pose-topic", default=POSE_TOPIC)
     parser.add_argument(

@@ -12,27 +12,23 @@ the arm has settled.
 Every run is recorded to ``<bag_dir>/<run-id>/`` (rosbag2, MCAP) with a PNG report.
 
 Threads: the high-rate subscriptions (recording, joint states, sim clock) live on a
-second node, ``exploration_sequencer_io``, spun by an EventsExecutor in the main thread;
-this node is spun by a MultiThreadedExecutor in another thread, so a running exploration
-(which blocks its service callback) never stalls the recording.
+second node, ``exploration_sequencer_io`` (``io_node``), spun by an EventsExecutor in the
+main thread; this node is spun by a MultiThreadedExecutor in another thread, so a running
+exploration (which blocks its service callback) never stalls the recording. The arm's
+motion is ``arm``; the estimation is the estimator's (and ``com_core``'s).
 """
 
 from __future__ import annotations
 
 import math
 import threading
-import time
 import traceback
-from collections import deque
-from collections.abc import Callable
 from dataclasses import replace
 from datetime import datetime
 from pathlib import Path
 
 import numpy as np
 import rclpy
-from builtin_interfaces.msg import Duration
-from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rcl_interfaces.srv import GetParameters
 from rclpy.callback_groups import ReentrantCallbackGroup
@@ -41,43 +37,43 @@ from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
-from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray, Header
+from std_msgs.msg import Header
 from std_srvs.srv import Trigger
-from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from com_core.bags.cdr import decode_wrench_batch
 from com_core.contract import (
-    DIAGNOSTIC_NAME,
     DONE,
+    ESTIMATOR_PARAMETERS_SERVICE,
+    ESTIMATOR_RESET_SERVICE,
+    EXPLORE_SERVICE,
+    FINGER_CLOSED,
+    FINGER_OPEN,
     MOVING,
     OBJECT_PREFIX,
+    OK,
+    POSE_TOPIC,
+    SIM_PARAMETERS_SERVICE,
     TARE_PREFIX,
     WRENCH_TOPIC,
-    heard_stamps,
+    status_of,
 )
-from com_core.errors import WindowError
 from com_core.exploration import Exploration
 from com_core.planner import Plan, dwell_for_target, predict
 from com_core.rosenv import keep_dds_local
 from com_core.tare_cache import (
     BAG_TARE_FILE,
-    drift,
+    drift_accepted,
     load_tares,
+    reusable,
     save_tares,
     tare_signature,
     use_tares,
 )
-from com_core.windows import MIN_SAMPLES_FOR_COVARIANCE, Window, reduce_window
+from com_core.windows import Window
 from com_core.wrench_model import STANDARD_GRAVITY, SensorModel
-from exploration_sequencer.choreography import motion_time, pose_joints
-from exploration_sequencer.recorder import Recorder
-
-ARM_JOINTS = [f"panda_joint{i}" for i in range(1, 8)]
-FINGER_JOINTS = ["panda_finger_joint1", "panda_finger_joint2"]
-FINGER_OPEN, FINGER_CLOSED = 0.04, 0.0
-ESTIMATOR_RESET = "/com_estimator/reset"
-ESTIMATOR_PARAMETERS = "/com_estimator/get_parameters"
+from exploration_sequencer.arm import Arm
+from exploration_sequencer.choreography import pose_joints
+from exploration_sequencer.io_node import IoNode, RunError, TimeoutRunError
 
 PARAMETERS: dict[str, tuple[object, str]] = {
     "tilt": (math.pi / 6, "rad; wrist tilt from home about each axis"),
@@ -109,59 +105,7 @@ PARAMETERS: dict[str, tuple[object, str]] = {
     "min_load": (0.005, "kg; the grasp must hold at least this before the object pass"),
     "grasp_check_dwell": (0.2, "s of samples at home after lifting that check the grasp"),
 }
-DRIFT_ALPHA = 1e-3  # false-alarm rate of the tare drift test
 DRIFT_CHECK_SUFFIX = "_check"  # the drift window's pose: tare/home_check
-
-
-class RunError(RuntimeError):
-    """An exploration cannot go on; the message says why."""
-
-
-class TimeoutRunError(RunError):
-    """Something the sim answers did not happen in time (e.g. the arm was blocked)."""
-
-
-class IoNode(Node):
-    """High-rate inputs: joint states, the estimator's answers, the sim clock, recording."""
-
-    def __init__(self) -> None:
-        super().__init__("exploration_sequencer_io")
-        self.joints_wall = -math.inf
-        # (stamp ns, {name: (position, velocity)}) of the last 2 s at 100 Hz: the latest
-        # joint state, and when the arm came to rest
-        self.joint_history: deque[tuple[int, dict[str, tuple[float, float]]]] = deque(maxlen=200)
-        self.diagnostics: list = []
-        self.estimator_latest = -(2**62)  # ns: the latest wrench the estimator has heard
-        self.estimator_label = -(2**62)  # ns: stamp of the latest label it has heard
-        self.create_subscription(JointState, "/joint_states", self.joint_state_callback, 100)
-        self.create_subscription(DiagnosticArray, "/diagnostics", self.diagnostics_callback, 10)
-        self.recorder = Recorder(self)
-
-    def joint_state_callback(self, msg: JointState) -> None:
-        velocities = msg.velocity if len(msg.velocity) == len(msg.name) else [0.0] * len(msg.name)
-        joints = dict(zip(msg.name, zip(msg.position, velocities, strict=True), strict=True))
-        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-        self.joint_history.append((stamp, joints))
-        self.joints_wall = time.monotonic()
-
-    @property
-    def joints(self) -> dict[str, tuple[float, float]]:
-        """The latest joint state: {name: (position rad or m, velocity)}; {} before one."""
-        return self.joint_history[-1][1] if self.joint_history else {}
-
-    def diagnostics_callback(self, msg: DiagnosticArray) -> None:
-        for status in msg.status:
-            heard = heard_stamps(status)
-            if heard is not None:
-                self.estimator_latest, label = heard
-                self.estimator_label = -(2**62) if label is None else label
-            if status.name == DIAGNOSTIC_NAME:
-                stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-                self.diagnostics.append((stamp, status))
-
-    def now_ns(self) -> int:
-        """Sim time, ns."""
-        return self.get_clock().now().nanoseconds
 
 
 class SequencerNode(Node):
@@ -179,24 +123,21 @@ class SequencerNode(Node):
         self.add_on_set_parameters_callback(self.validate_parameters)
         self.io = io
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self.pose_pub = self.create_publisher(Header, "~/pose", latched)  # the current label
-        self.arm_pub = self.create_publisher(
-            JointTrajectory, "/panda_arm_controller/joint_trajectory", 10
-        )
-        self.hand_pub = self.create_publisher(
-            Float64MultiArray, "/panda_hand_controller/commands", 10
-        )
+        self.pose_pub = self.create_publisher(Header, POSE_TOPIC, latched)  # the current label
+        self.arm = Arm(self, io)
         self._lock = threading.Lock()
         self._running: str | None = None
         self._labels: list[tuple[int, str]] = []  # this run's labels
         group = ReentrantCallbackGroup()
-        self.create_service(Trigger, "~/explore", self.explore_callback, callback_group=group)
+        self.create_service(Trigger, EXPLORE_SERVICE, self.explore_callback, callback_group=group)
         self._sim_params = self.create_client(
-            GetParameters, "/wrench_sim/get_parameters", callback_group=group
+            GetParameters, SIM_PARAMETERS_SERVICE, callback_group=group
         )
-        self._estimator_reset = self.create_client(Trigger, ESTIMATOR_RESET, callback_group=group)
+        self._estimator_reset = self.create_client(
+            Trigger, ESTIMATOR_RESET_SERVICE, callback_group=group
+        )
         self._estimator_params = self.create_client(
-            GetParameters, ESTIMATOR_PARAMETERS, callback_group=group
+            GetParameters, ESTIMATOR_PARAMETERS_SERVICE, callback_group=group
         )
         self.get_logger().info("ready: call ~/explore to run an exploration")
 
@@ -303,14 +244,16 @@ class SequencerNode(Node):
     def explore(self, run_id: str) -> tuple[bool, str]:
         """One exploration; returns (success, summary). Raises RunError."""
         log = self.get_logger()
-        self._wait(lambda: self.io.joints, "waiting for /joint_states", wall_timeout=None)
+        self.io.sim_timeout = self.p("sim_timeout")
+        self.arm.speed, self.arm.settle = self.p("speed"), self.p("settle")
+        self.io.wait(lambda: self.io.joints, "waiting for the joint states", wall_timeout=None)
         # The estimator hears the sensor on this clock (not a sensor that was restarted),
         # and this node's labels: a "moving" now, which begins no window, must come back
         # in its input status (a subscriber can match a publisher seconds after the
         # publisher matched it, and then the first window labels would be lost).
         handshake = self.io.now_ns()
         self._label(handshake, MOVING)
-        self._wait(
+        self.io.wait(
             lambda: (
                 abs(self.io.estimator_latest - self.io.now_ns()) < 1_000_000_000
                 and self.io.estimator_label == handshake
@@ -341,12 +284,12 @@ class SequencerNode(Node):
         self.io.recorder.start(bag)
 
         self._to_known_state(home, pick)
-        self._gripper(FINGER_OPEN)
+        self.arm.gripper(FINGER_OPEN)
         tare_home = self._tare(plan, poses, bag)
         log.info("phase 2/4: grasp and lift")
-        self._move(home, "home")
-        self._move(pick, "the object")
-        self._gripper(FINGER_CLOSED, wait=0.6)
+        self.arm.move(home, "home")
+        self.arm.move(pick, "the object")
+        self.arm.gripper(FINGER_CLOSED, wait=0.6)
         self._check_grasp(home, tare_home, pick)
         log.info("phase 3/4: object pass")
         start = self.io.now_ns()
@@ -356,13 +299,13 @@ class SequencerNode(Node):
         self._label(max(done, self.io.now_ns()), MOVING)  # the latched label is no "done"
         object_time = (done - start) * 1e-9
         log.info("phase 4/4: return and release")
-        self._release(home, pick)
+        self.arm.put_back(home, pick)
         status = self._estimator_answer(done)
         counts = self._stop_recording()
         summary = _summary(status, prediction, object_time, bag)
         log.info(f"run {run_id}: {summary} ({sum(counts.values())} messages recorded)")
         self._write_report(bag)
-        return status is not None and status.level == b"\x00", summary
+        return status is not None and status_of(status.level) == OK, summary
 
     # --- steps ------------------------------------------------------------------------
 
@@ -386,26 +329,22 @@ class SequencerNode(Node):
         except (ValueError, KeyError, OSError) as exc:
             log.warning(f"tare cache {path} unreadable ({exc}): taking a new tare")
             cache = None
-        if (
-            cache is not None
-            and cache.age() < self.p("tare_max_age")
-            and {name for name, _ in poses} <= cache.windows.keys()
-        ):
+        if reusable(cache, self.p("tare_max_age"), [name for name, _ in poses]):
             log.info(f"phase 1/4: drift check of the cached tare ({cache.age():.0f} s old)")
-            self._move(home, "home")
+            self.arm.move(home, "home")
             check = f"{home_name}{DRIFT_CHECK_SUFFIX}"  # matches no object window: the
-            fresh = self._captured_windows(  # estimator keeps the longer cached home tare
-                TARE_PREFIX, [(check, home)], self.p("drift_dwell")
+            fresh = self._captured_tares(  # estimator keeps the longer cached home tare
+                [(check, home)], self.p("drift_dwell")
             ).get(check)
-            chi2, p = drift(cache.windows[home_name], fresh) if fresh else (math.inf, 0.0)
-            if p >= DRIFT_ALPHA:
+            reuse, chi2, p = drift_accepted(cache.windows[home_name], fresh)
+            if reuse:
                 use_tares(path, cache)
                 use_tares(bag / BAG_TARE_FILE, cache)
                 log.info(f"tare: reusing the cache (drift chi2 {chi2:.1f}, 6 dof, p {p:.2g})")
                 return cache.windows[home_name]
             log.warning(f"tare drifted (chi2 {chi2:.1f}, 6 dof, p {p:.2g}): new tare pass")
         log.info("phase 1/4: tare pass with the empty hand")
-        windows = self._captured_windows(TARE_PREFIX, poses, plan.tare_dwell or plan.dwell)
+        windows = self._captured_tares(poses, plan.tare_dwell or plan.dwell)
         if home_name not in windows:
             raise RunError(f"the tare window at {home_name} was not recorded")
         if len(windows) == len(poses):
@@ -418,33 +357,26 @@ class SequencerNode(Node):
         (a run that stopped mid-way), so it is put back on the stand first; an arm away
         from home goes home."""
         log = self.get_logger()
-        fingers = [self.io.joints.get(j, (FINGER_OPEN, 0.0))[0] for j in FINGER_JOINTS]
-        if min(fingers) < FINGER_OPEN - 1e-3:
+        opening = self.arm.finger_opening()
+        if opening < FINGER_OPEN - 1e-3:
             log.warning(
-                f"the fingers are closed to {min(fingers) * 1e3:.1f} mm: the hand may hold "
+                f"the fingers are closed to {opening * 1e3:.1f} mm: the hand may hold "
                 "an object; putting it back on the stand before the run"
             )
-            self._release(home, pick)
-        elif not _resting(self.io.joints, home):
+            self.arm.put_back(home, pick)
+        elif not self.arm.at(home):
             log.warning("the arm is away from home: moving it home before the run")
-            self._move(home, "home")
-
-    def _release(self, home: list[float], pick: list[float]) -> None:
-        """Carry what the hand holds home, down to the stand, open, and back home."""
-        self._move(home, "home")
-        self._move(pick, "the stand", must_arrive=False)  # a shifted object may hit it
-        self._gripper(FINGER_OPEN, wait=0.6)
-        self._move(home, "home")
+            self.arm.move(home, "home")
 
     def _check_grasp(self, home: list[float], tare_home: Window, pick: list[float]) -> None:
         """Lift and weigh: the wrench at home beyond the tare must hold ``min_load`` kg
         along gravity, else the object was not picked up (RunError, hand emptied)."""
         kept = self.io.recorder.capture(WRENCH_TOPIC)
         try:
-            ready = self._move(home, "lifting")
+            ready = self.arm.move(home, "lifting")
             end = ready + round(self.p("grasp_check_dwell") * 1e9)
-            self._sleep_until(end, "weighing the grasp")
-            self._wait(
+            self.io.sleep_until(end, "weighing the grasp")
+            self.io.wait(
                 lambda: bool(kept) and decode_wrench_batch(kept[-1:])[0][0] >= end,
                 "waiting for the wrenches of the grasp check",
                 wall_timeout=10.0,
@@ -458,7 +390,7 @@ class SequencerNode(Node):
         gravity = tare_home.force / np.linalg.norm(tare_home.force)
         mass = float((held.mean(axis=0) - tare_home.force) @ gravity) / STANDARD_GRAVITY
         if mass < self.p("min_load"):
-            self._release(home, pick)
+            self.arm.put_back(home, pick)
             raise RunError(
                 f"grasp failed: after lifting the hand holds {mass * 1e3:.1f} g beyond the "
                 f"tare (< min_load {self.p('min_load') * 1e3:g} g): the object was not "
@@ -466,19 +398,19 @@ class SequencerNode(Node):
             )
         self.get_logger().info(f"grasp holds {mass * 1e3:.1f} g")
 
-    def _captured_windows(
-        self, prefix: str, poses: list[tuple[str, list[float]]], dwell: float
+    def _captured_tares(
+        self, poses: list[tuple[str, list[float]]], dwell: float
     ) -> dict[str, Window]:
-        """Run a pass and reduce its windows from the wrenches the recorder saw."""
+        """Run a tare pass and reduce its windows from the wrenches the recorder saw."""
         kept = self.io.recorder.capture(WRENCH_TOPIC)
         try:
-            self._pass(prefix, poses, dwell)
+            self._pass(TARE_PREFIX, poses, dwell)
             end = self._labels[-1][0]  # the stream must reach the last window's end
-
-            def caught_up() -> bool:
-                return bool(kept) and decode_wrench_batch(kept[-1:])[0][0] >= end
-
-            self._wait(caught_up, "waiting for the wrenches of the tare", wall_timeout=10.0)
+            self.io.wait(
+                lambda: bool(kept) and decode_wrench_batch(kept[-1:])[0][0] >= end,
+                "waiting for the wrenches of the tare",
+                wall_timeout=10.0,
+            )
         finally:
             raws = self.io.recorder.release(WRENCH_TOPIC)
         exploration = Exploration()
@@ -486,16 +418,11 @@ class SequencerNode(Node):
             exploration.add_samples(*decode_wrench_batch(raws))
         for stamp, label in self._labels:
             exploration.add_label(stamp, label)
-        windows = {}
-        for label, samples in exploration.segments(until_ns=self._labels[-1][0]):
-            if label.startswith(prefix) and len(samples) >= MIN_SAMPLES_FOR_COVARIANCE:
-                pose = label[len(prefix) :]
-                try:
-                    windows[pose] = reduce_window(pose, samples)
-                except WindowError as exc:
-                    self.get_logger().warning(f"{label} not usable: {exc}")
-        self.get_logger().info(f"{prefix}: {len(windows)} windows from {len(raws)} wrenches")
-        return windows
+        tares, _, refused = exploration.reduced_windows(until_ns=end)
+        for note in refused:
+            self.get_logger().warning(f"not usable: {note}")
+        self.get_logger().info(f"{TARE_PREFIX}: {len(tares)} windows from {len(raws)} wrenches")
+        return tares
 
     def _pass(self, prefix: str, poses: list[tuple[str, list[float]]], dwell: float) -> None:
         """A window at each pose. Each move after the first is sent ahead, to start at the
@@ -503,70 +430,17 @@ class SequencerNode(Node):
         joint states first show the arm resting, so the pass's timing in sim time does
         not depend on how soon this node reacts."""
         dwell_ns = round(dwell * 1e9)
-        start = self._move(poses[0][1], poses[0][0])
+        start = self.arm.move(poses[0][1], poses[0][0])
         for k, (name, _) in enumerate(poses):
             end = start + dwell_ns
             self._label(start, prefix + name)
             following = poses[k + 1] if k + 1 < len(poses) else None
             if following is not None:
-                arrival = self._command(following[1], start_ns=end)
-            self._sleep_until(end, f"recording {prefix}{name}")
+                arrival = self.arm.command(following[1], start_ns=end)
+            self.io.sleep_until(end, f"recording {prefix}{name}")
             self._label(end, MOVING)
             if following is not None:
-                start = self._arrive(following[1], following[0], arrival)
-
-    def _move(self, goal: list[float], what: str, must_arrive: bool = True) -> int:
-        """Move the arm to ``goal`` (rad) now and wait until it has rested there ``settle``
-        s; returns that sim time, ns. See ``_arrive`` for ``must_arrive``."""
-        if _resting(self.io.joints, goal):
-            return self.io.now_ns()  # already resting there
-        return self._arrive(goal, what, self._command(goal), must_arrive)
-
-    def _command(self, goal: list[float], start_ns: int = 0) -> int:
-        """Send a smooth move to ``goal`` (rad) starting at sim time ``start_ns`` (0: when
-        the sim receives it); returns the sim time (ns) at which it ends."""
-        start = [self.io.joints[j][0] for j in ARM_JOINTS]
-        duration = motion_time(start, goal, self.p("speed"))
-        secs, nsecs = divmod(round(duration * 1e9), 1_000_000_000)
-        point = JointTrajectoryPoint(
-            positions=[float(v) for v in goal], time_from_start=Duration(sec=secs, nanosec=nsecs)
-        )
-        msg = JointTrajectory(joint_names=ARM_JOINTS, points=[point])
-        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(start_ns, 1_000_000_000)
-        self.arm_pub.publish(msg)
-        return max(start_ns, self.io.now_ns()) + round(duration * 1e9)
-
-    def _arrive(
-        self, goal: list[float], what: str, arrival_ns: int, must_arrive: bool = True
-    ) -> int:
-        """Wait until the arm rests at ``goal`` (joints within 5 mrad, speeds below 5 mrad/s)
-        and ``settle`` s more, counted from the first joint state that shows it resting
-        (however late this node notices); returns the end of ``settle``, sim time, ns.
-
-        The wait ends 5 s + twice the time to ``arrival_ns`` after the call (wall; a sim
-        runs at least real time); then RunError, or with ``must_arrive`` False a warning
-        and the arm stays where it is.
-        """
-        timeout = 5.0 + 2.0 * max(arrival_ns - self.io.now_ns(), 0) * 1e-9
-        try:
-            self._wait(lambda: _resting(self.io.joints, goal), f"moving to {what}", timeout)
-        except TimeoutRunError as exc:
-            if must_arrive:
-                raise
-            self.get_logger().warning(f"{exc}: going on from where the arm is")
-            return self.io.now_ns()
-        rested = self.io.now_ns()
-        for stamp, joints in reversed(tuple(self.io.joint_history)):  # tuple(): one C call
-            if not _resting(joints, goal):
-                break
-            rested = stamp
-        ready = rested + round(self.p("settle") * 1e9)
-        self._sleep_until(ready, f"settling at {what}")
-        return ready
-
-    def _gripper(self, opening: float, wait: float = 0.0) -> None:
-        self.hand_pub.publish(Float64MultiArray(data=[opening]))
-        self._sleep_until(self.io.now_ns() + round(wait * 1e9), "moving the fingers")
+                start = self.arm.arrive(following[1], following[0], arrival)
 
     def _label(self, stamp_ns: int, label: str) -> None:
         header = Header(frame_id=label)
@@ -575,30 +449,6 @@ class SequencerNode(Node):
         self._labels.append((stamp_ns, label))
         if label != MOVING:
             self.get_logger().info(f"window {label} from t={stamp_ns * 1e-9:.3f} s")
-
-    def _sleep_until(self, stamp_ns: int, what: str) -> None:
-        """Wait until sim time ``stamp_ns``."""
-        self._wait(lambda: self.io.now_ns() >= stamp_ns, what, wall_timeout=None)
-
-    def _wait(self, done: Callable[[], object], what: str, wall_timeout: float | None) -> None:
-        """Poll ``done`` until true; RunError when the sim stops answering or on timeout."""
-        start = time.monotonic()
-        while not done():
-            age = time.monotonic() - self.io.joints_wall
-            if age > self.p("sim_timeout") and time.monotonic() - start > self.p("sim_timeout"):
-                if math.isinf(age):
-                    raise RunError(
-                        f"no /joint_states since this node started (is wrench_sim running?) "
-                        f"while {what}"
-                    )
-                raise RunError(
-                    f"wrench_sim stopped answering (no /joint_states for {age:.1f} s) while {what}"
-                )
-            if wall_timeout is not None and time.monotonic() - start > wall_timeout:
-                raise TimeoutRunError(f"timed out after {wall_timeout:g} s while {what}")
-            if not rclpy.ok():
-                raise RunError("shutting down")
-            time.sleep(0.002)
 
     def _joint_sets(self) -> tuple[list[float], list[float]]:
         """home_joints and pick_joints: the parameters, else /wrench_sim's."""
@@ -622,7 +472,7 @@ class SequencerNode(Node):
         for attempt in range(1, 4):
             future = client.call_async(request)
             try:
-                self._wait(future.done, what, wall_timeout=3.0)
+                self.io.wait(future.done, what, wall_timeout=3.0)
                 break
             except TimeoutRunError:
                 client.remove_pending_request(future)
@@ -638,7 +488,7 @@ class SequencerNode(Node):
             return next((s for stamp, s in self.io.diagnostics if stamp == done_ns), None)
 
         try:
-            self._wait(
+            self.io.wait(
                 answered, "waiting for the estimator", wall_timeout=self.p("estimate_timeout")
             )
         except RunError as exc:
@@ -660,21 +510,11 @@ class SequencerNode(Node):
             self.get_logger().error(f"report not written: {exc!r}")
 
 
-def _resting(joints: dict[str, tuple[float, float]], goal: list[float]) -> bool:
-    """The arm's joints (position rad, speed rad/s) are within 5 mrad of ``goal`` and
-    slower than 5 mrad/s."""
-    return all(
-        abs(joints[j][0] - g) < 5e-3 and abs(joints[j][1]) < 5e-3
-        for j, g in zip(ARM_JOINTS, goal, strict=True)
-    )
-
-
 def _summary(status, prediction, object_time: float, bag: Path) -> str:
     if status is None:
         head = "[ERROR] the estimator did not answer"
     else:
-        level = {b"\x00": "OK", b"\x01": "WARN"}.get(status.level, "ERROR")
-        head = f"[{level}] {status.message}"
+        head = f"[{status_of(status.level)}] {status.message}"
     return f"{head}; predicted {prediction}; object pass {object_time:.1f} s (sim); bag {bag}"
 
 

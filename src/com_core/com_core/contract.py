@@ -116,9 +116,10 @@ _LEVELS = {OK: 0, WARN: 1, ERROR: 2}
 _STATUSES = {0: OK, 1: WARN, 2: ERROR, 3: "STALE"}
 
 
-def level_of(status: str) -> int:
-    """diagnostic_msgs/DiagnosticStatus level (0 OK, 1 WARN, 2 ERROR) of a status."""
-    return _LEVELS[status]
+def level_of(status: str) -> bytes:
+    """diagnostic_msgs/DiagnosticStatus level of a status (0 OK, 1 WARN, 2 ERROR), as the
+    one byte rclpy's message field takes (an int there is not a level)."""
+    return bytes([_LEVELS[status]])
 
 
 def status_of(level: int | bytes) -> str:

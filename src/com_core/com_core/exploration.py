@@ -325,15 +325,16 @@ class Exploration:
                 merged.setdefault(label, []).append(wrenches[sel])
         return [(label, np.concatenate(parts)) for label, parts in merged.items()]
 
-    def solve(self, until_ns: int | None = None) -> Solution:
-        """Windows, per-pose tare, estimate and consistency test, with a status."""
-        notes = [f"dropped {n} samples {what}" for what, n in self.dropped.items()]
-        notes += [f"dropped {n} labels {what}" for what, n in self.dropped_labels.items()]
-        tares = dict(self.tares)
+    def reduced_windows(
+        self, until_ns: int | None = None
+    ) -> tuple[dict[str, Window], list[Window], list[str]]:
+        """Every tare and object window of ``segments`` reduced to its mean: (tare windows
+        by pose, object windows, notes on the windows refused: empty, motion, NaN,
+        saturation)."""
+        tares: dict[str, Window] = {}
         objects: list[Window] = []
-        segments = self.segments(until_ns)
-        counts = {label: len(samples) for label, samples in segments}
-        for label, samples in segments:
+        notes: list[str] = []
+        for label, samples in self.segments(until_ns):
             kind, pose = label.split("/", 1)
             if len(samples) == 0:
                 notes.append(f"window {shorten(label)!r} has no samples")
@@ -347,6 +348,17 @@ class Exploration:
                 tares[pose] = window
             else:
                 objects.append(window)
+        return tares, objects, notes
+
+    def solve(self, until_ns: int | None = None) -> Solution:
+        """Windows, per-pose tare, estimate and consistency test, with a status."""
+        notes = [f"dropped {n} samples {what}" for what, n in self.dropped.items()]
+        notes += [f"dropped {n} labels {what}" for what, n in self.dropped_labels.items()]
+        segments = self.segments(until_ns)
+        counts = {label: len(samples) for label, samples in segments}
+        fresh_tares, objects, refused = self.reduced_windows(until_ns)
+        tares = dict(self.tares) | fresh_tares
+        notes += refused
         try:
             if not segments:
                 seen = ", ".join(sorted({shorten(lbl) for _, lbl in self._labels}))

@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -28,15 +28,20 @@ from .windows import Window, window_from_mean
 
 __all__ = [
     "BAG_TARE_FILE",
+    "DRIFT_ALPHA",
     "TareCache",
     "drift",
+    "drift_accepted",
     "load_tares",
+    "reusable",
     "save_tares",
     "tare_signature",
     "use_tares",
 ]
 
 BAG_TARE_FILE = "tare.json"
+DRIFT_ALPHA = 1e-3
+"""False-alarm rate of the drift test: a fresh window that agrees with p >= this reuses."""
 
 
 @dataclass(frozen=True)
@@ -132,3 +137,17 @@ def drift(cached: Window, fresh: Window) -> tuple[float, float]:
     d = fresh.mean - cached.mean
     chi2 = float(d @ np.linalg.solve(cached.cov + fresh.cov, d))
     return chi2, chi2_sf(chi2, 6) if math.isfinite(chi2) else 0.0
+
+
+def reusable(cache: TareCache | None, max_age: float, poses: Iterable[str]) -> bool:
+    """A cached entry serves a run: it exists (for the run's signature), it is younger
+    than ``max_age`` s and it has a window for every pose of the plan. The drift check
+    at home decides the rest (``drift_accepted``)."""
+    return cache is not None and cache.age() < max_age and set(poses) <= cache.windows.keys()
+
+
+def drift_accepted(cached: Window, fresh: Window | None) -> tuple[bool, float, float]:
+    """(reuse, chi-square, p-value): the fresh window at home agrees with the cached one
+    at false-alarm rate DRIFT_ALPHA (no fresh window: not reused)."""
+    chi2, p = drift(cached, fresh) if fresh is not None else (math.inf, 0.0)
+    return p >= DRIFT_ALPHA, chi2, p

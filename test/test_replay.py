@@ -1,6 +1,7 @@
-"""Replays of bags as they reach a user: a copy cut short, a run that died before ``done``,
-a recording without pose labels. All are made from the real run kept in bags/sample
-(its full replay: mass 99.97 +- 0.17 g from 5 poses, 15982 wrenches, 14 labels)."""
+"""The offline replay (com_estimator.replay) of bags as they reach a user: a copy cut
+short, a run that died before ``done``, a recording without pose labels. All are made
+from the real run kept in bags/sample (its full replay: mass 99.97 +- 0.17 g from 5
+poses, 15982 wrenches, 14 labels)."""
 
 from __future__ import annotations
 
@@ -19,14 +20,6 @@ from com_core.bags.cdr import decode_header
 from com_core.bags.reader import read_metadata, read_raw
 from com_core.bags.writer import CrashSafeBagWriter
 from com_core.contract import POSE_TOPIC, WRENCH_TOPIC
-from com_core.exploration import Exploration
-from com_core.planner import Plan
-from com_core.static_windows import (
-    find_static_windows,
-    label_static_windows,
-    split_load_levels,
-)
-from com_core.synthetic import Load, exploration_stream
 from com_estimator import replay
 
 SAMPLE = WORKSPACE / "bags" / "sample"
@@ -199,38 +192,3 @@ def test_an_unlabelled_recording_is_tared_by_load_level(tmp_path, capsys, full):
     assert "1 tare and 1 object windows by load level" in out["windows_from"]
     assert "4 object windows left out: no tare window within 2 deg" in out["windows_from"]
     assert out["status"] == "ERROR"
-
-
-LOAD, HAND = Load(0.1, (0.01, -0.02, 0.1)), Load(0.73, (0.0, 0.0, 0.04))
-
-
-def test_load_levels_split_a_synthetic_exploration_into_tare_and_object():
-    """A tare pass and an object pass in one unlabelled stream: five windows at each load
-    level, each object window paired with the tare window of its pose, and the tared fit
-    finds the object (not hand + object, 830 g)."""
-    rng = np.random.default_rng(5)
-    stream = exploration_stream(Plan(dwell=0.5, gravity_home=(0, 0, 1)), LOAD, HAND, rng)
-    labels = label_static_windows(stream.stamps, stream.wrenches)
-    windows = [label for _, label in labels if label != "moving"]
-    assert windows == [f"tare/static_{k}" for k in range(1, 6)] + [
-        f"object/static_{k}" for k in range(1, 6)
-    ]
-    ex = Exploration()
-    ex.add_samples(stream.stamps, stream.wrenches, "ft_sensor")
-    for stamp, label in labels:
-        ex.add_label(stamp, label)
-    solution = ex.solve()
-    assert solution.status == "OK", solution.reason
-    e = solution.estimate
-    assert abs(e.mass - LOAD.mass) < 4 * e.sigma_mass
-    assert np.all(np.abs(e.com - LOAD.com) < 4 * e.sigma_com)
-
-    found = find_static_windows(stream.stamps, stream.wrenches)
-    # one load level (the object pass alone): untared, as before, and said so
-    levels = split_load_levels(found[5:])
-    assert levels.untared and levels.object_windows == 5
-    assert "5 static windows at one load level" in levels.describe()
-    # a tare of home alone: the tilted object windows have no tare of their direction
-    levels = split_load_levels(found[:1] + found[5:])
-    assert (levels.tare_windows, levels.object_windows, levels.unpaired) == (1, 1, 4)
-    assert levels.max_angle < np.radians(0.5)
