@@ -22,10 +22,11 @@ import sys
 import time
 from pathlib import Path
 
+from com_core.contract import ESTIMATOR_RESET_SERVICE, WRENCH_TOPIC
+from com_core.processes import executable, stop
 from com_core.rosenv import keep_dds_local
 
 RATES = (1000, 2000, 5000, 10000, 15000, 20000, 30000, 40000, 50000, 60000)
-INSTALL = Path(__file__).resolve().parents[1] / "install"
 
 
 def cpu_seconds(pid: int) -> float:
@@ -44,7 +45,7 @@ class Bench:
 
         rclpy.init()
         self.node = rclpy.create_node("estimator_rate_bench")
-        self.pub = self.node.create_publisher(WrenchStamped, "/ft_sensor/wrench", 1000)
+        self.pub = self.node.create_publisher(WrenchStamped, WRENCH_TOPIC, 1000)
         self.executor = SingleThreadedExecutor()
         self.executor.add_node(self.node)
         self.msg = WrenchStamped()
@@ -114,11 +115,7 @@ def measure(bench: Bench, command: list[str], service: str, seconds: float) -> d
                     break
         return {"cpu_1khz": cpu, "rows": rows, "lossless": lossless}
     finally:
-        proc.send_signal(2)
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
+        stop(proc)
 
 
 def main() -> int:
@@ -135,8 +132,8 @@ def main() -> int:
     )
     node = measure(
         bench,
-        [str(INSTALL / "com_estimator/lib/com_estimator/estimator_node")],
-        "/com_estimator/reset",
+        [str(executable("com_estimator", "estimator_node"))],
+        ESTIMATOR_RESET_SERVICE,
         args.seconds,
     )
     print(f"{'rate Hz':>8} {'sent/s':>8} {'bare got':>9} {'node got':>9} {'sent':>7}")

@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import json
 import re
-import signal
 import subprocess
 import sys
 import tempfile
@@ -28,29 +27,22 @@ from pathlib import Path
 import numpy as np
 
 from com_core.bags.run import read_run
+from com_core.contract import EXPLORE_SERVICE
+from com_core.processes import executable, ros_args, stop
 from com_core.rosenv import keep_dds_local
 
-INSTALL = Path(__file__).resolve().parents[1] / "install"
 SHAPES = ("box", "cylinder", "mug")
-NOISE = ["-p", "sigma_f:=0.1", "-p", "sigma_tau:=0.005"]
+NOISE = {"sigma_f": 0.1, "sigma_tau": 0.005}
 
 
-def node(package: str, name: str, *params: str, log: Path) -> subprocess.Popen:
+def node(package: str, name: str, params: dict, log: Path) -> subprocess.Popen:
+    """A node's console script as a process, as ``ros2 run`` would start it."""
     with open(log, "w") as out:
         return subprocess.Popen(
-            [str(INSTALL / package / "lib" / package / name), "--ros-args", *params],
+            [str(executable(package, name)), *ros_args(params)],
             stdout=out,
             stderr=subprocess.STDOUT,
         )
-
-
-def stop(proc: subprocess.Popen) -> None:
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGINT)
-    try:
-        proc.wait(timeout=15)
-    except subprocess.TimeoutExpired:
-        proc.kill()
 
 
 def main() -> int:
@@ -62,33 +54,25 @@ def main() -> int:
     keep_dds_local(own_domain=True)
     bags = args.bag_dir or Path(tempfile.mkdtemp(prefix="exploration_bench_"))
     bags.mkdir(parents=True, exist_ok=True)
-    cache = f"tare_cache:={bags / 'tare_cache.json'}"
+    cache = {"tare_cache": str(bags / "tare_cache.json")}
     import rclpy
     from std_srvs.srv import Trigger
 
     rclpy.init()
     client_node = rclpy.create_node("exploration_bench")
-    client = client_node.create_client(Trigger, "/exploration_sequencer/explore")
+    client = client_node.create_client(Trigger, EXPLORE_SERVICE)
+    sim_time = {"use_sim_time": True}
     services = [
         node(
             "com_estimator",
             "estimator_node",
-            "-p",
-            "use_sim_time:=true",
-            *NOISE,
-            "-p",
-            cache,
+            sim_time | NOISE | cache,
             log=bags / "estimator.log",
         ),
         node(
             "exploration_sequencer",
             "sequencer_node",
-            "-p",
-            "use_sim_time:=true",
-            "-p",
-            f"bag_dir:={bags}",
-            "-p",
-            cache,
+            sim_time | {"bag_dir": str(bags)} | cache,
             log=bags / "sequencer.log",
         ),
     ]
@@ -99,13 +83,7 @@ def main() -> int:
             sim = node(
                 "wrench_sim",
                 "sim_node",
-                "-p",
-                f"object:={shape}",
-                "-p",
-                f"seed:={seed}",
-                "-p",
-                "real_time_factor:=5.0",
-                *NOISE,
+                {"object": shape, "seed": seed, "real_time_factor": 5.0} | NOISE,
                 log=bags / f"sim_{i}.log",
             )
             try:
@@ -161,7 +139,7 @@ def evaluate(i: int, shape: str, seed: int, message: str) -> dict:
     row["mass_err"] = (run.estimate.mass - run.truth.mass) / run.truth.mass
     replay = subprocess.run(
         [
-            str(INSTALL / "com_estimator/lib/com_estimator/replay"),
+            str(executable("com_estimator", "replay")),
             str(bag),
             "--method",
             "two_pose",

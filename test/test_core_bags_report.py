@@ -1,4 +1,5 @@
-"""Run reports: a PNG per bag, also for failed runs and bags missing topics."""
+"""com_core.bags.report (and bags.run, which it reads a run with): a PNG per bag, also for
+failed runs and bags missing topics."""
 
 from __future__ import annotations
 
@@ -21,14 +22,12 @@ from com_core.contract import (
     DIAGNOSTICS_TOPIC,
     ESTIMATE_TOPIC,
     HAND_TRUTH_TOPIC,
-    INPUT_STATUS_NAME,
     MOVING,
     OBJECT_TOPIC,
     POSE_TOPIC,
     TARE_PREFIX,
     TRUTH_TOPIC,
     WRENCH_TOPIC,
-    heard_stamps,
 )
 from com_core.exploration import ERROR, OK, WARN, Exploration, Solution
 from com_core.planner import Plan
@@ -241,23 +240,8 @@ def test_report_of_a_path_that_is_not_a_bag(tmp_path):
         write_report(tmp_path / "nothing")
 
 
-def test_report_module_is_ros_free_and_leaves_pyplot_alone():
-    code = (
-        "import sys, com_core.bags.report; "
-        "assert 'rclpy' not in sys.modules and 'matplotlib.pyplot' not in sys.modules"
-    )
+def test_report_module_leaves_pyplot_alone():
+    """It draws on its own Figure: importing it neither loads pyplot (nor rclpy, which
+    test_ros_free checks for every core module)."""
+    code = "import sys, com_core.bags.report; assert 'matplotlib.pyplot' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)
-
-
-def test_heard_stamps_reads_only_an_ok_input_status():
-    from types import SimpleNamespace as Ns
-
-    def status(name=INPUT_STATUS_NAME, level=b"\x00", **values):
-        kvs = [Ns(key=k, value=v) for k, v in values.items()]
-        return Ns(name=name, level=level, values=kvs)
-
-    assert heard_stamps(status(latest_stamp_ns="7", latest_label_ns="5")) == (7, 5)
-    assert heard_stamps(status(latest_stamp_ns="7")) == (7, None)  # no label heard yet
-    assert heard_stamps(status(level=b"\x01", latest_stamp_ns="7")) is None  # no wrenches
-    assert heard_stamps(status(name=DIAGNOSTIC_NAME, latest_stamp_ns="7")) is None
-    assert heard_stamps(status()) is None

@@ -37,13 +37,21 @@ from rclpy.utilities import remove_ros_args
 from std_msgs.msg import Header
 
 from com_core.bags.writer import CrashSafeBagWriter
-from com_core.contract import DONE, MOVING, POSE_TOPIC, TARE_PREFIX, WRENCH_TOPIC, heard_stamps
+from com_core.contract import (
+    DIAGNOSTICS_TOPIC,
+    DONE,
+    MOVING,
+    POSE_TOPIC,
+    TARE_PREFIX,
+    TRUTH_TOPIC,
+    WRENCH_TOPIC,
+    heard_stamps,
+)
 from com_core.planner import Plan
 from com_core.rosenv import keep_dds_local
 from com_core.synthetic import Load, Stream, exploration_stream
 from com_core.wrench_model import SensorModel
 
-GROUND_TRUTH_TOPIC = "/wrench_sim/ground_truth"
 FAULTS = (
     "none",
     "nan",
@@ -152,7 +160,7 @@ def main(argv: list[str] | None = None) -> int:
     latched = QoSProfile(depth=100, durability=DurabilityPolicy.TRANSIENT_LOCAL)
     wrench_pub = node.create_publisher(WrenchStamped, WRENCH_TOPIC, 1000)
     pose_pub = node.create_publisher(Header, POSE_TOPIC, latched)
-    truth_pub = node.create_publisher(InertiaStamped, GROUND_TRUTH_TOPIC, latched)
+    truth_pub = node.create_publisher(InertiaStamped, TRUTH_TOPIC, latched)
     with contextlib.ExitStack() as stack:
         bag = stack.enter_context(CrashSafeBagWriter(args.bag)) if args.bag else None
         pubs = (wrench_pub, pose_pub, truth_pub)
@@ -172,7 +180,7 @@ class _EstimatorInput:
 
     def __init__(self, node) -> None:
         self.latest: int | None = None
-        node.create_subscription(DiagnosticArray, "/diagnostics", self._callback, 10)
+        node.create_subscription(DiagnosticArray, DIAGNOSTICS_TOPIC, self._callback, 10)
 
     def _callback(self, msg: DiagnosticArray) -> None:
         for status in msg.status:

@@ -13,38 +13,20 @@ from __future__ import annotations
 
 import argparse
 import math
-import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
 
-from com_core.contract import DIAGNOSTIC_NAME
+from com_core.contract import (
+    DIAGNOSTIC_NAME,
+    DIAGNOSTICS_TOPIC,
+    ESTIMATE_TOPIC,
+    EXPLORE_SERVICE,
+    TRUTH_TOPIC,
+)
+from com_core.processes import executable, ros_args, stop
 from com_core.rosenv import keep_dds_local
-
-
-def executable(package: str, name: str) -> str:
-    """<prefix>/lib/<package>/<name>, as ``ros2 run`` resolves it."""
-    from ament_index_python.packages import get_package_prefix
-
-    path = Path(get_package_prefix(package)) / "lib" / package / name
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: build the workspace (make setup)")
-    return str(path)
-
-
-def ros_args(params: dict[str, object]) -> list[str]:
-    out = ["--ros-args"]
-    for key, value in params.items():
-        text = (
-            str(value).lower()
-            if isinstance(value, bool)
-            else repr(value)
-            if isinstance(value, float)
-            else str(value)
-        )
-        out += ["-p", f"{key}:={text}"]
-    return out
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -107,7 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     }
     sequencer_params = {
         "use_sim_time": True,
-        "tilt_axes": "[" + ",".join(f"'{a}'" for a in args.axes.split(",")) + "]",
+        "tilt_axes": args.axes.split(","),
         "both_directions": not args.one_way,
         "sigma_f": args.sigma_f,
         "sigma_tau": args.sigma_tau,
@@ -144,13 +126,7 @@ def main(argv: list[str] | None = None) -> int:
         return run_exploration(args, started)
     finally:
         for proc in reversed(procs):
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGINT)
-        for proc in reversed(procs):
-            try:
-                proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
+            stop(proc)
 
 
 def run_exploration(args: argparse.Namespace, started: float) -> int:
@@ -167,11 +143,11 @@ def run_exploration(args: argparse.Namespace, started: float) -> int:
     truths: list[InertiaStamped] = []
     estimates: list[InertiaStamped] = []
     statuses: list = []
-    node.create_subscription(InertiaStamped, "/wrench_sim/ground_truth", truths.append, latched)
-    node.create_subscription(InertiaStamped, "/com_estimator/estimate", estimates.append, latched)
+    node.create_subscription(InertiaStamped, TRUTH_TOPIC, truths.append, latched)
+    node.create_subscription(InertiaStamped, ESTIMATE_TOPIC, estimates.append, latched)
     node.create_subscription(
         DiagnosticArray,
-        "/diagnostics",
+        DIAGNOSTICS_TOPIC,
         lambda m: statuses.extend(
             (m.header.stamp.sec * 10**9 + m.header.stamp.nanosec, s)
             for s in m.status
@@ -182,7 +158,7 @@ def run_exploration(args: argparse.Namespace, started: float) -> int:
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
-        client = node.create_client(Trigger, "/exploration_sequencer/explore")
+        client = node.create_client(Trigger, EXPLORE_SERVICE)
         if not client.wait_for_service(timeout_sec=60.0):
             print("demo: the sequencer did not come up", file=sys.stderr)
             return 1

@@ -3,7 +3,7 @@
 ``Recorder(node)`` subscribes, at once, to every topic of ``RUN_TOPICS`` with ``raw=True``
 (messages stay CDR bytes, never re-encoded): best effort with depth 5000 for the high-rate
 streams (``/clock``, ``/ft_sensor/wrench``, ``/joint_states``), reliable for the rest,
-transient local for ``LATCHED``. Subscribing before any run means discovery is done when a
+transient local for ``LATCHED_TOPICS``. Subscribing before any run means discovery is done when a
 run starts. ``start(bag_dir)`` begins a recording, ``stop()`` ends it::
 
     recorder = Recorder(node)       # in the node's __init__
@@ -40,32 +40,11 @@ import rclpy.node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from com_core.bags.writer import CrashSafeBagWriter
+from com_core.contract import BEST_EFFORT_TOPICS, LATCHED_TOPICS
+from com_core.contract import TOPIC_TYPES as RUN_TOPICS
 
-__all__ = ["BEST_EFFORT_TOPICS", "LATCHED", "RUN_TOPICS", "Recorder"]
+__all__ = ["RUN_TOPICS", "Recorder"]
 
-RUN_TOPICS: dict[str, str] = {  # topic -> msgtype, everything a run records
-    "/clock": "rosgraph_msgs/msg/Clock",
-    "/ft_sensor/wrench": "geometry_msgs/msg/WrenchStamped",
-    "/joint_states": "sensor_msgs/msg/JointState",
-    "/wrench_sim/ground_truth": "geometry_msgs/msg/InertiaStamped",
-    "/wrench_sim/hand_ground_truth": "geometry_msgs/msg/InertiaStamped",
-    "/wrench_sim/object": "std_msgs/msg/String",
-    "/panda_arm_controller/joint_trajectory": "trajectory_msgs/msg/JointTrajectory",
-    "/panda_hand_controller/commands": "std_msgs/msg/Float64MultiArray",
-    "/exploration_sequencer/pose": "std_msgs/msg/Header",
-    "/com_estimator/estimate": "geometry_msgs/msg/InertiaStamped",
-    "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
-}
-LATCHED = frozenset(
-    {
-        "/wrench_sim/ground_truth",
-        "/wrench_sim/hand_ground_truth",
-        "/wrench_sim/object",
-        "/exploration_sequencer/pose",
-        "/com_estimator/estimate",
-    }
-)
-BEST_EFFORT_TOPICS = frozenset({"/clock", "/ft_sensor/wrench", "/joint_states"})
 BEST_EFFORT_DEPTH = 5000  # 1 s of a 5 kHz stream
 RELIABLE_DEPTH = 100
 FLUSH_INTERVAL = 0.1  # s: the most a crash loses
@@ -120,7 +99,7 @@ class Recorder:
         self,
         node: rclpy.node.Node,
         topics: Mapping[str, str] = RUN_TOPICS,
-        latched: Collection[str] = LATCHED,
+        latched: Collection[str] = LATCHED_TOPICS,
     ) -> None:
         self._node = node
         self._topics = dict(topics)

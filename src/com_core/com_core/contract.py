@@ -14,6 +14,7 @@ from typing import Protocol
 __all__ = [
     "ARM_COMMAND_TOPIC",
     "ARM_JOINTS",
+    "BEST_EFFORT_TOPICS",
     "CLOCK_TOPIC",
     "DIAGNOSTICS_TOPIC",
     "DIAGNOSTIC_NAME",
@@ -31,6 +32,7 @@ __all__ = [
     "HAND_TRUTH_TOPIC",
     "INPUT_STATUS_NAME",
     "JOINT_STATES_TOPIC",
+    "LATCHED_TOPICS",
     "LATEST_LABEL_KEY",
     "LATEST_STAMP_KEY",
     "MOVING",
@@ -83,6 +85,12 @@ TOPIC_TYPES = {
     DIAGNOSTICS_TOPIC: "diagnostic_msgs/msg/DiagnosticArray",
 }
 """Every topic of a run and its message type (what a run bag records)."""
+LATCHED_TOPICS = frozenset(
+    {TRUTH_TOPIC, HAND_TRUTH_TOPIC, OBJECT_TOPIC, POSE_TOPIC, ESTIMATE_TOPIC}
+)
+"""Published transient local (depth 1): a late joiner gets the latest message."""
+BEST_EFFORT_TOPICS = frozenset({CLOCK_TOPIC, WRENCH_TOPIC, JOINT_STATES_TOPIC})
+"""The high-rate streams, best effort; every other topic is reliable."""
 
 # --- services -----------------------------------------------------------------------
 EXPLORE_SERVICE = "/exploration_sequencer/explore"
