@@ -9,7 +9,7 @@ PACKAGE_FILES := $(shell find $(PACKAGES) -name setup.py -o -name setup.cfg -o -
 IN_ENV := source ./env.sh &&
 ARGS ?=
 
-.PHONY: setup demo test lint bench study clean
+.PHONY: setup demo test test-fast lint bench study clean
 
 setup: $(BUILD_STAMP)
 
@@ -33,6 +33,10 @@ study: setup
 
 test: setup lint
 	$(IN_ENV) python -m pytest test $(ARGS)
+
+# The core and unit tests: no node processes, no rclpy context (the `system` marker).
+test-fast: setup lint
+	$(IN_ENV) python -m pytest test -m "not system" $(ARGS)
 
 lint: $(VENV_STAMP)
 	$(VENV)/bin/ruff check .

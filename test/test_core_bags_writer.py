@@ -21,7 +21,7 @@ from mcap.reader import NonSeekingReader, make_reader
 from rosbags.rosbag2 import Reader
 
 from com_core.bags import writer as bag_writer
-from com_core.bags.writer import PAGE, CrashSafeBagWriter
+from com_core.bags.writer import PAGE, BagWriteError, CrashSafeBagWriter
 
 STRING = "std_msgs/msg/String"
 
@@ -123,10 +123,10 @@ def test_log_times_never_decrease_and_existing_bags_are_refused(tmp_path):
     with CrashSafeBagWriter(bag) as writer:
         writer.write("/a", STRING, 100, string_cdr(0))
         writer.write("/a", STRING, 50, string_cdr(1))  # a wall clock stepped back
-        with pytest.raises(ValueError, match="has type"):
+        with pytest.raises(BagWriteError, match="has type"):
             writer.write("/a", "std_msgs/msg/Header", 200, b"")
     assert [stamp for _, stamp, _ in read_all(bag)] == [100, 100]
-    with pytest.raises(RuntimeError, match="not open"):
+    with pytest.raises(BagWriteError, match="not open"):
         writer.write("/a", STRING, 300, string_cdr(2))
     with pytest.raises(FileExistsError):
         CrashSafeBagWriter(bag).open()

@@ -33,10 +33,10 @@ def test_heard_stamps_reads_only_an_ok_input_status():
 
 
 def test_levels_and_statuses_map_both_ways():
-    assert [level_of(s) for s in (OK, WARN, ERROR)] == [0, 1, 2]
-    # rclpy gives DiagnosticStatus.level as one byte
+    assert [status_of(level_of(s)) for s in (OK, WARN, ERROR)] == [OK, WARN, ERROR]
+    # rclpy gives DiagnosticStatus.level as one byte; an int reads the same
     assert [status_of(bytes([level])) for level in (0, 1, 2, 3)] == [OK, WARN, ERROR, "STALE"]
-    assert status_of(level_of(WARN)) == WARN
+    assert [status_of(level) for level in (0, 1, 2)] == [OK, WARN, ERROR]
     assert status_of(7) == ERROR  # an unknown level is not taken for OK
     with pytest.raises(KeyError):
         level_of("STALE")

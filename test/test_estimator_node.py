@@ -9,11 +9,22 @@ import numpy as np
 import pytest
 from conftest import replay_json, spin_until
 
-from com_core.contract import DIAGNOSTIC_NAME, INPUT_STATUS_NAME
+from com_core.contract import (
+    DIAGNOSTIC_NAME,
+    DIAGNOSTICS_TOPIC,
+    ESTIMATE_TOPIC,
+    ESTIMATOR_PARAMETERS_SERVICE,
+    ESTIMATOR_RESET_SERVICE,
+    ESTIMATOR_SOLVE_SERVICE,
+    INPUT_STATUS_NAME,
+)
 from com_core.planner import Plan, predict
 from com_core.wrench_model import SensorModel
 
+pytestmark = pytest.mark.system
+
 PACKAGE = "com_estimator"
+SET_PARAMETERS_SERVICE = ESTIMATOR_PARAMETERS_SERVICE.replace("/get_", "/set_")
 TRUTH_MASS, TRUTH_COM = 0.1, (0.01, -0.02, 0.10)
 
 
@@ -23,7 +34,7 @@ def run_publisher(start_node, *args: str, timeout: float = 60.0) -> None:
 
 
 class Listener:
-    """Collects /diagnostics and the node's ~/estimate in the test's rclpy context."""
+    """Collects the diagnostics and the node's ~/estimate in the test's rclpy context."""
 
     def __init__(self, context) -> None:
         import rclpy
@@ -35,10 +46,10 @@ class Listener:
         self.diagnostics: list = []
         self.estimates: list = []
         self.inputs: list = []  # the 1 Hz input status
-        self.node.create_subscription(DiagnosticArray, "/diagnostics", self.on_diagnostics, 10)
+        self.node.create_subscription(DiagnosticArray, DIAGNOSTICS_TOPIC, self.on_diagnostics, 10)
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.node.create_subscription(
-            InertiaStamped, "/com_estimator/estimate", self.estimates.append, latched
+            InertiaStamped, ESTIMATE_TOPIC, self.estimates.append, latched
         )
 
     def on_diagnostics(self, msg) -> None:
@@ -51,7 +62,7 @@ class Listener:
 
     def next_status(self, seen: int, timeout: float = 20.0):
         assert spin_until(self.node, lambda: len(self.diagnostics) > seen, timeout), (
-            "no /diagnostics from the estimator"
+            f"no {DIAGNOSTICS_TOPIC} from the estimator"
         )
         status = self.diagnostics[seen]
         return status, {kv.key: kv.value for kv in status.values}
@@ -134,7 +145,7 @@ def test_every_bad_input_gives_its_status_and_the_node_keeps_serving(start_node,
 
     start_node("estimator_node", PACKAGE)
     listener.wait_for_node()
-    # the object moved in the grasp: WARN on /diagnostics, and no estimate on ~/estimate
+    # the object moved in the grasp: WARN in the diagnostics, and no estimate on ~/estimate
     run_publisher(start_node, "--shift-sigma", "0.01", "--dwell", "0.4", "--speed", "4000")
     status, values = listener.next_status(0)
     assert status.level == b"\x01" and "moved in the grasp" in status.message, status.message
@@ -156,14 +167,14 @@ def test_every_bad_input_gives_its_status_and_the_node_keeps_serving(start_node,
         value=ParameterValue(type=ParameterType.PARAMETER_STRING, string_value="least_squares"),
     )
     result = listener.call(
-        SetParameters, "/com_estimator/set_parameters", SetParameters.Request(parameters=[bad])
+        SetParameters, SET_PARAMETERS_SERVICE, SetParameters.Request(parameters=[bad])
     ).results[0]
     assert not result.successful and "method" in result.reason
     run_publisher(start_node, "--dwell", "0.4", "--speed", "4000", "--seed", "9")
     status, values = listener.next_status(seen)
     assert status.level == b"\x00", status.message
     assert math.isclose(float(values["mass"]), TRUTH_MASS, rel_tol=0.02)
-    solve = listener.call(Trigger, "/com_estimator/solve", Trigger.Request())
+    solve = listener.call(Trigger, ESTIMATOR_SOLVE_SERVICE, Trigger.Request())
     assert not solve.success and "no windows" in solve.message
-    reset = listener.call(Trigger, "/com_estimator/reset", Trigger.Request())
+    reset = listener.call(Trigger, ESTIMATOR_RESET_SERVICE, Trigger.Request())
     assert reset.success

@@ -16,10 +16,20 @@ from conftest import UNCLEAN_EXIT, WORKSPACE, replay_json, spin_until
 
 from com_core.bags.cdr import decode_header
 from com_core.bags.reader import read_raw
-from com_core.contract import POSE_TOPIC, WRENCH_TOPIC
+from com_core.contract import (
+    ESTIMATE_TOPIC,
+    EXPLORE_SERVICE,
+    JOINT_STATES_TOPIC,
+    POSE_TOPIC,
+    TRUTH_TOPIC,
+    WRENCH_TOPIC,
+)
+
+pytestmark = pytest.mark.system
 
 PACKAGES = ("com_estimator", "wrench_sim", "exploration_sequencer")
 NOISE = {"sigma_f": 0.1, "sigma_tau": 0.005}
+SET_PARAMETERS_SERVICE = EXPLORE_SERVICE.rsplit("/", 1)[0] + "/set_parameters"
 
 
 def console_scripts(package: str) -> list[str]:
@@ -62,16 +72,14 @@ class Client:
         self.truths: list = []
         self.estimates: list = []
         self.labels: list[str] = []
+        self.node.create_subscription(InertiaStamped, TRUTH_TOPIC, self.truths.append, latched)
         self.node.create_subscription(
-            InertiaStamped, "/wrench_sim/ground_truth", self.truths.append, latched
-        )
-        self.node.create_subscription(
-            InertiaStamped, "/com_estimator/estimate", self.estimates.append, latched
+            InertiaStamped, ESTIMATE_TOPIC, self.estimates.append, latched
         )
         self.node.create_subscription(
             Header, POSE_TOPIC, lambda m: self.labels.append(m.frame_id), latched
         )
-        self.explore_client = self.node.create_client(Trigger, "/exploration_sequencer/explore")
+        self.explore_client = self.node.create_client(Trigger, EXPLORE_SERVICE)
         self.Trigger = Trigger
 
     def call(self):
@@ -260,7 +268,7 @@ def test_a_sequencer_without_a_sim_says_the_sim_never_published(start_node, clie
     start_node("sequencer_node", "exploration_sequencer", params={"sim_timeout": 2.0})
     result = client.wait(client.call(), timeout=30.0)
     assert not result.success
-    assert "no /joint_states since this node started" in result.message, result.message
+    assert f"no {JOINT_STATES_TOPIC} since this node started" in result.message, result.message
 
 
 def test_plan_changes_are_logged_and_the_prediction_is_the_estimators_method(
@@ -290,7 +298,7 @@ def test_plan_changes_are_logged_and_the_prediction_is_the_estimators_method(
     refused = client.wait(client.call())
     assert not refused.success and "cannot be met" in refused.message, refused.message
     assert "tilt >=" in refused.message  # what would meet it
-    setter = client.node.create_client(SetParameters, "/exploration_sequencer/set_parameters")
+    setter = client.node.create_client(SetParameters, SET_PARAMETERS_SERVICE)
     raise_tilt = Parameter(
         name="raise_tilt", value=ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=True)
     )

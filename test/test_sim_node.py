@@ -18,9 +18,21 @@ import pybullet_data
 import pytest
 from conftest import log_tail, spin_until
 
+from com_core.contract import (
+    ARM_COMMAND_TOPIC,
+    ARM_JOINTS,
+    CLOCK_TOPIC,
+    HAND_COMMAND_TOPIC,
+    HAND_TRUTH_TOPIC,
+    JOINT_STATES_TOPIC,
+    OBJECT_TOPIC,
+    TRUTH_TOPIC,
+    WRENCH_TOPIC,
+)
 from com_core.wrench_model import gravity_in_sensor, gravity_wrench
 
 rclpy = pytest.importorskip("rclpy")
+pytestmark = pytest.mark.system
 
 from builtin_interfaces.msg import Duration  # noqa: E402
 from geometry_msgs.msg import InertiaStamped, WrenchStamped  # noqa: E402
@@ -30,7 +42,7 @@ from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Float64MultiArray, String  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint  # noqa: E402
 
-from wrench_sim.physics import ARM_JOINT_NAMES, HOME_JOINTS, PICK_JOINTS  # noqa: E402
+from wrench_sim.physics import HOME_JOINTS, PICK_JOINTS  # noqa: E402
 
 SIGMA_F, SIGMA_TAU, RATE = 0.05, 0.002, 250.0
 PARAMS = {
@@ -81,25 +93,15 @@ class Client:
         self.joint_state: JointState | None = None
         self.wrenches: list[tuple[int, np.ndarray]] = []
         node = self.node
+        node.create_subscription(InertiaStamped, TRUTH_TOPIC, self.truth.append, LATCHED)
+        node.create_subscription(InertiaStamped, HAND_TRUTH_TOPIC, self.hand_truth.append, LATCHED)
         node.create_subscription(
-            InertiaStamped, "/wrench_sim/ground_truth", self.truth.append, LATCHED
+            String, OBJECT_TOPIC, lambda m: self.objects.append(m.data), LATCHED
         )
-        node.create_subscription(
-            InertiaStamped, "/wrench_sim/hand_ground_truth", self.hand_truth.append, LATCHED
-        )
-        node.create_subscription(
-            String, "/wrench_sim/object", lambda m: self.objects.append(m.data), LATCHED
-        )
-        node.create_subscription(JointState, "/joint_states", self._joint_state_callback, 10)
-        node.create_subscription(
-            WrenchStamped, "/ft_sensor/wrench", self._wrench_callback, SENSOR_QOS
-        )
-        self.arm = node.create_publisher(
-            JointTrajectory, "/panda_arm_controller/joint_trajectory", 10
-        )
-        self.gripper = node.create_publisher(
-            Float64MultiArray, "/panda_hand_controller/commands", 10
-        )
+        node.create_subscription(JointState, JOINT_STATES_TOPIC, self._joint_state_callback, 10)
+        node.create_subscription(WrenchStamped, WRENCH_TOPIC, self._wrench_callback, SENSOR_QOS)
+        self.arm = node.create_publisher(JointTrajectory, ARM_COMMAND_TOPIC, 10)
+        self.gripper = node.create_publisher(Float64MultiArray, HAND_COMMAND_TOPIC, 10)
 
     def _joint_state_callback(self, msg: JointState) -> None:
         self.joint_state = msg
@@ -132,7 +134,7 @@ class Client:
         self.arm.publish(msg)
 
     def move(self, goal: list[float], duration: float, timeout: float = 20.0) -> None:
-        self.send_trajectory(ARM_JOINT_NAMES, [(duration, list(goal))])
+        self.send_trajectory(ARM_JOINTS, [(duration, list(goal))])
 
         def arrived() -> bool:
             state = self.joint_state
@@ -166,7 +168,7 @@ def test_clock_runs_in_sim_time(sim, rclpy_context):
     process, client = sim
     clocks: list[int] = []
     subscription = client.node.create_subscription(
-        Clock, "/clock", lambda m: clocks.append(stamp_ns(m.clock)), 10
+        Clock, CLOCK_TOPIC, lambda m: clocks.append(stamp_ns(m.clock)), 10
     )
     assert client.spin_until(lambda: len(clocks) >= 20, 10.0)
     client.node.destroy_subscription(subscription)

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
+from com_core.contract import ARM_JOINTS
 from com_core.wrench_model import SensorModel, gravity_wrench
 from wrench_sim.objects import SHAPES, holdable_com_range, object_spec
 from wrench_sim.physics import (
-    ARM_JOINT_NAMES,
     HOME_JOINTS,
     PICK_JOINTS,
     PandaWorld,
@@ -184,7 +184,7 @@ def test_a_friction_grasp_too_weak_for_a_tilt_slips_and_the_ground_truth_shows_i
         world.run(0.9)
         still = world.object_ground_truth()[1]
         assert np.abs(still - before).max() < 1e-5  # at rest it holds
-        world.command_arm(ARM_JOINT_NAMES, [0.4], [POSES["j6+0.5"]])
+        world.command_arm(ARM_JOINTS, [0.4], [POSES["j6+0.5"]])
         world.run(0.7)
         slid = np.linalg.norm(world.object_ground_truth()[1] - before)
         assert 0.01 < slid < 0.05, slid
@@ -217,7 +217,7 @@ def run_readings(seed: int, com_offset=None) -> tuple[np.ndarray, tuple]:
     world = PandaWorld(SimConfig(seed=seed, object_com_offset=com_offset))
     sensor = WrenchSensor(SensorModel.from_scalars(0.1, 0.005), random_streams(seed)["sensor"])
     try:
-        world.command_arm(ARM_JOINT_NAMES, [0.5], [POSES["j6+0.5"]])
+        world.command_arm(ARM_JOINTS, [0.5], [POSES["j6+0.5"]])
         readings = []
         for _ in range(600):
             world.step()
@@ -295,7 +295,7 @@ def test_a_trajectory_with_a_later_start_waits_for_it(rigid_world):
     world.move_arm(HOME_JOINTS, 2.0)
     q0 = np.array(world.joint_state()[1][:7])
     start = world.time + 0.3
-    end = world.command_arm(ARM_JOINT_NAMES, [0.5], [POSES["j6+0.5"]], start_time=start)
+    end = world.command_arm(ARM_JOINTS, [0.5], [POSES["j6+0.5"]], start_time=start)
     assert end == pytest.approx(start + 0.5)
     assert not world.arm_idle  # queued
     world.run(0.29)
@@ -306,8 +306,8 @@ def test_a_trajectory_with_a_later_start_waits_for_it(rigid_world):
     world.run(end - world.time)
     assert_allclose(world.joint_state()[1][:7], POSES["j6+0.5"], atol=5e-3)
     # a start in the past means now, and a new command replaces a queued one
-    world.command_arm(ARM_JOINT_NAMES, [0.4], [HOME_JOINTS], start_time=world.time + 1.0)
-    end = world.command_arm(ARM_JOINT_NAMES, [0.4], [HOME_JOINTS], start_time=1e-3)
+    world.command_arm(ARM_JOINTS, [0.4], [HOME_JOINTS], start_time=world.time + 1.0)
+    end = world.command_arm(ARM_JOINTS, [0.4], [HOME_JOINTS], start_time=1e-3)
     assert end == pytest.approx(world.time + 0.4)
     world.move_arm(HOME_JOINTS, 0.4)
     assert world.arm_idle

@@ -4,71 +4,19 @@
 that a rosbag2 reader opens at every moment of its life, up to the last message flushed,
 even when the writing process is killed (SIGKILL) at an arbitrary instant::
 
-    with CrashSafeBagWriter(path, {"/ft_sensor/wrench": "geometry_msgs/msg/WrenchStamped"}) as bag:
-        bag.write("/ft_sensor/wrench", "geometry_msgs/msg/WrenchStamped", stamp_ns, raw)
+    with CrashSafeBagWriter(path, {WRENCH_TOPIC: "geometry_msgs/msg/WrenchStamped"}) as bag:
+        bag.write(WRENCH_TOPIC, "geometry_msgs/msg/WrenchStamped", stamp_ns, raw)
 
-Facts this layout is built on (rosbags 0.11.9, mcap 1.6.0, Linux, ext4)
------------------------------------------------------------------------
-- rosbags' ``McapReader`` needs the last 37 bytes of the file to be a Footer record and the
-  magic ("File end magic is invalid" otherwise): a file cut anywhere else is unreadable, and
-  the stock rosbags ``Writer`` killed mid-run leaves exactly that (and no metadata.yaml, which
-  it writes at close). A Footer with ``summary_start = 0`` is accepted: rosbags then scans
-  the data section linearly (from the Header up to the Footer), skips records of unknown
-  opcode by their length (a skip that ends past the Footer just ends the scan), and reads
-  Chunk records, checking their CRC. Without a chunk index it requires log times not to
-  decrease in file order, so ``write`` raises a log time smaller than the previous one to
-  the previous one. A stale Footer + magic met by this scan is fatal: rosbags takes the
-  magic for a record ~2.8e15 bytes long and ``seek`` fails with EINVAL on ext4.
-- rosbags' ``DirectoryReader`` takes the topic list from metadata.yaml and silently drops
-  MCAP channels it does not list, so metadata.yaml names a topic before the topic's
-  first record reaches the MCAP file; its message counts are only for display (messages
-  are read from the MCAP file).
-- The ``mcap`` package's reader falls back to a linear scan without a summary or chunk
-  index, skips unknown opcodes, stops at the first Footer, and raises EndOfFile on a record
-  that ends past the end of the file (after yielding every message before it).
-- A killed process loses nothing it already handed to the kernel with ``write``: the page
-  cache outlives the process (``fsync`` is only needed against power loss, and is not
-  done). Linux stops a ``pwrite`` to a regular file on a fatal signal only between pages
-  (``generic_perform_write`` checks for one per page/folio), so a write within one 4 KiB
-  page is all or nothing; a longer one may be cut at a page boundary.
-
-Layout and write protocol
--------------------------
-While recording, the file is::
-
-    magic Header [records flushed so far] PAD [invisible bytes] DataEnd Footer(0) magic
-
-where PAD is a private record (opcode 0x80, which readers skip) whose length reaches up to
-the trailer (DataEnd, Footer without summary, magic). The trailer sits a reserve of a few
-MiB beyond the data (a sparse hole). A flush appends complete records R (new Schema and
-Channel records, one uncompressed Chunk with CRC, its Message Index records):
-
-1. write ``R[9:]`` and a new PAD header after it: all inside the old PAD, invisible even if
-   the write is cut;
-2. write ``R[:9]`` over the old PAD header: one 9-byte write that never crosses a page
-   (PAD headers are placed so, with a private padding record where needed), which makes R
-   visible at once.
-
-When the reserve is used up the trailer moves: (a) the PAD's 8-byte length is pointed at
-the new place, then (b) the trailer is written there (one write within a page), which moves
-the end of the file. Between (a) and (b) rosbags reads every flushed message (its scan
-ends at the PAD); the ``mcap`` package yields them all, then raises EndOfFile. That
-moment, two consecutive ``pwrite`` calls a few times per bag (the reserve grows with the
-file), is the only one in which any of the two readers reports an error. At close the
-final tail (a rosbag2 Metadata record, DataEnd with the data CRC, the summary: schemas,
-channels, chunk indexes, metadata index, statistics, summary offsets, a Footer with the
-summary CRC) is written inside the PAD, the file is truncated after it (from then on
-readers use the summary and the chunk indexes), and the PAD header is turned into the
-Metadata record's header: the result is a standard indexed MCAP file.
-
-So a crash loses only the messages not yet flushed: at most ``flush_interval`` s or
-``chunk_size`` bytes of them. metadata.yaml is written at open and replaced atomically
-(write + rename) on every new topic, every ``metadata_interval`` s and at close; after a
-crash its counts and duration may be that much behind the MCAP file, and its
-``custom_data.complete`` is ``"false"``. The directory is built under a temporary name
-and renamed into place, so it is a rosbag2 bag from the first moment it exists (a crash
-during ``open`` leaves a hidden ``.<name>.*`` directory). Message definitions come from
-rosbags' Jazzy type store, as in ``com_core.bags.reader``.
+While recording, the MCAP file ends in a private padding record and a trailer (DataEnd,
+a Footer without summary, magic) that readers accept; each flush makes complete records
+visible with one 9-byte write that never crosses a page, so a killed process leaves a
+file that opens up to its last flush (``flush_interval`` s, ``chunk_size`` bytes). At
+close the summary is written and the file is a standard indexed MCAP file. Log times
+never decrease (a smaller one is raised to the previous). metadata.yaml is replaced
+atomically on every new topic and every ``metadata_interval`` s; after a crash its
+``custom_data.complete`` is ``"false"``. The protocol, and the facts about the readers
+it relies on, are in docs/bag_writer.md. A call the writer refuses (not open, opened
+twice, a topic's type changed) raises ``BagWriteError``.
 """
 
 from __future__ import annotations
@@ -86,7 +34,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any
 
-__all__ = ["CrashSafeBagWriter"]
+__all__ = ["BagWriteError", "CrashSafeBagWriter"]
 
 MAGIC = b"\x89MCAP0\r\n"
 PAGE = 4096
@@ -136,6 +84,10 @@ def _yaml_text(data: Any) -> str:
     stream = StringIO()
     yaml.dump(data, stream)
     return stream.getvalue()
+
+
+class BagWriteError(RuntimeError):
+    """The writer refuses the call: not open, opened twice, a topic's type changed."""
 
 
 @dataclass
@@ -237,7 +189,7 @@ class CrashSafeBagWriter:
     def open(self) -> None:
         """Create the bag: metadata.yaml and an MCAP file readable from this moment."""
         if self._fd is not None or self._closed:
-            raise RuntimeError(f"{self.path}: already opened")
+            raise BagWriteError(f"{self.path}: already opened")
         if self.path.exists():
             raise FileExistsError(f"{self.path} exists already, not overwriting")
         self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -276,7 +228,7 @@ class CrashSafeBagWriter:
         """Declare a topic (before its first message); metadata.yaml lists it at once."""
         self._check_open()
         if topic in self._channels:
-            raise ValueError(f"topic {topic} already added")
+            raise BagWriteError(f"topic {topic} already added")
         if offered_qos:
             self._offered_qos[topic] = list(offered_qos)
         self._add_topic(topic, msgtype)
@@ -289,7 +241,7 @@ class CrashSafeBagWriter:
             self.add_topic(topic, msgtype)
             chan = self._channels[topic]
         elif chan.msgtype != msgtype:
-            raise ValueError(f"{topic} has type {chan.msgtype}, not {msgtype}")
+            raise BagWriteError(f"{topic} has type {chan.msgtype}, not {msgtype}")
         self._check_open()
         stamp = max(int(stamp_ns), self._last_stamp)
         self._last_stamp = stamp
@@ -353,7 +305,7 @@ class CrashSafeBagWriter:
 
     def _check_open(self) -> None:
         if self._fd is None:
-            raise RuntimeError(f"{self.path}: not open" + (" (closed)" if self._closed else ""))
+            raise BagWriteError(f"{self.path}: not open" + (" (closed)" if self._closed else ""))
 
     def _add_topic(self, topic: str, msgtype: str) -> None:
         store = _typestore()
