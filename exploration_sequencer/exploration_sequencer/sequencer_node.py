@@ -263,15 +263,9 @@ class SequencerNode(Node):
         )
         self._call(self._estimator_reset, Trigger.Request(), "resetting the estimator")
         home, pick = self._joint_sets()
-        method = (
-            self._call(
-                self._estimator_params,
-                GetParameters.Request(names=["method"]),
-                "reading the estimator's method",
-            )
-            .values[0]
-            .string_value
-        )
+        request = GetParameters.Request(names=["method"])
+        answer = self._call(self._estimator_params, request, "reading the estimator's method")
+        method = answer.values[0].string_value
         plan = self._planned(method)
         prediction = predict(plan, method)
         poses = pose_joints(plan, home)
@@ -315,7 +309,7 @@ class SequencerNode(Node):
 
         Valid: an entry for the same hand and plan (signature), younger than
         ``tare_max_age``, and a fresh ``drift_dwell`` window at home agrees with it
-        (chi-square, 6 dof, at false-alarm rate DRIFT_ALPHA). A reused entry becomes the
+        (chi-square, 6 dof, ``tare_cache.drift_accepted``). A reused entry becomes the
         cache's current one (which the estimator reads) and is copied beside the bag.
         """
         log = self.get_logger()
