@@ -120,12 +120,6 @@ def test_malformed_wrench_bytes_raise_value_error():
         decode_wrench_batch([raw, raw[:40], raw])
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=struct.error,
-    reason="cdr reads the frame_id length with struct.unpack_from: fewer than 16 bytes "
-    "raise struct.error, which the estimator node's (ValueError, IndexError) guard misses",
-)
 @pytest.mark.parametrize("raw", [b"", b"\x00\x01\x00\x00", b"\x00\x01\x00\x00" + bytes(11)])
 def test_bytes_too_short_for_a_header_raise_value_error(raw):
     with pytest.raises((ValueError, IndexError)):

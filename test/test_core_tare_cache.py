@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 from conftest import WORKSPACE
 
+from com_core.planner import Plan
 from com_core.tare_cache import (
     BAG_TARE_FILE,
     drift,
@@ -14,6 +15,7 @@ from com_core.tare_cache import (
     use_tares,
 )
 from com_core.windows import window_from_mean
+from exploration_sequencer.choreography import pose_joints
 
 HOME = [0.0, -0.1559, 0.0, -2.1983, 0.0, 2.0424, 0.7854]
 
@@ -26,8 +28,8 @@ def windows(fz: float) -> dict:
 def test_a_run_with_another_plan_keeps_the_first_plans_tare(tmp_path):
     """Two plans share one cache file: each keeps its entry, the last used is current."""
     path = tmp_path / "tare_cache.json"
-    default = tare_signature("panda_hand", np.pi / 6, ("x", "y"), True, HOME)
-    paper = tare_signature("panda_hand", 0.05, ("x",), False, HOME)
+    default = tare_signature("panda_hand", pose_joints(Plan(), HOME))
+    paper = tare_signature("panda_hand", pose_joints(Plan(0.05, ("x",), False), HOME))
     assert default != paper
     save_tares(path, default, windows(9.9))
     save_tares(path, paper, windows(9.8))

@@ -13,7 +13,7 @@ SAMPLE = WORKSPACE / "bags" / "sample"
 CROSS_MACHINE_RTOL = 1e-9
 """Relative tolerance for numbers recorded on another machine: numpy's BLAS kernels are
 chosen per CPU, so the last bits of a fit may differ (seen: 5e-16); bit-identity holds
-on one machine (test_estimator_node, test_exploration)."""
+on one machine (test_estimator_node, test_sequencer_node)."""
 
 
 def test_replay_of_the_sample_run_is_the_recorded_estimate():

@@ -147,7 +147,11 @@ class EstimatorNode(Node):
 
     def pose_callback(self, raw: bytes) -> None:
         self._drain()
-        stamp, label = decode_header(raw)
+        try:
+            stamp, label = decode_header(raw)
+        except ValueError as exc:  # malformed bytes: drop the label, say so
+            self.get_logger().error(f"dropped an undecodable label: {exc}")
+            return
         stale = self._exploration.stale_drops
         self._exploration.add_label(stamp, label)
         self._latest_label = stamp

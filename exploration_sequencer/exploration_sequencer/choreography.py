@@ -8,7 +8,10 @@ joints as:
 
     home      q_home
     tilt_y+-  q_home, joint 6 +- tilt
-    tilt_x+-  q_home, joint 7 + pi/2, joint 6 -+ tilt
+    tilt_x+-  q_home, joint 7 + pi/2, joint 6 +- tilt
+
+so that each pose turns gravity in the sensor frame as ``Plan.poses`` says (a rotation
+by +-tilt about the sensor's axis; checked against the Panda's forward kinematics).
 
 Motion times give each joint at most ``speed`` rad/s on average with the quintic
 profile's peak (1.875x the mean) under the joint's limit, with a floor, so tilts stay
@@ -32,18 +35,20 @@ _TILT_JOINT, _TURN_JOINT = 5, 6  # indices of panda_joint6 and panda_joint7
 def pose_joints(plan: Plan, home: Sequence[float]) -> list[tuple[str, list[float]]]:
     """(pose name, 7 joint positions in rad) for every pose of ``plan``, home first.
 
-    Tilts about y come before tilts about x, so the wrist turns once (tilt_y- and tilt_x+
-    share joint 6) and the pass is short.
+    The order is home, tilt_y+, tilt_y-, tilt_x-, tilt_x+ (of those the plan has): the
+    wrist turns once, between tilt_y- and tilt_x-, which share joint 6, so the pass is
+    short.
     """
     out = []
     names = [name for name, _ in plan.poses()]
-    for name in sorted(names, key=lambda n: (n != HOME, n[-2:-1] != "y")):
+    for name in sorted(
+        names, key=lambda n: (n != HOME, n[-2:-1] != "y", n[-1] == "+" and "x" in n)
+    ):
         q = list(home)
         if name != HOME:
             axis, sign = name[-2], 1.0 if name[-1] == "+" else -1.0
             if axis == "x":
                 q[_TURN_JOINT] += WRIST_TURN
-                sign = -sign
             elif axis != "y":
                 raise ValueError(f"this arm tilts about the sensor's x and y only, not {axis}")
             q[_TILT_JOINT] += sign * plan.tilt

@@ -315,9 +315,7 @@ class SequencerNode(Node):
         log = self.get_logger()
         path = Path(self.p("tare_cache") or Path(self.p("bag_dir")) / "tare_cache.json")
         home_name, home = poses[0]
-        signature = tare_signature(
-            self.p("hand_id"), plan.tilt, plan.axes, plan.both_directions, home
-        )
+        signature = tare_signature(self.p("hand_id"), poses)
         try:
             cache = load_tares(path, signature)
         except (ValueError, KeyError, OSError) as exc:

@@ -42,6 +42,8 @@ def parameter_text(value: Any) -> str:
         return "[" + ", ".join(parameter_text(v) for v in value) + "]"
     if isinstance(value, float):
         return repr(value)
+    if isinstance(value, str):  # quoted: YAML reads a bare y, no or on as a bool
+        return "'" + value.replace("'", "''") + "'"
     return str(value)
 
 

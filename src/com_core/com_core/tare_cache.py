@@ -74,15 +74,12 @@ class TareCache:
         return TareCache(data["signature"], float(data["created"]), windows)
 
 
-def tare_signature(
-    hand_id: str, tilt: float, axes: Sequence[str], both_directions: bool, home: Sequence[float]
-) -> str:
-    """What a tare pass was taken for: the hand, the plan's tilt (rad), axes and
-    directions, and the home joints (rad, to 0.1 mrad)."""
-    return (
-        f"{hand_id}|tilt {tilt:.6f}|axes {','.join(axes)}|both {both_directions}"
-        f"|home {[round(q, 4) for q in home]}"
-    )
+def tare_signature(hand_id: str, poses: Sequence[tuple[str, Sequence[float]]]) -> str:
+    """What a tare pass was taken for: the hand, and each pose's name and joints (rad, to
+    0.1 mrad), so a plan with another tilt, other axes or another choreography has an
+    entry of its own."""
+    joints = "|".join(f"{name} {[round(q, 4) for q in js]}" for name, js in poses)
+    return f"{hand_id}|{joints}"
 
 
 def _read(path: Path) -> tuple[dict[str, TareCache], str | None]:

@@ -25,14 +25,20 @@ _ENCAPSULATION = b"\x00\x01\x00\x00"  # CDR little endian
 
 
 def _frame_end(raw: bytes) -> tuple[int, str]:
+    """(offset after the frame_id, frame_id); ValueError when the bytes end before it."""
+    if len(raw) < 16:
+        raise ValueError(f"not a Header: {len(raw)} bytes")
     (length,) = struct.unpack_from("<I", raw, 12)
+    if 16 + length > len(raw):
+        raise ValueError(f"frame_id of {length} bytes past the end of {len(raw)} bytes")
     return 16 + length, raw[16 : 16 + length - 1].decode("utf-8", "replace")
 
 
 def decode_header(raw: bytes) -> tuple[int, str]:
-    """(stamp in ns, frame_id) of a serialized std_msgs/Header."""
+    """(stamp in ns, frame_id) of a serialized std_msgs/Header; ValueError if malformed."""
+    _, frame_id = _frame_end(raw)
     sec, nanosec = struct.unpack_from("<iI", raw, 4)
-    return sec * 1_000_000_000 + nanosec, _frame_end(raw)[1]
+    return sec * 1_000_000_000 + nanosec, frame_id
 
 
 def decode_wrench_batch(
@@ -51,8 +57,10 @@ def decode_wrench_batch(
     for i, raw in enumerate(raws):
         by_length.setdefault(len(raw), []).append(i)
     for length, idx in by_length.items():
-        first = raws[idx[0]]
-        end, name = _frame_end(first)
+        try:
+            end, name = _frame_end(raws[idx[0]])
+        except ValueError as error:
+            raise ValueError(f"not a WrenchStamped: {length} bytes ({error})") from error
         offset = 4 + ((end - 4 + 7) & ~7)
         if offset + 48 > length:
             raise ValueError(f"not a WrenchStamped: {length} bytes")
