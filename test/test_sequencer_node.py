@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import re
 import signal
 import subprocess
@@ -12,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import UNCLEAN_EXIT, WORKSPACE, replay_json, spin_until
+from conftest import UNCLEAN_EXIT, replay_json, spin_until
 
 from com_core.bags.cdr import decode_header
 from com_core.bags.reader import read_raw
@@ -27,34 +26,8 @@ from com_core.contract import (
 
 pytestmark = pytest.mark.system
 
-PACKAGES = ("com_estimator", "wrench_sim", "exploration_sequencer")
 NOISE = {"sigma_f": 0.1, "sigma_tau": 0.005}
 SET_PARAMETERS_SERVICE = EXPLORE_SERVICE.rsplit("/", 1)[0] + "/set_parameters"
-
-
-def console_scripts(package: str) -> list[str]:
-    """Console script names declared in the package's setup.py."""
-    text = (WORKSPACE / package / "setup.py").read_text()
-    return re.findall(r'"(\w+) = [\w.]+:main"', text)
-
-
-def test_ament_index_resolves_every_console_script_as_ros2_run_does():
-    """``ros2 run <pkg> <exe>`` takes <prefix>/lib/<pkg>/<exe> with the prefix from the
-    ament index (ros2pkg.api.get_executable_paths); every script must be found there."""
-    from ament_index_python.packages import get_package_prefix, get_packages_with_prefixes
-
-    indexed = get_packages_with_prefixes()
-    for package in (*PACKAGES, "com_core"):
-        assert package in indexed, f"{package} is not in the ament index"
-    for package in PACKAGES:
-        scripts = console_scripts(package)
-        assert scripts, package
-        for name in scripts:
-            path = Path(get_package_prefix(package)) / "lib" / package / name
-            assert path.is_file() and os.access(path, os.X_OK), path
-            shebang = path.read_text().splitlines()[0]
-            interpreter = Path(shebang.removeprefix("#!").split()[0])
-            assert shebang.startswith("#!") and os.access(interpreter, os.X_OK), shebang
 
 
 class Client:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import signal
 import subprocess
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -57,10 +57,13 @@ def ros_args(params: Mapping[str, Any], remaps: Mapping[str, str] | None = None)
     return out
 
 
-def stop(process: subprocess.Popen) -> signal.Signals | None:
-    """End ``process``: SIGINT, then SIGTERM, then SIGKILL (``STOP_SEQUENCE``); returns
-    the signal that ended it (None: it had ended before)."""
-    for sig, wait in STOP_SEQUENCE:
+def stop(
+    process: subprocess.Popen, sequence: Sequence[tuple[signal.Signals, float]] = STOP_SEQUENCE
+) -> signal.Signals | None:
+    """End ``process``: each signal of ``sequence`` in turn (SIGINT, then SIGTERM, then
+    SIGKILL), waiting its seconds for the process; returns the signal that ended it
+    (None: it had ended before)."""
+    for sig, wait in sequence:
         if process.poll() is not None:
             return None
         process.send_signal(sig)
