@@ -32,7 +32,7 @@ from typing import Any
 
 import pytest
 
-from com_core.processes import STOP_SEQUENCE, ros_args, stop
+from com_core.processes import STOP_SEQUENCE, executable, ros_args, stop
 
 # Nothing in the test process may talk DDS beyond this machine.
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
@@ -221,7 +221,7 @@ def replay_json(bag: Path, env: dict[str, str] | None = None) -> dict[str, Any]:
     """What the installed ``replay`` prints for ``bag`` with ``--json`` (the offline
     estimate: mass, com, sigmas, status, ...)."""
     out = subprocess.run(
-        [str(INSTALL / "com_estimator/lib/com_estimator/replay"), str(bag), "--json"],
+        [str(executable("com_estimator", "replay")), str(bag), "--json"],
         env=env,
         capture_output=True,
         text=True,

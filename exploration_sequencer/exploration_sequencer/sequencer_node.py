@@ -258,7 +258,7 @@ class SequencerNode(Node):
                 abs(self.io.estimator_latest - self.io.now_ns()) < 1_000_000_000
                 and self.io.estimator_label == handshake
             ),
-            "waiting for the estimator to hear /ft_sensor/wrench and ~/pose",
+            f"waiting for the estimator to hear {WRENCH_TOPIC} and {POSE_TOPIC}",
             wall_timeout=self.p("estimate_timeout"),
         )
         self._call(self._estimator_reset, Trigger.Request(), "resetting the estimator")
