@@ -26,6 +26,7 @@ from com_core.contract import (
     HAND_TRUTH_TOPIC,
     JOINT_STATES_TOPIC,
     OBJECT_TOPIC,
+    ROBOT_DESCRIPTION_TOPIC,
     TRUTH_TOPIC,
     WRENCH_TOPIC,
 )
@@ -185,6 +186,23 @@ def test_clock_runs_in_sim_time(sim, rclpy_context):
     assert hand.header.frame_id == "ft_sensor"
     assert hand.inertia.m == pytest.approx(1.01)
     assert client.objects[-1].startswith("shape=box")
+    assert process.poll() is None
+
+
+def test_the_robot_description_is_the_urdf_the_sim_loaded(sim):
+    """Latched on /robot_description (as robot_state_publisher does): a late subscriber
+    gets the URDF with the fixed fingers of rigid mode, and it parses."""
+    from com_core.kinematics import RobotModel
+
+    process, client = sim
+    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    texts: list[str] = []
+    client.node.create_subscription(
+        String, ROBOT_DESCRIPTION_TOPIC, lambda m: texts.append(m.data), latched
+    )
+    assert client.spin_until(lambda: texts, 10.0), "no /robot_description"
+    robot = RobotModel(texts[0], "panda_hand")
+    assert len(robot.joint_names) == 7  # rigid mode: the fingers are fixed joints
     assert process.poll() is None
 
 

@@ -14,7 +14,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from com_core.contract import ARM_JOINTS
-from com_core.wrench_model import SensorModel, gravity_wrench
+from com_core.wrench_model import STANDARD_GRAVITY, SensorModel, gravity_wrench
 from wrench_sim.objects import SHAPES, holdable_com_range, object_spec
 from wrench_sim.physics import (
     HOME_JOINTS,
@@ -400,3 +400,27 @@ def test_every_seeded_com_offset_is_in_the_holdable_range(shape):
     for seed in range(51):
         offset = object_spec(shape, 0.1, None, random_streams(seed)["object"]).com_offset
         assert reach.contains(offset), (seed, offset, str(reach))
+
+
+@pytest.mark.parametrize("grasp_mode", ["rigid", "friction"])
+def test_the_urdf_the_sim_loads_gives_its_sensor_orientation(grasp_mode):
+    """com_core.kinematics on the URDF the sim publishes: the sensor frame ``panda_hand``
+    turns as the simulated sensor does, and the hand's sensed force is m g_s with the
+    g_s it computes (frames and signs checked against the measurement itself)."""
+    from com_core.kinematics import RobotModel
+
+    world = PandaWorld(SimConfig(object_shape="box", grasp_mode=grasp_mode))
+    try:
+        robot = RobotModel(world.urdf_text, "panda_hand")
+        for name, q in POSES.items():
+            world.move_arm(q, 4.0)
+            world.run(0.2)
+            names, positions, _, _ = world.joint_state()
+            g_s = robot.gravity_in_sensor(dict(zip(names, positions, strict=True)))
+            # pybullet keeps link orientations and joint positions consistent to ~1e-8 rad
+            assert_allclose(g_s, world.gravity_in_sensor(), atol=1e-6, err_msg=name)
+            if grasp_mode == "rigid":  # the friction-mode sensor carries the finger error
+                f = world.wrench[:3]  # the direction the hand's weight is sensed in
+                assert_allclose(f / np.linalg.norm(f), g_s / STANDARD_GRAVITY, atol=1e-4)
+    finally:
+        world.close()

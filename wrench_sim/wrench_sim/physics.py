@@ -288,10 +288,15 @@ class PandaWorld:
 
     # ----------------------------------------------------------------- construction
     def _load_robot(self) -> int:
+        """Load the Panda (rigid mode: the fixed-finger copy); ``urdf_text`` is what was
+        loaded, as ``/robot_description`` publishes it."""
         c = self._client
         if not self._rigid:
-            return c.loadURDF("franka_panda/panda.urdf", useFixedBase=True)
-        text = _panda_urdf_with_fixed_fingers(FINGER_OPEN)
+            path = os.path.join(pybullet_data.getDataPath(), "franka_panda", "panda.urdf")
+            with open(path, encoding="utf-8") as stream:
+                self.urdf_text = stream.read()
+            return c.loadURDF(path, useFixedBase=True)
+        text = self.urdf_text = _panda_urdf_with_fixed_fingers(FINGER_OPEN)
         with tempfile.TemporaryDirectory(prefix="wrench_sim_") as directory:
             path = os.path.join(directory, "panda_fixed_fingers.urdf")
             with open(path, "w", encoding="utf-8") as stream:

@@ -34,6 +34,7 @@ from com_core.contract import (
     HAND_TRUTH_TOPIC,
     JOINT_STATES_TOPIC,
     OBJECT_TOPIC,
+    ROBOT_DESCRIPTION_TOPIC,
     TRUTH_MOVE_M,
     TRUTH_TOPIC,
     WRENCH_TOPIC,
@@ -93,6 +94,8 @@ class SimNode(Node):
             InertiaStamped, HAND_TRUTH_TOPIC, _LATCHED
         )
         self.object_publisher = self.create_publisher(String, OBJECT_TOPIC, _LATCHED)
+        description = self.create_publisher(String, ROBOT_DESCRIPTION_TOPIC, _LATCHED)
+        description.publish(String(data=self.world.urdf_text))  # the URDF loaded, as is
         self.create_subscription(JointTrajectory, ARM_COMMAND_TOPIC, self.trajectory_callback, 10)
         self.create_subscription(Float64MultiArray, HAND_COMMAND_TOPIC, self.gripper_callback, 10)
         self.executor_ = SingleThreadedExecutor(context=self.context)

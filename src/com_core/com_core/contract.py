@@ -40,6 +40,7 @@ __all__ = [
     "OBJECT_TOPIC",
     "OK",
     "POSE_TOPIC",
+    "ROBOT_DESCRIPTION_TOPIC",
     "SIM_PARAMETERS_SERVICE",
     "TARE_PREFIX",
     "TOPIC_TYPES",
@@ -70,6 +71,8 @@ POSE_TOPIC = "/exploration_sequencer/pose"
 ESTIMATE_TOPIC = "/com_estimator/estimate"
 """geometry_msgs/InertiaStamped: usable estimates only (docs/design.md, Statuses)."""
 DIAGNOSTICS_TOPIC = "/diagnostics"
+ROBOT_DESCRIPTION_TOPIC = "/robot_description"
+"""std_msgs/String: the URDF the robot runs (latched, as robot_state_publisher does)."""
 
 TOPIC_TYPES = {
     CLOCK_TOPIC: "rosgraph_msgs/msg/Clock",
@@ -83,10 +86,18 @@ TOPIC_TYPES = {
     POSE_TOPIC: "std_msgs/msg/Header",
     ESTIMATE_TOPIC: "geometry_msgs/msg/InertiaStamped",
     DIAGNOSTICS_TOPIC: "diagnostic_msgs/msg/DiagnosticArray",
+    ROBOT_DESCRIPTION_TOPIC: "std_msgs/msg/String",
 }
 """Every topic of a run and its message type (what a run bag records)."""
 LATCHED_TOPICS = frozenset(
-    {TRUTH_TOPIC, HAND_TRUTH_TOPIC, OBJECT_TOPIC, POSE_TOPIC, ESTIMATE_TOPIC}
+    {
+        TRUTH_TOPIC,
+        HAND_TRUTH_TOPIC,
+        OBJECT_TOPIC,
+        POSE_TOPIC,
+        ESTIMATE_TOPIC,
+        ROBOT_DESCRIPTION_TOPIC,
+    }
 )
 """Published transient local (depth 1): a late joiner gets the latest message."""
 BEST_EFFORT_TOPICS = frozenset({CLOCK_TOPIC, WRENCH_TOPIC, JOINT_STATES_TOPIC})

@@ -1,0 +1,102 @@
+"""The robot's kinematics from its URDF (pinocchio): the sensor frame's orientation and
+gravity in the sensor frame from joint positions.
+
+``RobotModel`` parses a URDF text (what ``/robot_description`` carries), checks that the
+sensor and base frames exist, and maps joint positions (rad, m; by joint name, as
+``sensor_msgs/JointState`` gives them) to R_base_sensor, the sensor frame's axes in the
+base frame, and to g_s = R_base_sensor^T g_base, gravity in the sensor frame (m/s^2),
+the direction the wrench model's f = m g_s needs (docs/design.md, Conventions). Joints of
+the URDF that are not given hold their neutral position only if ``neutral_ok``; else a
+missing joint is an error that names it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .wrench_model import STANDARD_GRAVITY
+
+__all__ = ["DEFAULT_GRAVITY", "KinematicsError", "RobotModel"]
+
+DEFAULT_GRAVITY = (0.0, 0.0, -STANDARD_GRAVITY)
+"""m/s^2 in the base frame: a base standing upright (REP-103: z up)."""
+
+
+class KinematicsError(ValueError):
+    """The robot model cannot serve: a URDF that does not parse, a frame it lacks, joint
+    names that do not match; the message names what."""
+
+
+class RobotModel:
+    """Forward kinematics of one URDF from its base frame to its sensor frame.
+
+    urdf : the URDF text. sensor_frame, base_frame : frames (links or joints) of the URDF;
+    base_frame None is the URDF's root. gravity : m/s^2 in the base frame (a tilted or
+    wall-mounted base gives its own).
+    """
+
+    def __init__(
+        self,
+        urdf: str,
+        sensor_frame: str,
+        base_frame: str | None = None,
+        gravity: Sequence[float] = DEFAULT_GRAVITY,
+    ) -> None:
+        import pinocchio
+
+        self._pin = pinocchio
+        try:
+            self.model = pinocchio.buildModelFromXML(urdf)
+        except (RuntimeError, ValueError) as error:
+            raise KinematicsError(f"the URDF does not parse: {error}") from error
+        self.data = self.model.createData()
+        frames = [frame.name for frame in self.model.frames]
+        base_frame = base_frame or frames[0]
+        for role, name in (("sensor_frame", sensor_frame), ("base_frame", base_frame)):
+            if not self.model.existFrame(name):
+                raise KinematicsError(
+                    f"{role} {name!r} is not a frame of the URDF (robot "
+                    f"{self.model.name!r}; frames: {', '.join(frames[:40])})"
+                )
+        self.sensor_frame, self.base_frame = sensor_frame, base_frame
+        self._sensor_id = self.model.getFrameId(sensor_frame)
+        self._base_id = self.model.getFrameId(base_frame)
+        self.gravity = np.asarray(gravity, dtype=np.float64).reshape(3)
+        if not np.all(np.isfinite(self.gravity)) or not np.linalg.norm(self.gravity) > 0:
+            raise KinematicsError(f"gravity must be a finite non-zero vector, got {gravity}")
+        # joints with a configuration (universe and fixed joints have none)
+        self.joint_names = tuple(
+            self.model.names[j] for j in range(1, self.model.njoints) if self.model.nqs[j] > 0
+        )
+
+    def missing_joints(self, names: Iterable[str]) -> list[str]:
+        """The model's joints that ``names`` (e.g. a JointState's) lacks, in model order."""
+        given = set(names)
+        return [name for name in self.joint_names if name not in given]
+
+    def configuration(self, joints: Mapping[str, float]) -> NDArray[np.float64]:
+        """The pinocchio configuration q for joint positions by name (rad, m); a revolute
+        joint without limits (continuous) is set by its angle as (cos, sin)."""
+        missing = self.missing_joints(joints)
+        if missing:
+            raise KinematicsError(f"no position for joint(s) {', '.join(missing)}")
+        q = self._pin.neutral(self.model)
+        for name in self.joint_names:
+            jid = self.model.getJointId(name)
+            at, nq = self.model.idx_qs[jid], self.model.nqs[jid]
+            value = float(joints[name])
+            q[at : at + nq] = [np.cos(value), np.sin(value)] if nq == 2 else [value]
+        return q
+
+    def sensor_rotation(self, joints: Mapping[str, float]) -> NDArray[np.float64]:
+        """R_base_sensor (3, 3): the sensor frame's axes in the base frame."""
+        pin, model, data = self._pin, self.model, self.data
+        pin.framesForwardKinematics(model, data, self.configuration(joints))
+        return data.oMf[self._base_id].rotation.T @ data.oMf[self._sensor_id].rotation
+
+    def gravity_in_sensor(self, joints: Mapping[str, float]) -> NDArray[np.float64]:
+        """g_s (3,), m/s^2: gravity in the sensor frame at these joint positions."""
+        return self.sensor_rotation(joints).T @ self.gravity
