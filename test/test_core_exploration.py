@@ -9,6 +9,7 @@ from com_core.exploration import (
     MAX_LABEL_GAP,
     MAX_LABEL_LENGTH,
     OK,
+    WARN,
     Exploration,
 )
 from com_core.planner import Plan
@@ -89,3 +90,62 @@ def test_late_samples_are_dropped_but_a_restarted_clock_is_not():
     assert ex.dropped == {"out of time order": 1}
     assert ex.time_resets == 1
     assert ex.sample_count == 3  # the old timeline is gone
+
+
+def kinematic_stream(rng: np.random.Generator):
+    """A synthetic exploration of the Panda's plan, its joint states, and its robot model:
+    the stream's gravity per pose is the forward kinematics' at the choreography's joints."""
+    from pathlib import Path
+
+    import pybullet_data
+
+    from com_core.kinematics import RobotModel
+    from exploration_sequencer.choreography import pose_joints
+    from wrench_sim.physics import HOME_JOINTS
+
+    urdf = (Path(pybullet_data.getDataPath()) / "franka_panda" / "panda.urdf").read_text()
+    robot = RobotModel(urdf, "panda_hand")
+    fingers = {"panda_finger_joint1": 0.04, "panda_finger_joint2": 0.04}
+    arm = [f"panda_joint{i}" for i in range(1, 8)]
+    home_g = robot.gravity_in_sensor(dict(zip(arm, HOME_JOINTS, strict=True)) | fingers)
+    plan = Plan(dwell=0.3, gravity_home=tuple(home_g / np.linalg.norm(home_g)))
+    stream = exploration_stream(plan, LOAD, HAND, rng)
+    joints = dict(pose_joints(plan, HOME_JOINTS))
+    states = []
+    for stamp, label in stream.labels:
+        if "/" in label:  # 10 joint states over each window, at its pose
+            q = dict(zip(arm, joints[label.split("/", 1)[1]], strict=True)) | fingers
+            states += [(stamp + k * 20_000_000, label, q) for k in range(10)]
+    return stream, states, robot
+
+
+def test_kinematic_gravity_per_window_tightens_the_com():
+    """The same stream fitted with the joints' gravity and without: the kinematic fit is
+    right and its COM sigma along gravity is ~0.6x the wrench-only one."""
+    stream, states, robot = kinematic_stream(np.random.default_rng(8))
+    wrenches = fed(stream).solve()
+    ex = Exploration(information="kinematics", robot=robot)
+    for stamp, _, q in states:
+        ex.add_joint_state(stamp, list(q), list(q.values()))
+    kinematic = fed(stream, ex).solve()
+    assert kinematic.status == OK and kinematic.information == "kinematics", kinematic.reason
+    est = kinematic.estimate
+    assert abs(est.mass - LOAD.mass) < 4 * est.sigma_mass
+    assert np.all(np.abs(est.com - LOAD.com) < 4 * est.sigma_com)
+    ratio = est.sigma_com / wrenches.estimate.sigma_com
+    assert np.all(ratio < 0.7) and ratio[2] > 0.5, ratio
+    assert kinematic.as_dict()["information"] == "kinematics"
+
+
+def test_kinematics_without_a_robot_model_or_joint_states_says_why():
+    stream, states, robot = kinematic_stream(np.random.default_rng(9))
+    no_model = fed(stream, Exploration(information="kinematics")).solve()
+    assert no_model.status == WARN and no_model.information == "wrenches"
+    assert "no robot model" in no_model.reason
+    ex = Exploration(information="kinematics", robot=robot)
+    for stamp, label, q in states:
+        if label != "object/home":  # none for this window
+            ex.add_joint_state(stamp, list(q), list(q.values()))
+    partial = fed(stream, ex).solve()
+    assert partial.status == WARN and "left out: no joint state within 0.1 s" in partial.reason
+    assert [w.pose for w in partial.windows] == ["tilt_x+", "tilt_x-", "tilt_y+", "tilt_y-"]

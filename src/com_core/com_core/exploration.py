@@ -47,6 +47,8 @@ from .estimators import (
     ml,
     two_pose,
 )
+from .kinematics import RobotModel
+from .known_gravity import known_gravity_ml
 from .windows import Window, reduce_window, subtract_tare
 from .wrench_model import STANDARD_GRAVITY, SensorModel
 
@@ -75,6 +77,13 @@ MAX_LABEL_LENGTH = 128
 LOAD_SIGMAS = 5.0
 """A window's load along the tare's gravity must exceed this many sigma to count as held."""
 METHODS = {"ml": ml, "two_pose": two_pose}
+WRENCHES, KINEMATICS = "wrenches", "kinematics"
+INFORMATION = (WRENCHES, KINEMATICS)
+"""What the fit uses: the wrenches only, or also each window's gravity from kinematics."""
+JOINT_STATE_GAP = 0.1
+"""s; a window without a joint state in it takes the nearest this close to it."""
+JOINT_MOTION = 2e-3
+"""rad (or m); joints that move more than this within a window leave it out."""
 
 
 @dataclass(frozen=True)
@@ -93,6 +102,7 @@ class Solution:
     windows: tuple[Window, ...] = ()
     notes: tuple[str, ...] = ()
     window_samples: Mapping[str, int] = field(default_factory=dict)
+    information: str = "wrenches"
 
     @property
     def usable(self) -> bool:
@@ -131,6 +141,7 @@ class Solution:
             "status": self.status,
             "reason": self.reason,
             "method": self.method,
+            "information": self.information,
             "poses": [w.pose for w in self.windows],
             "notes": list(self.notes),
             "window_samples": dict(self.window_samples),
@@ -169,6 +180,9 @@ class Exploration:
         tare; the solution is then at best WARN and says so.
     max_label_gap : s (sensor time); a label this long after the previous one starts a
         new exploration (0: never).
+    information : 'wrenches' (each pose's gravity direction unknown: the wrenches only)
+        or 'kinematics' (gravity per window from ``robot`` and the joint states; with no
+        robot model the fit falls back to 'wrenches' and says so).
     """
 
     method: str = "ml"
@@ -180,6 +194,9 @@ class Exploration:
     tares: Mapping[str, Window] = field(default_factory=dict)
     untared: bool = False
     max_label_gap: float = MAX_LABEL_GAP
+    information: str = WRENCHES
+    robot: RobotModel | None = None
+    _joint_states: list[tuple[int, dict[str, float]]] = field(default_factory=list, repr=False)
     _stamps: list[NDArray[np.int64]] = field(default_factory=list, repr=False)
     _wrenches: list[NDArray[np.float64]] = field(default_factory=list, repr=False)
     _labels: list[tuple[int, str]] = field(default_factory=list, repr=False)
@@ -192,6 +209,8 @@ class Exploration:
     def __post_init__(self) -> None:
         if self.method not in METHODS:
             raise ValueError(f"method must be one of {sorted(METHODS)}, got {self.method!r}")
+        if self.information not in INFORMATION:
+            raise ValueError(f"information must be one of {INFORMATION}, got {self.information!r}")
 
     @property
     def sample_count(self) -> int:
@@ -304,26 +323,65 @@ class Exploration:
         if n:
             self.dropped[what] = self.dropped.get(what, 0) + n
 
-    def segments(self, until_ns: int | None = None) -> list[tuple[str, NDArray[np.float64]]]:
-        """(label, samples (n, 6)) of every tare/object window, merged per label.
+    def spans(self, until_ns: int | None = None) -> dict[str, list[tuple[int, int]]]:
+        """[start, stop) stamps (ns) of every tare/object window, per label.
 
         Windows run from a label's stamp to the next label's; ``until_ns`` ends the
         last one (default: the ``done`` label, else after the last sample).
         """
-        stamps, wrenches = self.samples()
         labels = sorted(self._labels, key=lambda sl: sl[0])  # stable: ties keep arrival order
         end = self.done_stamp() if until_ns is None else until_ns
         if end is not None:
             labels = [(s, lbl) for s, lbl in labels if s <= end]
-        if not labels:
-            return []
         bounds = [s for s, _ in labels[1:]] + [end if end is not None else 2**62]
-        merged: dict[str, list[NDArray[np.float64]]] = {}
+        spans: dict[str, list[tuple[int, int]]] = {}
         for (start, label), stop in zip(labels, bounds, strict=True):
             if label.startswith((TARE_PREFIX, OBJECT_PREFIX)):
-                sel = (stamps >= start) & (stamps < stop)
-                merged.setdefault(label, []).append(wrenches[sel])
-        return [(label, np.concatenate(parts)) for label, parts in merged.items()]
+                spans.setdefault(label, []).append((start, stop))
+        return spans
+
+    def segments(self, until_ns: int | None = None) -> list[tuple[str, NDArray[np.float64]]]:
+        """(label, samples (n, 6)) of every tare/object window (``spans``), merged per label."""
+        stamps, wrenches = self.samples()
+        return [
+            (label, np.concatenate([wrenches[(stamps >= a) & (stamps < b)] for a, b in parts]))
+            for label, parts in self.spans(until_ns).items()
+        ]
+
+    def add_joint_state(
+        self, stamp_ns: int, names: Sequence[str], positions: Sequence[float]
+    ) -> None:
+        """A joint state (sensor_msgs/JointState: names, positions in rad or m) at
+        ``stamp_ns``, for the gravity of each window under ``information`` 'kinematics'."""
+        self._joint_states.append((int(stamp_ns), dict(zip(names, positions, strict=True))))
+
+    def window_gravity(self, label: str, until_ns: int | None = None) -> NDArray[np.float64]:
+        """Gravity (3,), m/s^2 in the sensor frame, over window ``label`` from the robot
+        model and the joint states in its span (or the nearest within JOINT_STATE_GAP s
+        of it). Raises WindowError with the reason when there is none or the joints moved."""
+        assert self.robot is not None
+        spans = self.spans(until_ns)[label]
+        stamps = np.array([t for t, _ in self._joint_states], dtype=np.int64)
+        # distance (ns) of each joint state to the window: 0 inside it
+        distance = np.full(len(stamps), np.inf)
+        for a, b in spans:
+            distance = np.minimum(
+                distance, np.maximum(a - stamps, 0) + np.maximum(stamps - b + 1, 0)
+            )
+        inside = list(np.flatnonzero(distance == 0))
+        if not inside and len(stamps) and distance.min() <= JOINT_STATE_GAP * 1e9:
+            inside = [int(np.argmin(distance))]
+        if not inside:
+            raise WindowError(f"no joint state within {JOINT_STATE_GAP:g} s of window {label!r}")
+        names = self.robot.joint_names
+        try:
+            q = np.array([[self._joint_states[k][1][n] for n in names] for k in inside])
+        except KeyError as error:
+            raise WindowError(f"window {label!r}: the joint states lack {error}") from error
+        moved = float(np.max(np.ptp(q, axis=0)))
+        if moved > JOINT_MOTION:
+            raise WindowError(f"window {label!r}: the joints moved {moved * 1e3:.1f} mrad")
+        return self.robot.gravity_in_sensor(dict(zip(names, q.mean(axis=0), strict=True)))
 
     def reduced_windows(
         self, until_ns: int | None = None
@@ -379,9 +437,17 @@ class Exploration:
             else:
                 windows = subtract_tare(objects, tares.values())
                 _check_load_direction(windows, tares)
-            estimate = METHODS[self.method](
-                windows, g=self.g, min_tilt_sigmas=self.min_tilt_sigmas
-            )
+            information = self.information
+            if information == KINEMATICS and self.robot is None:
+                notes.append("no robot model: information 'wrenches' instead of 'kinematics'")
+                information = WRENCHES
+            if information == KINEMATICS:
+                windows, gravities = self._with_gravity(windows, until_ns, notes)
+                estimate = known_gravity_ml(windows, gravities)
+            else:
+                estimate = METHODS[self.method](
+                    windows, g=self.g, min_tilt_sigmas=self.min_tilt_sigmas
+                )
             consistency = check_consistency(windows, alpha=self.alpha, g=self.g)
         except EstimationError as exc:
             reason = str(exc) + ("; " + "; ".join(notes) if notes else "")
@@ -389,6 +455,13 @@ class Exploration:
         status, reason = OK, _summary(estimate)
         if not consistency.consistent:
             status, reason = WARN, consistency.message
+        elif information == KINEMATICS and estimate.p_value < self.alpha:
+            status = WARN
+            reason = (
+                f"the wrenches do not fit the kinematic gravity (chi2 {estimate.chi2:.1f}, "
+                f"{estimate.dof} dof, p {estimate.p_value:.2g}): a sensor mounted off its "
+                "URDF frame, a wrong base gravity, or joint states of another time"
+            )
         elif notes:
             status, reason = WARN, "; ".join(notes)
         return Solution(
@@ -400,7 +473,22 @@ class Exploration:
             tuple(windows),
             tuple(notes),
             window_samples=counts,
+            information=information,
         )
+
+    def _with_gravity(
+        self, windows: list[Window], until_ns: int | None, notes: list[str]
+    ) -> tuple[list[Window], NDArray[np.float64]]:
+        """The windows with a kinematic gravity, and those gravities (n, 3), m/s^2; a
+        window without one is left out, with the reason in ``notes``."""
+        kept, gravities = [], []
+        for window in windows:
+            try:
+                gravities.append(self.window_gravity(OBJECT_PREFIX + window.pose, until_ns))
+                kept.append(window)
+            except WindowError as exc:
+                notes.append(f"left out: {exc}")
+        return kept, np.array(gravities).reshape(-1, 3)
 
 
 def done_stamp(labels: Sequence[tuple[int, str]]) -> int | None:

@@ -30,7 +30,7 @@ from .wrench_model import skew
 
 __all__ = ["known_gravity_crlb", "known_gravity_ml"]
 
-METHOD = "known_gravity"
+METHOD = "ml"  # the maximum-likelihood fit of the kinematics information
 
 
 def _design(gravity: NDArray[np.float64]) -> NDArray[np.float64]:
