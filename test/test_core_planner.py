@@ -199,3 +199,17 @@ def test_plan_validation():
         "home",
         "tilt_x+",
     ]
+
+
+def test_the_kinematics_prediction_is_the_known_gravity_bound():
+    """With each pose's gravity known, the COM along gravity is predicted at ~0.63x."""
+    plan = Plan(tilt=np.pi / 6, dwell=0.9, tare_dwell=5.0, com_guess=(0.0, 0.0, 0.1))
+    wrenches, kinematics = predict(plan), predict(plan, "ml", "kinematics")
+    ratio = kinematics.sigma_com / wrenches.sigma_com
+    assert np.all(ratio < 0.65) and ratio[2] > 0.55, ratio
+    assert kinematics.sigma_mass == pytest.approx(wrenches.sigma_mass, rel=1e-6)
+    assert str(kinematics).startswith("ml (kinematics): sigma mass")
+    advice = dwell_for_target(plan, 2e-4, information="kinematics")
+    assert advice.feasible and advice.prediction.information == "kinematics"
+    assert max(advice.prediction.sigma_com) <= 2e-4 * (1 + 1e-9)
+    assert advice.plan.dwell < dwell_for_target(plan, 2e-4).plan.dwell

@@ -27,6 +27,7 @@ from com_core.contract import (
 pytestmark = pytest.mark.system
 
 NOISE = {"sigma_f": 0.1, "sigma_tau": 0.005}
+RUN_STARTED = re.compile(r"\]: run \d{8}-\d{6}-\d{3}: poses")
 SET_PARAMETERS_SERVICE = EXPLORE_SERVICE.rsplit("/", 1)[0] + "/set_parameters"
 
 
@@ -66,7 +67,9 @@ class Client:
         assert spin_until(self.node, lambda: "ready" in log_path.read_text(), 30.0)
         for _ in range(3):
             future = self.call()
-            if spin_until(self.node, lambda: "]: run 2" in log_path.read_text(), 10.0):
+            if spin_until(
+                self.node, lambda: RUN_STARTED.search(log_path.read_text()) is not None, 10.0
+            ):
                 return future
             self.explore_client.remove_pending_request(future)
         raise AssertionError(f"{log_path.name}: ~/explore never took the call")
@@ -123,7 +126,7 @@ def test_rigid_grasp_estimate_is_within_tolerance_of_ground_truth(
     np.testing.assert_allclose(
         com, [truth.com.x, truth.com.y, truth.com.z], atol=float(4.5 * sigma.max() + 1e-4)
     )
-    assert abs(mass - truth.m) < 0.005 * truth.m  # DESIGN: mass error <= 0.5 %
+    assert abs(mass - truth.m) < 0.005 * truth.m  # docs/design.md, Numbers: mass error <= 0.5 %
 
     bag = Path(result.message.rsplit(" bag ", 1)[1])
     assert (bag / "metadata.yaml").is_file() and (bag / "report.png").is_file()
@@ -204,9 +207,9 @@ def test_a_friction_grasp_is_flagged(start_node, client, tmp_path):
 
 def test_a_run_after_a_sequencer_killed_mid_run_starts_clean(start_node, client, tmp_path):
     """The sequencer dies during the object pass with the object in the hand; a new one
-    puts the object back, resets the estimator, and the next run is right (before: the
-    estimator merged the dead run's windows into the new ones, seen as motion of m g,
-    and the new sequencer opened the fingers wherever the arm stood)."""
+    puts the object back, resets the estimator, and the next run is right (without that,
+    the estimator would merge the dead run's windows into the new ones, seen as motion of
+    m g, and the new sequencer would open the fingers wherever the arm stood)."""
     cache = {"tare_cache": str(tmp_path / "bags" / "tare_cache.json")}
     sequencer = {"use_sim_time": True, "bag_dir": str(tmp_path / "bags"), **cache}
     sim = {"real_time_factor": 5.0, "object": "box", "seed": 6, "object_mass": 0.5, **NOISE}

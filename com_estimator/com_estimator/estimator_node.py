@@ -34,7 +34,8 @@ from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from std_msgs.msg import Header
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Header, String
 from std_srvs.srv import Trigger
 
 from com_core.bags.cdr import decode_header, decode_wrench_batch
@@ -46,9 +47,11 @@ from com_core.contract import (
     ESTIMATOR_RESET_SERVICE,
     ESTIMATOR_SOLVE_SERVICE,
     INPUT_STATUS_NAME,
+    JOINT_STATES_TOPIC,
     LATEST_LABEL_KEY,
     LATEST_STAMP_KEY,
     POSE_TOPIC,
+    ROBOT_DESCRIPTION_TOPIC,
     WRENCH_TOPIC,
     level_of,
 )
@@ -56,10 +59,12 @@ from com_core.estimator_settings import (
     SETTINGS,
     exploration_from,
     load_cached_tares,
+    robot_from,
     setting_problem,
 )
 from com_core.exploration import (
     ERROR,
+    KINEMATICS,
     OK,
     WARN,
     Exploration,
@@ -85,6 +90,7 @@ class EstimatorNode(Node):
             self.declare_parameter(name, default, ParameterDescriptor(description=text))
         self.add_on_set_parameters_callback(self.validate_parameters)
         self._raw: list[bytes] = []
+        self._urdf = ""  # the latest /robot_description
         self._exploration = self._new_exploration()
         self._done_stamp: int | None = None
         self._done_wall = 0.0
@@ -97,6 +103,11 @@ class EstimatorNode(Node):
         )
         pose_qos = QoSProfile(depth=100, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.create_subscription(Header, POSE_TOPIC, self.pose_callback, pose_qos, raw=True)
+        self.create_subscription(JointState, JOINT_STATES_TOPIC, self.joint_state_callback, 100)
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.create_subscription(
+            String, ROBOT_DESCRIPTION_TOPIC, self.robot_description_callback, latched
+        )
         self.create_service(Trigger, ESTIMATOR_SOLVE_SERVICE, self.solve_callback)
         self.create_service(Trigger, ESTIMATOR_RESET_SERVICE, self.reset_callback)
         steady = Clock(clock_type=ClockType.STEADY_TIME)  # keeps running if /clock stops
@@ -119,15 +130,20 @@ class EstimatorNode(Node):
         for p in params:
             if p.name == "solve_timeout":
                 problem = None if p.value > 0.0 else f"solve_timeout={p.value!r} refused: > 0 s"
-            else:
+            elif p.name in SETTINGS:
                 problem = setting_problem(p.name, p.value)
+            else:  # rclpy's own (use_sim_time, ...)
+                continue
             if problem:
                 self.get_logger().error(problem)
                 return SetParametersResult(successful=False, reason=problem)
         return SetParametersResult(successful=True)
 
     def _new_exploration(self) -> Exploration:
-        return exploration_from({name: self._param(name) for name in SETTINGS})
+        exploration = exploration_from({n: self._param(n) for n in SETTINGS}, self._urdf)
+        if exploration.robot_problem and self._urdf:
+            self.get_logger().error(f"robot model: {exploration.robot_problem}")
+        return exploration
 
     def _solve(self, until_ns: int) -> Solution:
         """Solve the current exploration with the parameters in force now."""
@@ -144,6 +160,24 @@ class EstimatorNode(Node):
 
     def wrench_callback(self, raw: bytes) -> None:
         self._raw.append(raw)
+
+    def joint_state_callback(self, msg: JointState) -> None:
+        """Joint positions for the gravity of each window (information 'kinematics')."""
+        if self._exploration.information == KINEMATICS:
+            stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+            self._exploration.add_joint_state(stamp, msg.name, msg.position)
+
+    def robot_description_callback(self, msg: String) -> None:
+        """The URDF (latched): the robot model of this and the next explorations."""
+        self._urdf = msg.data
+        if self._exploration.information == KINEMATICS:
+            settings = {n: self._param(n) for n in SETTINGS}
+            robot, problem = robot_from(settings, self._urdf)
+            self._exploration.robot, self._exploration.robot_problem = robot, problem
+            if problem:
+                self.get_logger().error(f"robot model: {problem}")
+            else:
+                self.get_logger().info(f"robot model {robot.model.name!r}: {robot.sensor_frame}")
 
     def pose_callback(self, raw: bytes) -> None:
         self._drain()

@@ -36,10 +36,12 @@ from com_core.estimator_settings import (
     SETTINGS,
     exploration_from,
     load_cached_tares,
+    robot_from,
     setting_problem,
 )
 from com_core.exploration import (
     ERROR,
+    KINEMATICS,
     OK,
     WARN,
     Exploration,
@@ -58,7 +60,12 @@ def build_parser() -> argparse.ArgumentParser:
     for name, (default, text) in SETTINGS.items():
         if name != "tare_cache":
             option = "--" + name.replace("_", "-")
-            parser.add_argument(option, type=type(default), default=default, help=text)
+            if isinstance(default, list):
+                parser.add_argument(
+                    option, type=float, nargs=len(default), default=default, help=text
+                )
+            else:
+                parser.add_argument(option, type=type(default), default=default, help=text)
     parser.add_argument("--wrench-topic", default=WRENCH_TOPIC)
     parser.add_argument("--pose-topic", default=POSE_TOPIC)
     parser.add_argument(
@@ -87,6 +94,10 @@ def main(argv: list[str] | None = None) -> int:
     n_wrench, n_label = feed_bag(
         args.bag, exploration, args.wrench_topic, args.pose_topic, reading=reading
     )
+    if exploration.information == KINEMATICS and exploration.robot is None:
+        exploration.robot, exploration.robot_problem = robot_from(
+            settings, reading.robot_description
+        )
     if n_label:
         source = f"pose labels from the bag ({n_label})"
     else:

@@ -47,7 +47,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--max-tilt", type=float, help="rad; the largest tilt the object allows (default: pi/6)"
     )
-    p.add_argument("--axes", default="x,y", help="tilt axes, e.g. 'x' for the paper's one")
+    p.add_argument("--axes", default="y,x", help="tilt axes, e.g. 'x' for the paper's one")
     p.add_argument("--one-way", action="store_true", help="tilt one direction only (paper)")
     p.add_argument("--dwell", type=float, help="s per window (default: the sequencer's)")
     p.add_argument("--target-sigma", type=float, help="m; adaptive dwell to meet it")

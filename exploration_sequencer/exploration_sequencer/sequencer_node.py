@@ -77,7 +77,7 @@ from exploration_sequencer.io_node import IoNode, RunError, TimeoutRunError
 
 PARAMETERS: dict[str, tuple[object, str]] = {
     "tilt": (math.pi / 6, "rad; wrist tilt from home about each axis"),
-    "tilt_axes": (["x", "y"], "sensor axes to tilt about (x and/or y)"),
+    "tilt_axes": (["y", "x"], "sensor axes to tilt about (y and/or x), in the pass's order"),
     "both_directions": (True, "tilt +tilt and -tilt about each axis (false: the paper's one)"),
     "dwell": (0.9, "s of samples per object window"),
     "tare_dwell": (5.0, "s of samples per tare window (empty hand; cached per hand)"),
@@ -172,11 +172,11 @@ class SequencerNode(Node):
                 return SetParametersResult(successful=False, reason=reason)
         return SetParametersResult(successful=True)
 
-    def _planned(self, method: str) -> Plan:
+    def _planned(self, method: str, information: str) -> Plan:
         """The plan of the parameters, within ``max_tilt`` and, with ``target_com_sigma``,
         its dwell (and with ``raise_tilt`` its tilt) set by the planner for the estimator's
-        ``method``; every change is logged with its reason. RunError when the target
-        cannot be met (the reason says what would)."""
+        ``method`` and ``information``; every change is logged with its reason. RunError
+        when the target cannot be met (the reason says what would)."""
         plan = self.plan()
         changes = []
         if plan.tilt > self.p("max_tilt"):
@@ -191,6 +191,7 @@ class SequencerNode(Node):
                 max_time=self.p("max_object_time"),
                 raise_tilt=self.p("raise_tilt"),
                 method=method,
+                information=information,
             )
             if not advice.feasible:
                 raise RunError(f"target COM sigma cannot be met: {advice.reason}")
@@ -262,12 +263,13 @@ class SequencerNode(Node):
             wall_timeout=self.p("estimate_timeout"),
         )
         self._call(self._estimator_reset, Trigger.Request(), "resetting the estimator")
+        self.io.diagnostics.clear()  # only this run's answers from here on
         home, pick = self._joint_sets()
-        request = GetParameters.Request(names=["method"])
-        answer = self._call(self._estimator_params, request, "reading the estimator's method")
-        method = answer.values[0].string_value
-        plan = self._planned(method)
-        prediction = predict(plan, method)
+        request = GetParameters.Request(names=["method", "information", "tare_cache"])
+        answer = self._call(self._estimator_params, request, "reading the estimator's settings")
+        method, information, estimator_cache = (value.string_value for value in answer.values)
+        plan = self._planned(method, information)
+        prediction = predict(plan, method, information)
         poses = pose_joints(plan, home)
         log.info(
             f"run {run_id}: poses {[n for n, _ in poses]}, tilt {plan.tilt:.3f} rad, "
@@ -279,7 +281,7 @@ class SequencerNode(Node):
 
         self._to_known_state(home, pick)
         self.arm.gripper(FINGER_OPEN)
-        tare_home = self._tare(plan, poses, bag)
+        tare_home = self._tare(plan, poses, bag, estimator_cache)
         log.info("phase 2/4: grasp and lift")
         self.arm.move(home, "home")
         self.arm.move(pick, "the object")
@@ -303,14 +305,17 @@ class SequencerNode(Node):
 
     # --- steps ------------------------------------------------------------------------
 
-    def _tare(self, plan: Plan, poses: list[tuple[str, list[float]]], bag: Path) -> Window:
+    def _tare(
+        self, plan: Plan, poses: list[tuple[str, list[float]]], bag: Path, estimator_cache: str
+    ) -> Window:
         """Phase 1: reuse the cached tare pass of this hand and plan if still valid, else
         take a new one; returns the tare window at home.
 
         Valid: an entry for the same hand and plan (signature), younger than
         ``tare_max_age``, and a fresh ``drift_dwell`` window at home agrees with it
         (chi-square, 6 dof, ``tare_cache.drift_accepted``). A reused entry becomes the
-        cache's current one (which the estimator reads) and is copied beside the bag.
+        cache's current one and is copied beside the bag; the estimator must read the same
+        file (its ``tare_cache``), else a fresh pass is taken.
         """
         log = self.get_logger()
         path = Path(self.p("tare_cache") or Path(self.p("bag_dir")) / "tare_cache.json")
@@ -321,7 +326,13 @@ class SequencerNode(Node):
         except (ValueError, KeyError, OSError) as exc:
             log.warning(f"tare cache {path} unreadable ({exc}): taking a new tare")
             cache = None
-        if reusable(cache, self.p("tare_max_age"), [name for name, _ in poses]):
+        shared = bool(estimator_cache) and Path(estimator_cache).resolve() == path.resolve()
+        if cache is not None and not shared:
+            log.warning(
+                f"the estimator reads the tare cache {estimator_cache or '(none)'!r}, not "
+                f"{str(path)!r}: taking a fresh tare pass (give both nodes one tare_cache)"
+            )
+        if shared and reusable(cache, self.p("tare_max_age"), [name for name, _ in poses]):
             log.info(f"phase 1/4: drift check of the cached tare ({cache.age():.0f} s old)")
             self.arm.move(home, "home")
             check = f"{home_name}{DRIFT_CHECK_SUFFIX}"  # matches no object window: the
@@ -405,7 +416,7 @@ class SequencerNode(Node):
             )
         finally:
             raws = self.io.recorder.release(WRENCH_TOPIC)
-        exploration = Exploration()
+        exploration = Exploration(expected_frame="")  # the driver's frame, whatever it is
         if raws:
             exploration.add_samples(*decode_wrench_batch(raws))
         for stamp, label in self._labels:

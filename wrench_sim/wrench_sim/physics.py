@@ -70,7 +70,6 @@ __all__ = [
 TIME_STEP = 1e-3
 """s; physics step (1 kHz)."""
 STEP_NS = 1_000_000
-"""m; largest finger opening (per finger, from the hand's centre line)."""
 GRASP_MODES = ("rigid", "friction")
 HOME_JOINTS = (0.0, -0.1559, 0.0, -2.1983, 0.0, 2.0424, 0.7854)
 """rad; hand at (0.5, 0, 0.45) m in the world, pointing down (hand z = -world z, hand x =

@@ -10,17 +10,19 @@ when it is solved (a sequencer may take or choose the tare during the exploratio
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from .estimators import DEFAULT_ALPHA, MIN_TILT_SIGMAS
-from .exploration import MAX_LABEL_GAP, METHODS, Exploration
+from .exploration import INFORMATION, KINEMATICS, MAX_LABEL_GAP, METHODS, WRENCHES, Exploration
+from .kinematics import DEFAULT_GRAVITY, KinematicsError, RobotModel
 from .tare_cache import load_tares
 from .windows import Window
 from .wrench_model import SensorModel
 
-__all__ = ["SETTINGS", "exploration_from", "load_cached_tares", "setting_problem"]
+__all__ = ["SETTINGS", "exploration_from", "load_cached_tares", "robot_from", "setting_problem"]
 
 SETTINGS: dict[str, tuple[Any, str]] = {
     "method": ("ml", "'ml' (multi-pose maximum likelihood) or 'two_pose' (the paper)"),
@@ -36,11 +38,24 @@ SETTINGS: dict[str, tuple[Any, str]] = {
         "s (sensor time) without a label after which a label starts a new exploration (0: never)",
     ),
     "tare_cache": ("", "file of cached tare windows for poses without a fresh tare ('': none)"),
+    "information": (
+        WRENCHES,
+        "'wrenches' (gravity directions unknown) or 'kinematics' (from the URDF and joints)",
+    ),
+    "robot_description": ("", "URDF text or file for 'kinematics' ('': /robot_description)"),
+    "sensor_frame": ("panda_hand", "URDF frame of the F/T sensor (the wrenches' frame)"),
+    "base_frame": ("", "URDF frame gravity is given in ('': the URDF's root)"),
+    "gravity": (list(DEFAULT_GRAVITY), "m/s^2 in base_frame (a tilted base gives its own)"),
 }
 """name: (default, description with units)."""
 
 _CHECKS = {
     "method": lambda v: v in METHODS,
+    "information": lambda v: v in INFORMATION,
+    "robot_description": lambda v: isinstance(v, str),
+    "sensor_frame": lambda v: isinstance(v, str) and v != "",
+    "base_frame": lambda v: isinstance(v, str),
+    "gravity": lambda v: len(v) == 3 and 0 < math.hypot(*v) < math.inf,
     "alpha": lambda v: 0.0 < v < 0.5,
     "expected_frame": lambda v: isinstance(v, str),
     "tare_cache": lambda v: isinstance(v, str),
@@ -58,9 +73,12 @@ def setting_problem(name: str, value: Any) -> str | None:
     return None if ok else f"{name}={value!r} refused: {SETTINGS[name][1]}"
 
 
-def exploration_from(settings: Mapping[str, Any]) -> Exploration:
+def exploration_from(settings: Mapping[str, Any], urdf: str = "") -> Exploration:
     """A new ``Exploration`` for ``settings`` (names of ``SETTINGS``; missing ones take
-    their defaults). The sensor model is set when a noise or a range is given. The cached
+    their defaults). The sensor model is set when a noise or a range is given. With
+    information 'kinematics' the robot model is built from ``robot_description`` (a URDF
+    text or file), else from ``urdf`` (what /robot_description carried); a URDF that does
+    not serve leaves the robot model unset and says why in ``robot_problem``. The cached
     tare is not read here (``load_cached_tares``)."""
     value = {name: settings.get(name, default) for name, (default, _) in SETTINGS.items()}
     sensor = None
@@ -71,19 +89,51 @@ def exploration_from(settings: Mapping[str, Any]) -> Exploration:
             limit_f=value["limit_f"],
             limit_tau=value["limit_tau"],
         )
-    return Exploration(
+    exploration = Exploration(
         method=value["method"],
         expected_frame=value["expected_frame"],
         sensor=sensor,
         alpha=value["alpha"],
         min_tilt_sigmas=value["min_tilt_sigmas"],
         max_label_gap=value["max_label_gap"],
+        information=value["information"],
     )
+    if value["information"] == KINEMATICS:
+        exploration.robot, exploration.robot_problem = robot_from(value, urdf)
+    return exploration
+
+
+def robot_from(settings: Mapping[str, Any], urdf: str = "") -> tuple[RobotModel | None, str]:
+    """(the robot model, '') of ``settings``' robot_description (a URDF text or file),
+    else of ``urdf`` (what /robot_description carried), sensor_frame, base_frame and
+    gravity; (None, why) when there is none or it does not serve."""
+    value = {name: settings.get(name, default) for name, (default, _) in SETTINGS.items()}
+    text = _urdf_text(value["robot_description"]) or urdf
+    if not text:
+        return None, "no robot description received"
+    try:
+        robot = RobotModel(
+            text, value["sensor_frame"], value["base_frame"] or None, value["gravity"]
+        )
+    except KinematicsError as error:
+        return None, str(error)
+    return robot, ""
+
+
+def _urdf_text(description: str) -> str:
+    """A URDF text as it is, or the text of a file it names ('' for '')."""
+    if description.lstrip().startswith("<"):
+        return description
+    return Path(description).read_text() if description else ""
 
 
 def load_cached_tares(path: str | Path) -> dict[str, Window]:
-    """The current entry's tare windows of the cache file ``path`` ({} for '' or none)."""
+    """The current entry's tare windows of the cache file ``path`` ({} for '', none, or a
+    broken file: the solution then says which poses have no tare)."""
     if not str(path):
         return {}
-    cache = load_tares(path)
+    try:
+        cache = load_tares(path)
+    except (ValueError, KeyError, TypeError, OSError):  # a broken file: as if none
+        return {}
     return dict(cache.windows) if cache else {}

@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .contract import DONE, OBJECT_PREFIX, TARE_PREFIX
+from .contract import DONE, ERROR, OBJECT_PREFIX, OK, TARE_PREFIX, WARN
 from .errors import EstimationError, NonPositiveMassError, WindowError
 from .estimators import (
     DEFAULT_ALPHA,
@@ -66,7 +66,6 @@ __all__ = [
     "shorten",
 ]
 
-OK, WARN, ERROR = "OK", "WARN", "ERROR"
 _NO_STAMP = -(2**62)
 TIME_RESET_NS = 1_000_000_000
 """A sample stamped this much before its predecessor starts a new clock, not a late one."""
@@ -196,6 +195,7 @@ class Exploration:
     max_label_gap: float = MAX_LABEL_GAP
     information: str = WRENCHES
     robot: RobotModel | None = None
+    robot_problem: str = ""
     _joint_states: list[tuple[int, dict[str, float]]] = field(default_factory=list, repr=False)
     _stamps: list[NDArray[np.int64]] = field(default_factory=list, repr=False)
     _wrenches: list[NDArray[np.float64]] = field(default_factory=list, repr=False)
@@ -439,7 +439,8 @@ class Exploration:
                 _check_load_direction(windows, tares)
             information = self.information
             if information == KINEMATICS and self.robot is None:
-                notes.append("no robot model: information 'wrenches' instead of 'kinematics'")
+                why = self.robot_problem or "none given"
+                notes.append(f"no robot model ({why}): information 'wrenches', not 'kinematics'")
                 information = WRENCHES
             if information == KINEMATICS:
                 windows, gravities = self._with_gravity(windows, until_ns, notes)

@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .estimators import crlb, two_pose
+from .known_gravity import known_gravity_crlb
 from .windows import Window
 from .wrench_model import STANDARD_GRAVITY, SensorModel, as_vector, gravity_wrench, rotation_about
 
@@ -140,40 +141,54 @@ class Prediction:
     sigma_com : shape (3,); m; sensor frame.
     cov : shape (4, 4); covariance of (mass, com_x, com_y, com_z); kg, m.
     method : the estimator predicted for, one of ``METHODS``.
+    information : what it uses, 'wrenches' or 'kinematics' (``exploration.INFORMATION``).
     """
 
     sigma_mass: float
     sigma_com: NDArray[np.float64]
     cov: NDArray[np.float64]
     method: str = "ml"
+    information: str = "wrenches"
 
     def __str__(self) -> str:
         s = self.sigma_com * 1e3
+        name = (
+            self.method
+            if self.information == "wrenches"
+            else f"{self.method} ({self.information})"
+        )
         return (
-            f"{self.method}: sigma mass {self.sigma_mass * 1e3:.3g} g, COM ({s[0]:.3g}, "
+            f"{name}: sigma mass {self.sigma_mass * 1e3:.3g} g, COM ({s[0]:.3g}, "
             f"{s[1]:.3g}, {s[2]:.3g}) mm"
         )
 
 
-def predict(plan: Plan, method: str = "ml") -> Prediction:
+def predict(plan: Plan, method: str = "ml", information: str = "wrenches") -> Prediction:
     """Predicted sigma of mass and each COM axis for ``plan`` and estimator ``method``.
 
-    ``method`` 'ml': the CRLB at the guess (``estimators.crlb``); 'two_pose': the
-    paper's method's own first-order covariance at noise-free windows of the guess
-    (home and the first tilt; see the module). Raises ValueError for another method.
+    ``method`` 'ml': the CRLB at the guess (``estimators.crlb``; with ``information``
+    'kinematics', each pose's gravity known: ``known_gravity.known_gravity_crlb``);
+    'two_pose': the paper's method's own first-order covariance at noise-free windows of
+    the guess (home and the first tilt; see the module). Raises ValueError for another
+    method.
     """
     _check_method(method)
-    if method == "two_pose":
+    n = len(plan.poses())
+    if information == "kinematics" and method == "ml":
+        gravities = plan.gravity_directions() * STANDARD_GRAVITY
+        cov = known_gravity_crlb(
+            plan.mass_guess, plan.com_guess, gravities, [plan.window_cov()] * n
+        )
+    elif method == "two_pose":
         cov = _two_pose_cov(plan) * plan._variance_factor(plan.dwell)
     else:
-        n = len(plan.poses())
         cov = crlb(
             plan.mass_guess,
             plan.com_guess,
             plan.gravity_directions(),
             np.repeat(plan.window_cov()[None], n, axis=0),
         )
-    return Prediction(math.sqrt(cov[0, 0]), np.sqrt(np.diag(cov)[1:]), cov, method)
+    return Prediction(math.sqrt(cov[0, 0]), np.sqrt(np.diag(cov)[1:]), cov, method, information)
 
 
 def _check_method(method: str) -> None:
@@ -207,7 +222,7 @@ class Advice:
     plan : the plan to run; when infeasible, the best plan within the limits (the
         longest dwell the time limit allows, else the input plan with the tilt rule
         applied).
-    prediction : ``predict(plan, method)`` of that plan; ``prediction.method`` names
+    prediction : ``predict(plan, method, information)`` of that plan; ``prediction.method`` names
         the estimator it is for.
     reason : empty when feasible; else what fails, what would make it feasible (the
         tilt, the time limit or the tare that would) and what the limits reach.
@@ -241,7 +256,7 @@ class _Need:
     duration: float  # s of the object pass at that dwell (inf when dwell is None)
 
 
-def _need(plan: Plan, target: float, method: str) -> _Need:
+def _need(plan: Plan, target: float, method: str, information: str) -> _Need:
     """Shortest dwell at ``plan``'s tilt whose predicted worst COM sigma is <= target.
 
     sigma^2 = c * worst_unit^2 with c = 1/N + 1/N_tare (module): c_needed =
@@ -249,7 +264,7 @@ def _need(plan: Plan, target: float, method: str) -> _Need:
     the same dwell (tare_dwell None) 2/N = c_needed.
     """
     c_now = plan._variance_factor(plan.dwell)
-    worst_unit = float(predict(plan, method).sigma_com.max()) / math.sqrt(c_now)
+    worst_unit = float(predict(plan, method, information).sigma_com.max()) / math.sqrt(c_now)
     c_needed = (target / worst_unit) ** 2
     rate = plan.sensor.rate_hz
     fixed_tare = plan.tare_dwell is not None
@@ -272,7 +287,7 @@ def _up(x: float) -> float:
 
 
 def _least_tilt(
-    plan: Plan, target: float, method: str, max_time: float, hi: float
+    plan: Plan, target: float, method: str, information: str, max_time: float, hi: float
 ) -> float | None:
     """Smallest tilt in (plan.tilt, hi] rad at which the target fits in ``max_time``.
 
@@ -281,7 +296,7 @@ def _least_tilt(
     """
 
     def fits(tilt: float) -> bool:
-        need = _need(replace(plan, tilt=tilt), target, method)
+        need = _need(replace(plan, tilt=tilt), target, method, information)
         return need.dwell is not None and need.duration <= max_time
 
     lo = plan.tilt
@@ -304,6 +319,7 @@ def dwell_for_target(
     *,
     raise_tilt: bool = False,
     method: str = "ml",
+    information: str = "wrenches",
 ) -> Advice:
     """Shortest dwell whose predicted worst COM-axis sigma is <= ``target_com_sigma`` (m).
 
@@ -361,7 +377,7 @@ def dwell_for_target(
         )
     base = replace(plan, tilt=tilt)
     target_mm = target_com_sigma * 1e3
-    need = _need(base, target_com_sigma, method)
+    need = _need(base, target_com_sigma, method, information)
 
     def with_dwell(dwell: float, why: str) -> Plan:
         if dwell != plan.dwell:
@@ -375,7 +391,7 @@ def dwell_for_target(
 
     if need.dwell is not None and need.duration <= max_time:
         out = with_dwell(need.dwell, f"the shortest for {method} COM sigma {target_mm:.3g} mm")
-        return Advice(True, out, predict(out, method), "", tuple(changes))
+        return Advice(True, out, predict(out, method, information), "", tuple(changes))
 
     # Infeasible: what fails, what would make it feasible, what the limits reach.
     n = len(base.poses())
@@ -393,14 +409,18 @@ def dwell_for_target(
     remedies = []
     # the least tilt that meets it within max_time (at most max_tilt, else above it)
     within = None if max_tilt is None or tilt >= max_tilt else max_tilt
-    least = _least_tilt(base, target_com_sigma, method, max_time, within) if within else None
+    least = (
+        _least_tilt(base, target_com_sigma, method, information, max_time, within)
+        if within
+        else None
+    )
     if least is not None:
         remedies.append(
             f"tilt >= {least:.3f} rad (max_tilt {max_tilt:.3g} allows it: set the tilt, "
             "or raise_tilt)"
         )
     else:
-        least = _least_tilt(base, target_com_sigma, method, max_time, _TILT_CEILING)
+        least = _least_tilt(base, target_com_sigma, method, information, max_time, _TILT_CEILING)
         if least is not None:
             above = f", above max_tilt {max_tilt:.3g} rad" if max_tilt is not None else ""
             remedies.append(f"tilt >= {least:.3f} rad{above}")
@@ -431,11 +451,11 @@ def dwell_for_target(
     dwell_max = max_time / n - base.move_time - base.settle
     if math.isfinite(max_time) and dwell_max <= 0:
         reason = f"{n} poses cannot even be visited in {max_time:g} s{remedy}"
-        return Advice(False, base, predict(base, method), reason, tuple(changes))
+        return Advice(False, base, predict(base, method, information), reason, tuple(changes))
     if math.isfinite(max_time):
         best_plan = with_dwell(dwell_max, f"the longest within {max_time:g} s; target not met")
     else:
         best_plan = base
-    best = predict(best_plan, method)
+    best = predict(best_plan, method, information)
     reason = f"{fails}{remedy}; within the limits: {best}"
     return Advice(False, best_plan, best, reason, tuple(changes))

@@ -9,7 +9,7 @@ estimator reads). A run reuses an entry when its signature matches, it is young 
 and a short fresh tare window at home agrees with it (``drift``); a run with another
 plan adds its own entry beside it. A run that reuses one keeps a copy beside its bag
 (``tare.json``, one entry) so the offline replay sees the same tare as the node did.
-Files of one entry without ``entries`` (written before there were several) still load.
+A file of one entry without ``entries`` (as the sample bag's tare.json) loads too.
 """
 
 from __future__ import annotations
@@ -103,10 +103,18 @@ def _write(path: Path, entries: dict[str, TareCache], current: str | None) -> No
     tmp.replace(path)
 
 
+def _read_or_empty(path: Path) -> dict[str, TareCache]:
+    """The entries of ``path``; none when it is missing or broken (it is then rewritten)."""
+    try:
+        return _read(path)[0]
+    except (ValueError, KeyError, TypeError, OSError):
+        return {}
+
+
 def save_tares(path: Path | str, signature: str, windows: dict[str, Window]) -> None:
     """Add (or replace) the entry for ``signature``, taken now, and make it current."""
     path = Path(path)
-    entries, _ = _read(path)
+    entries = _read_or_empty(path)
     entries[signature] = TareCache(signature, time.time(), dict(windows))
     _write(path, entries, signature)
 
@@ -114,7 +122,7 @@ def save_tares(path: Path | str, signature: str, windows: dict[str, Window]) -> 
 def use_tares(path: Path | str, entry: TareCache) -> None:
     """Make ``entry`` the current one of the cache in ``path`` (adding it if missing)."""
     path = Path(path)
-    entries, _ = _read(path)
+    entries = _read_or_empty(path)
     entries.setdefault(entry.signature, entry)
     _write(path, entries, entry.signature)
 

@@ -1,4 +1,4 @@
-"""Read and write rosbag2 directories (MCAP storage) without ROS, through rosbags.
+"""Read rosbag2 directories (MCAP storage) without ROS, through rosbags (and mcap).
 
 Messages stay serialized (CDR bytes) end to end: the reader hands them to ``cdr`` for
 decoding, exactly as the node's raw subscriptions do. Bags are written by
@@ -19,8 +19,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..contract import POSE_TOPIC, WRENCH_TOPIC
-from ..exploration import Exploration
+from ..contract import JOINT_STATES_TOPIC, POSE_TOPIC, ROBOT_DESCRIPTION_TOPIC, WRENCH_TOPIC
+from ..exploration import KINEMATICS, Exploration
 from .cdr import decode_header, decode_wrench_batch
 
 __all__ = [
@@ -62,6 +62,7 @@ class BagReading:
         in complete records before the cut was read, the rest is lost.
     stopped : the error that ended the read of a cut file, with the file's name.
     file_bytes : size of the MCAP files read, bytes.
+    robot_description : the last URDF on /robot_description ('' if none was read).
     """
 
     read: dict[str, int] = field(default_factory=dict)
@@ -71,6 +72,7 @@ class BagReading:
     cut_short: bool = False
     stopped: str = ""
     file_bytes: int = 0
+    robot_description: str = ""
 
     def counts_text(self) -> str:
         """'/ft_sensor/wrench: 7681 of 15982 listed in metadata.yaml (48.1 %); ...'."""
@@ -257,12 +259,17 @@ def feed_bag(
     pose_topic: str = POSE_TOPIC,
     reading: BagReading | None = None,
 ) -> tuple[int, int]:
-    """Feed a bag's wrenches and pose labels to ``exploration`` in recorded order.
+    """Feed a bag's wrenches and pose labels to ``exploration`` in recorded order, and
+    for ``information`` 'kinematics' its joint states, with the last robot description
+    in ``reading.robot_description``.
 
     Returns (wrench messages, label messages) read; ``reading`` as in ``read_raw``.
     Wrenches are decoded in batches, as the node does; the result does not depend on the
     batching.
     """
+    from rosbags.typesys import Stores, get_typestore
+
+    typestore = get_typestore(Stores.ROS2_JAZZY)
     pending: list[bytes] = []
     n_wrench = n_label = 0
 
@@ -272,7 +279,10 @@ def feed_bag(
             exploration.add_samples(stamps, wrenches, frames)
             pending.clear()
 
-    for topic, msgtype, _, raw in read_raw(bag, (wrench_topic, pose_topic), reading):
+    topics = [wrench_topic, pose_topic]
+    if exploration.information == KINEMATICS:
+        topics += [JOINT_STATES_TOPIC, ROBOT_DESCRIPTION_TOPIC]
+    for topic, msgtype, _, raw in read_raw(bag, topics, reading):
         if topic == wrench_topic:
             pending.append(raw)
             n_wrench += 1
@@ -281,5 +291,11 @@ def feed_bag(
         elif msgtype == "std_msgs/msg/Header":
             exploration.add_label(*decode_header(raw))
             n_label += 1
+        elif topic == JOINT_STATES_TOPIC:
+            msg = typestore.deserialize_cdr(raw, msgtype)
+            stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+            exploration.add_joint_state(stamp, msg.name, msg.position.tolist())
+        elif topic == ROBOT_DESCRIPTION_TOPIC and reading is not None:
+            reading.robot_description = typestore.deserialize_cdr(raw, msgtype).data
     flush()
     return n_wrench, n_label

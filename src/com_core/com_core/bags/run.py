@@ -77,7 +77,7 @@ class RunData:
     wrenches : shape (n, 6); N and N m; ``ft_sensor``.
     labels : (stamp ns, label) sorted by stamp.
     done_ns : stamp of the ``done`` that ends the run (``exploration.done_stamp``).
-    estimate : the last ``/com_estimator/estimate``, or None.
+    estimate : the ``/com_estimator/estimate`` of this run (stamped with its ``done``), or None.
     diagnostic : level (int), message (str) and values (dict of str) of the last
         ``com_estimator: exploration`` status on ``/diagnostics``, or None.
     truth : the object's ground truth chosen as the module says, or None.
@@ -202,6 +202,9 @@ def read_run(bag: Path | str) -> RunData:
         run.notes.append(f"{n} wrench samples in frame {name!r}, not 'ft_sensor'")
     run.done_ns = done_stamp(run.labels)  # in recorded order, before sorting by stamp
     run.labels.sort(key=lambda sl: sl[0])
+    latched_earlier = run.estimate is not None and run.estimate.stamp_ns != run.done_ns
+    if run.done_ns is not None and latched_earlier:  # the latched estimate of an earlier run
+        run.estimate = None
     until = run.done_ns
     if until is None and run.estimate is not None:
         until = run.estimate.stamp_ns
