@@ -217,11 +217,11 @@ def wait_for_messages(
     return received[:count]
 
 
-def replay_json(bag: Path, env: dict[str, str] | None = None) -> dict[str, Any]:
+def replay_json(bag: Path, env: dict[str, str] | None = None, *options: str) -> dict[str, Any]:
     """What the installed ``replay`` prints for ``bag`` with ``--json`` (the offline
     estimate: mass, com, sigmas, status, ...)."""
     out = subprocess.run(
-        [str(executable("com_estimator", "replay")), str(bag), "--json"],
+        [str(executable("com_estimator", "replay")), str(bag), "--json", *options],
         env=env,
         capture_output=True,
         text=True,

@@ -310,3 +310,37 @@ def test_the_demo_prints_its_summary_and_exits_cleanly(ros_env, tmp_path):
     logs = "".join(p.read_text() for p in (tmp_path / "logs").glob("*.log"))
     for text in UNCLEAN_EXIT:
         assert text not in out + logs, out + logs
+
+
+def test_kinematics_from_the_urdf_tightens_the_com_and_replays(
+    start_node, client, tmp_path, ros_env
+):
+    """The estimator takes the URDF from /robot_description and each window's gravity
+    from /joint_states: the COM sigma along gravity drops to ~0.6x (predicted and
+    reported), the estimate is right, and the bag replays to it."""
+    bags = tmp_path / "bags"
+    start_node("sim_node", "wrench_sim", params={"real_time_factor": 5.0, "seed": 7, **NOISE})
+    start_node(
+        "estimator_node",
+        "com_estimator",
+        params={"use_sim_time": True, "information": "kinematics", **NOISE},
+    )
+    start_node(
+        "sequencer_node",
+        "exploration_sequencer",
+        params={"use_sim_time": True, "bag_dir": str(bags)},
+    )
+    result = client.wait(client.call())
+    assert result.success and result.message.startswith("[OK]"), result.message
+    assert "predicted ml (kinematics)" in result.message
+    sigma = numbers(result.message, r"COM \([-\d., ]+\) \+-")
+    assert sigma[2] < 0.3, sigma  # mm; 0.42 with the wrenches only
+    com = numbers(result.message, "COM") * 1e-3
+    truth = [t for t in client.truths if abs(t.inertia.com.z) < 0.2][-1].inertia
+    np.testing.assert_allclose(
+        com, [truth.com.x, truth.com.y, truth.com.z], atol=float(4.5 * sigma.max() * 1e-3)
+    )
+    bag = Path(result.message.rsplit(" bag ", 1)[1])
+    offline = replay_json(bag, ros_env, "--information", "kinematics")
+    assert offline["information"] == "kinematics"
+    np.testing.assert_allclose(offline["com"], com, atol=0.006e-3)  # 2 decimals in mm

@@ -57,6 +57,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="with --target-sigma: the tilt may be raised up to --max-tilt (else it is kept)",
     )
     p.add_argument("--method", choices=("ml", "two_pose"), default="ml")
+    p.add_argument(
+        "--information",
+        choices=("wrenches", "kinematics"),
+        default="wrenches",
+        help="what the estimator fits: the wrenches, or also each pose's gravity from the URDF",
+    )
     p.add_argument("--real-time-factor", type=float, default=5.0, help="0: as fast as possible")
     p.add_argument("--bag-dir", type=Path, default=Path("bags"))
     p.add_argument("--timeout", type=float, default=300.0, help="s for the whole exploration")
@@ -83,6 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     estimator_params = {
         "use_sim_time": True,
         "method": args.method,
+        "information": args.information,
         "sigma_f": args.sigma_f,
         "sigma_tau": args.sigma_tau,
         "tare_cache": tare_cache,

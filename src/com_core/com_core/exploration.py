@@ -552,7 +552,10 @@ def shorten(text: str, limit: int = 40) -> str:
 
 def format_solution(solution: Solution) -> str:
     """One line for logs and the command line."""
-    return f"[{solution.status}] {solution.method}: {solution.reason}" + (
+    name = solution.method
+    if solution.information != WRENCHES:
+        name += f" ({solution.information})"
+    return f"[{solution.status}] {name}: {solution.reason}" + (
         ""
         if solution.estimate is None or solution.status == OK
         else f" | {_summary(solution.estimate)}"
