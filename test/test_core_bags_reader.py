@@ -8,7 +8,7 @@ import os
 import numpy as np
 from conftest import write_stream_bag
 
-from com_core.bags.cdr import encode_wrench_stamped
+from com_core.bags.cdr import decode_wrenches, encode_wrench_stamped
 from com_core.bags.reader import INCOMPLETE_TEXT, BagReading, feed_bag, read_metadata, read_raw
 from com_core.bags.writer import CrashSafeBagWriter
 from com_core.contract import POSE_TOPIC, TOPIC_TYPES, WRENCH_TOPIC
@@ -91,3 +91,29 @@ def test_an_unclosed_recording_is_read_and_named_incomplete(tmp_path):
         writer.close()
     assert read_metadata(bag)[:2] == ({WRENCH_TOPIC: 100}, True)
     assert read_metadata(tmp_path / "no_bag") == ({}, None, [])
+
+
+def test_malformed_messages_in_a_bag_are_dropped_and_counted(tmp_path):
+    """A corrupt wrench and a corrupt label: the rest replays, the solution says what was
+    dropped (a batch is not lost for one bad message, and nothing raises)."""
+    good = [encode_wrench_stamped(k, "ft_sensor", np.full(6, float(k))) for k in range(1, 4)]
+    stamps, wrenches, _, bad = decode_wrenches([good[0], good[1][:20], good[2]])
+    assert bad == 1 and stamps.tolist() == [1, 3] and wrenches[:, 0].tolist() == [1.0, 3.0]
+
+    stream = exploration_stream(
+        Plan(dwell=0.3, gravity_home=(0, 0, 1)), LOAD, HAND, np.random.default_rng(4)
+    )
+    write_stream_bag(tmp_path / "run", stream)
+    copy = tmp_path / "corrupt"
+    with CrashSafeBagWriter(copy) as bag:
+        for n, (topic, _, stamp, raw) in enumerate(read_raw(tmp_path / "run", TOPIC_TYPES)):
+            if n in (500, 501) and topic == WRENCH_TOPIC:
+                raw = raw[:24]  # cut inside the frame_id
+            bag.write(topic, TOPIC_TYPES[topic], stamp, raw)
+        bag.write(POSE_TOPIC, TOPIC_TYPES[POSE_TOPIC], stamp + 1, b"\x00\x01\x00\x00")
+    ex = Exploration()
+    feed_bag(copy, ex)
+    solution = ex.solve()
+    assert solution.status == "WARN" and solution.estimate is not None, solution.reason
+    assert "dropped 2 samples undecodable (malformed CDR)" in solution.reason
+    assert "dropped 1 labels undecodable (malformed CDR)" in solution.reason

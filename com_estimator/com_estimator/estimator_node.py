@@ -38,7 +38,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Header, String
 from std_srvs.srv import Trigger
 
-from com_core.bags.cdr import decode_header, decode_wrench_batch
+from com_core.bags.cdr import decode_header, decode_wrenches
 from com_core.contract import (
     DIAGNOSTIC_NAME,
     DIAGNOSTICS_TOPIC,
@@ -185,6 +185,7 @@ class EstimatorNode(Node):
             stamp, label = decode_header(raw)
         except ValueError as exc:  # malformed bytes: drop the label, say so
             self.get_logger().error(f"dropped an undecodable label: {exc}")
+            self._exploration.count_dropped("undecodable (malformed CDR)", 1, labels=True)
             return
         stale = self._exploration.stale_drops
         self._exploration.add_label(stamp, label)
@@ -208,10 +209,10 @@ class EstimatorNode(Node):
             return
         raws, self._raw = self._raw, []
         self._received += len(raws)
-        try:
-            stamps, wrenches, frames = decode_wrench_batch(raws)
-        except (ValueError, IndexError) as exc:  # malformed bytes: drop the batch, say so
-            self.get_logger().error(f"dropped {len(raws)} undecodable wrench messages: {exc}")
+        stamps, wrenches, frames, bad = decode_wrenches(raws)
+        if bad:  # malformed bytes: those messages only, counted in the solution
+            self._exploration.count_dropped("undecodable (malformed CDR)", bad)
+        if not len(stamps):
             return
         resets = self._exploration.time_resets
         self._exploration.add_samples(stamps, wrenches, frames)

@@ -296,7 +296,7 @@ class Exploration:
         stamp_ns = int(stamp_ns)
         if len(label) > MAX_LABEL_LENGTH:
             what = f"longer than {MAX_LABEL_LENGTH} characters ({shorten(label)})"
-            self.dropped_labels[what] = self.dropped_labels.get(what, 0) + 1
+            self.count_dropped(what, 1, labels=True)
             return
         if self._labels and self.max_label_gap > 0:
             latest = max(t for t, _ in self._labels)
@@ -318,6 +318,16 @@ class Exploration:
     def done_stamp(self) -> int | None:
         """Stamp of the ``done`` that ends this exploration (see ``done_stamp``)."""
         return done_stamp(self._labels)
+
+    def count_dropped(self, what: str, n: int, labels: bool = False) -> None:
+        """Count ``n`` samples (or ``labels``) dropped before they reached this
+        exploration (e.g. bytes that do not decode); the solution says so, as for the
+        input it drops itself."""
+        if labels:
+            if n:
+                self.dropped_labels[what] = self.dropped_labels.get(what, 0) + n
+        else:
+            self._count(what, n)
 
     def _count(self, what: str, n: int) -> None:
         if n:

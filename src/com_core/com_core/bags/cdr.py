@@ -19,7 +19,13 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["decode_header", "decode_wrench_batch", "encode_header", "encode_wrench_stamped"]
+__all__ = [
+    "decode_header",
+    "decode_wrench_batch",
+    "decode_wrenches",
+    "encode_header",
+    "encode_wrench_stamped",
+]
 
 _ENCAPSULATION = b"\x00\x01\x00\x00"  # CDR little endian
 
@@ -81,6 +87,25 @@ def _encode_frame(stamp_ns: int, frame_id: str) -> bytes:
     sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
     name = frame_id.encode() + b"\x00"
     return _ENCAPSULATION + struct.pack("<iII", sec, nanosec, len(name)) + name
+
+
+def decode_wrenches(
+    raws: Sequence[bytes],
+) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.object_], int]:
+    """``decode_wrench_batch`` that leaves malformed messages out instead of failing the
+    batch: (stamps, wrenches, frame_ids, number left out). The good messages decode the
+    same whatever the batch they came in."""
+    try:
+        return (*decode_wrench_batch(raws), 0)
+    except ValueError:
+        good = []
+        for raw in raws:
+            try:
+                decode_wrench_batch([raw])
+                good.append(raw)
+            except ValueError:
+                continue
+        return (*decode_wrench_batch(good), len(raws) - len(good))
 
 
 def encode_header(stamp_ns: int, frame_id: str) -> bytes:

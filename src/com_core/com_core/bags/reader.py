@@ -21,7 +21,7 @@ from typing import Any
 
 from ..contract import JOINT_STATES_TOPIC, POSE_TOPIC, ROBOT_DESCRIPTION_TOPIC, WRENCH_TOPIC
 from ..exploration import KINEMATICS, Exploration
-from .cdr import decode_header, decode_wrench_batch
+from .cdr import decode_header, decode_wrenches
 
 __all__ = [
     "INCOMPLETE_TEXT",
@@ -275,7 +275,8 @@ def feed_bag(
 
     def flush() -> None:
         if pending:
-            stamps, wrenches, frames = decode_wrench_batch(pending)
+            stamps, wrenches, frames, bad = decode_wrenches(pending)
+            exploration.count_dropped("undecodable (malformed CDR)", bad)
             exploration.add_samples(stamps, wrenches, frames)
             pending.clear()
 
@@ -289,7 +290,11 @@ def feed_bag(
             if len(pending) >= _BATCH:
                 flush()
         elif msgtype == "std_msgs/msg/Header":
-            exploration.add_label(*decode_header(raw))
+            try:
+                exploration.add_label(*decode_header(raw))
+            except ValueError:
+                exploration.count_dropped("undecodable (malformed CDR)", 1, labels=True)
+                continue
             n_label += 1
         elif topic == JOINT_STATES_TOPIC:
             msg = typestore.deserialize_cdr(raw, msgtype)
