@@ -149,3 +149,11 @@ def test_kinematics_without_a_robot_model_or_joint_states_says_why():
     partial = fed(stream, ex).solve()
     assert partial.status == WARN and "left out: no joint state within 0.1 s" in partial.reason
     assert [w.pose for w in partial.windows] == ["tilt_x+", "tilt_x-", "tilt_y+", "tilt_y-"]
+
+
+def test_an_exploration_without_labels_solves_to_no_windows():
+    ex = Exploration()
+    ex.add_samples([1, 2, 3], np.zeros((3, 6)), "ft_sensor")
+    assert ex.spans() == {} and ex.segments() == []
+    solution = ex.solve(until_ns=4)
+    assert solution.status == ERROR and solution.reason.startswith("no windows")

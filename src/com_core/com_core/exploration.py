@@ -343,6 +343,8 @@ class Exploration:
         end = self.done_stamp() if until_ns is None else until_ns
         if end is not None:
             labels = [(s, lbl) for s, lbl in labels if s <= end]
+        if not labels:
+            return {}
         bounds = [s for s, _ in labels[1:]] + [end if end is not None else 2**62]
         spans: dict[str, list[tuple[int, int]]] = {}
         for (start, label), stop in zip(labels, bounds, strict=True):
