@@ -23,7 +23,6 @@ from __future__ import annotations
 import math
 import threading
 import traceback
-from dataclasses import replace
 from datetime import datetime
 from pathlib import Path
 
@@ -58,7 +57,7 @@ from com_core.contract import (
     status_of,
 )
 from com_core.exploration import Exploration
-from com_core.planner import Plan, dwell_for_target, predict
+from com_core.planner import Plan, dwell_for_target, predict, within_max_tilt
 from com_core.rosenv import keep_dds_local
 from com_core.tare_cache import (
     BAG_TARE_FILE,
@@ -177,11 +176,8 @@ class SequencerNode(Node):
         its dwell (and with ``raise_tilt`` its tilt) set by the planner for the estimator's
         ``method`` and ``information``; every change is logged with its reason. RunError
         when the target cannot be met (the reason says what would)."""
-        plan = self.plan()
-        changes = []
-        if plan.tilt > self.p("max_tilt"):
-            changes.append(f"tilt {plan.tilt:.3g} -> {self.p('max_tilt'):.3g} rad (max_tilt)")
-            plan = replace(plan, tilt=self.p("max_tilt"))
+        plan, lowered = within_max_tilt(self.plan(), self.p("max_tilt"))
+        changes = list(lowered)
         target = self.p("target_com_sigma")
         if target > 0:
             advice = dwell_for_target(

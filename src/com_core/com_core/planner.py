@@ -36,7 +36,16 @@ from .known_gravity import known_gravity_crlb
 from .windows import Window
 from .wrench_model import STANDARD_GRAVITY, SensorModel, as_vector, gravity_wrench, rotation_about
 
-__all__ = ["HOME", "METHODS", "Advice", "Plan", "Prediction", "dwell_for_target", "predict"]
+__all__ = [
+    "HOME",
+    "METHODS",
+    "Advice",
+    "Plan",
+    "Prediction",
+    "dwell_for_target",
+    "predict",
+    "within_max_tilt",
+]
 
 HOME = "home"
 
@@ -311,6 +320,15 @@ def _least_tilt(
     return tilt if tilt < math.pi / 2 and fits(tilt) else hi
 
 
+def within_max_tilt(plan: Plan, max_tilt: float | None) -> tuple[Plan, tuple[str, ...]]:
+    """``plan`` with its tilt lowered to ``max_tilt`` (rad) when above it, and the change
+    said in words (none when the tilt is within it or there is no limit)."""
+    if max_tilt is None or plan.tilt <= max_tilt:
+        return plan, ()
+    change = f"tilt {plan.tilt:.3g} -> {max_tilt:.3g} rad (the plan's tilt exceeds max_tilt)"
+    return replace(plan, tilt=max_tilt), (change,)
+
+
 def dwell_for_target(
     plan: Plan,
     target_com_sigma: float,
@@ -363,14 +381,10 @@ def dwell_for_target(
     if raise_tilt and max_tilt is None:
         raise ValueError("raise_tilt needs max_tilt (the tilt to raise to)")
 
-    changes: list[str] = []
+    plan, lowered = within_max_tilt(plan, max_tilt)
+    changes = list(lowered)
     tilt = plan.tilt
-    if max_tilt is not None and plan.tilt > max_tilt:
-        tilt = max_tilt
-        changes.append(
-            f"tilt {plan.tilt:.3g} -> {tilt:.3g} rad (the plan's tilt exceeds max_tilt)"
-        )
-    elif raise_tilt and max_tilt is not None and max_tilt > plan.tilt:
+    if raise_tilt and max_tilt is not None and max_tilt > plan.tilt:
         tilt = max_tilt
         changes.append(
             f"tilt {plan.tilt:.3g} -> {tilt:.3g} rad (raise_tilt: more tilt, less dwell)"
