@@ -30,6 +30,9 @@ PARAMETERS = [  # name, default, description, read-only, lower bound of a float
     ("pick_joints", list(PICK_JOINTS), "arm joints that grasp the object on its stand, rad "
      "(information)", True, None),
     ("gui", False, f"open the pybullet window; {_START}", True, None),
+    ("sensor_mount_rpy", [0.0, 0.0, 0.0], "the F/T sensor mounted off its URDF frame "
+     "(panda_hand) by roll, pitch, yaw (rad, fixed axes x, y, z): its readings and the ground "
+     f"truth are in the mounted frame; {_START}", True, None),
     ("sigma_f", 0.0, "sensor noise sigma per force axis, N", False, 0.0),
     ("sigma_tau", 0.0, "sensor noise sigma per torque axis, N m", False, 0.0),
     ("bias_f", 0.0, "sensor bias on each force axis, N", False, None),
@@ -64,6 +67,10 @@ def check_parameter(parameter: Parameter, shape: str | None = None) -> str | Non
             return "object_com_offset must be 3 values (m), or unset to draw it from the seed"
         if shape in SHAPES:
             return com_offset_problem(shape, value)
+    if name == "sensor_mount_rpy" and (
+        len(value) != 3 or not all(math.isfinite(v) and abs(v) < math.pi for v in value)
+    ):
+        return "sensor_mount_rpy must be 3 finite angles (rad) within +-pi"
     if name in ("home_joints", "pick_joints") and len(value) != 7:
         return f"{name} must be 7 values (rad)"
     if name in ("rate", "clock_rate") and not (

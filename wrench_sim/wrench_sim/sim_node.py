@@ -40,7 +40,7 @@ from com_core.contract import (
     WRENCH_TOPIC,
 )
 from com_core.rosenv import keep_dds_local
-from com_core.wrench_model import SensorModel
+from com_core.wrench_model import SensorModel, rotation_about
 from wrench_sim.parameters import SENSOR_PARAMETERS, check_parameter, declare_parameters
 from wrench_sim.physics import TIME_STEP, PandaWorld, SimConfig
 from wrench_sim.sensor import WrenchSensor, random_streams
@@ -77,6 +77,11 @@ class SimNode(Node):
                 home_joints=tuple(parameter("home_joints").value),
                 gui=parameter("gui").value,
             )
+        )
+        roll, pitch, yaw = parameter("sensor_mount_rpy").value
+        # the mounted sensor's axes in its URDF frame; readings and truth are in its own
+        self._mount = (
+            rotation_about("z", yaw) @ rotation_about("y", pitch) @ rotation_about("x", roll)
         )
         self.sensor = WrenchSensor(
             self._sensor_model(), random_streams(self.world.config.seed)["sensor"]
@@ -195,7 +200,7 @@ class SimNode(Node):
             now = world.time_ns
             reading = None
             if steps % self._publish_every == 0:
-                reading = sensor.read(world.wrench)
+                reading = sensor.read(self._mounted(world.wrench))
                 self._saturated_readings += sensor.saturated
             if publish:
                 if steps % self._clock_every == 0:
@@ -274,7 +279,7 @@ class SimNode(Node):
         if changed or held:
             mass, com = world.object_ground_truth()
             if changed or np.max(np.abs(com - last[1])) > TRUTH_MOVE_M:
-                self.truth_publisher.publish(_inertia(stamp, mass, com))
+                self.truth_publisher.publish(_inertia(stamp, mass, self._mount.T @ com))
                 self._published_object = (held, com)
             if changed:
                 state = "held" if held else "not_held"
@@ -286,8 +291,12 @@ class SimNode(Node):
         hand_mass, hand_com = world.hand_ground_truth()
         last_hand = self._published_hand
         if force or last_hand is None or np.max(np.abs(hand_com - last_hand)) > TRUTH_MOVE_M:
-            self.hand_truth_publisher.publish(_inertia(stamp, hand_mass, hand_com))
+            self.hand_truth_publisher.publish(_inertia(stamp, hand_mass, self._mount.T @ hand_com))
             self._published_hand = hand_com
+
+    def _mounted(self, wrench: np.ndarray) -> np.ndarray:
+        """A wrench (6,) in the URDF's sensor frame expressed in the mounted sensor's."""
+        return np.concatenate([self._mount.T @ wrench[:3], self._mount.T @ wrench[3:]])
 
     def close(self) -> None:
         """Release pybullet and the executor."""

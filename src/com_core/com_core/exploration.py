@@ -462,19 +462,14 @@ class Exploration:
                     windows, g=self.g, min_tilt_sigmas=self.min_tilt_sigmas
                 )
             consistency = check_consistency(windows, alpha=self.alpha, g=self.g)
+            if information == KINEMATICS and consistency.consistent:
+                consistency = _kinematic_consistency(estimate, self.alpha)
         except EstimationError as exc:
             reason = str(exc) + ("; " + "; ".join(notes) if notes else "")
             return Solution(ERROR, reason, self.method, notes=tuple(notes), window_samples=counts)
         status, reason = OK, _summary(estimate)
         if not consistency.consistent:
             status, reason = WARN, consistency.message
-        elif information == KINEMATICS and estimate.p_value < self.alpha:
-            status = WARN
-            reason = (
-                f"the wrenches do not fit the kinematic gravity (chi2 {estimate.chi2:.1f}, "
-                f"{estimate.dof} dof, p {estimate.p_value:.2g}): a sensor mounted off its "
-                "URDF frame, a wrong base gravity, or joint states of another time"
-            )
         elif notes:
             status, reason = WARN, "; ".join(notes)
         return Solution(
@@ -544,6 +539,25 @@ def _check_load_direction(windows: Sequence[Window], tares: Mapping[str, Window]
             f"pose {w.pose!r}: no load beyond the hand ({grams}): the object was not held "
             f"(an empty grasp, or it fell)"
         )
+
+
+def _kinematic_consistency(estimate: Estimate, alpha: float) -> Consistency:
+    """The chi-square test of the known-gravity fit: with the gravity from kinematics, a
+    misfit the wrenches alone cannot see (a sensor mounted off its URDF frame, a wrong
+    base gravity, joint states of another time) fails it."""
+    consistent = estimate.p_value >= alpha
+    message = (
+        ""
+        if consistent
+        else (
+            f"the wrenches do not fit the kinematic gravity (chi2 {estimate.chi2:.1f}, "
+            f"{estimate.dof} dof, p {estimate.p_value:.2g}): a sensor mounted off its URDF "
+            "frame, a wrong base gravity, or joint states of another time"
+        )
+    )
+    return Consistency(
+        consistent, estimate.chi2, estimate.dof, estimate.p_value, alpha, None, message
+    )
 
 
 def _summary(e: Estimate) -> str:
