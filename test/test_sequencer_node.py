@@ -352,7 +352,8 @@ def test_a_sensor_mounted_off_its_urdf_frame_is_flagged_by_kinematics(
 ):
     """3 deg of roll between the sensor and its URDF frame: the kinematic fit flags the
     misfit (WARN, nothing on ~/estimate) instead of a silently biased COM; the wrenches
-    alone, which do not use the URDF, replay the same bag right."""
+    alone, which do not use the URDF, and kinematics+mount, which fits the mounting,
+    replay the same bag right."""
     bags = tmp_path / "bags"
     mount = {"sensor_mount_rpy": [math.radians(3.0), 0.0, 0.0]}
     start_node("sim_node", "wrench_sim", params={"real_time_factor": 5.0, **mount, **NOISE})
@@ -378,4 +379,13 @@ def test_a_sensor_mounted_off_its_urdf_frame_is_flagged_by_kinematics(
         offline["com"],
         [truth.com.x, truth.com.y, truth.com.z],
         atol=4.5 * max(offline["sigma_com"]),
+    )
+    # kinematics+mount fits the mounting: right, and the 3 deg found within 0.5 deg
+    mounted = replay_json(bag, ros_env, "--information", "kinematics+mount")
+    assert mounted["status"] == "OK", mounted["reason"]
+    assert abs(math.degrees(mounted["mount_rpy"][0]) - 3.0) < 0.5, mounted["mount_rpy"]
+    np.testing.assert_allclose(
+        mounted["com"],
+        [truth.com.x, truth.com.y, truth.com.z],
+        atol=4.5 * max(mounted["sigma_com"]),
     )

@@ -64,9 +64,9 @@ from com_core.estimator_settings import (
 )
 from com_core.exploration import (
     ERROR,
-    KINEMATICS,
     OK,
     WARN,
+    WRENCHES,
     Exploration,
     Solution,
     format_solution,
@@ -163,14 +163,14 @@ class EstimatorNode(Node):
 
     def joint_state_callback(self, msg: JointState) -> None:
         """Joint positions for the gravity of each window (information 'kinematics')."""
-        if self._exploration.information == KINEMATICS:
+        if self._exploration.information != WRENCHES:
             stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
             self._exploration.add_joint_state(stamp, msg.name, msg.position)
 
     def robot_description_callback(self, msg: String) -> None:
         """The URDF (latched): the robot model of this and the next explorations."""
         self._urdf = msg.data
-        if self._exploration.information == KINEMATICS:
+        if self._exploration.information != WRENCHES:
             settings = {n: self._param(n) for n in SETTINGS}
             robot, problem = robot_from(settings, self._urdf)
             self._exploration.robot, self._exploration.robot_problem = robot, problem

@@ -41,9 +41,9 @@ from com_core.estimator_settings import (
 )
 from com_core.exploration import (
     ERROR,
-    KINEMATICS,
     OK,
     WARN,
+    WRENCHES,
     Exploration,
     Solution,
     format_solution,
@@ -94,7 +94,7 @@ def main(argv: list[str] | None = None) -> int:
     n_wrench, n_label = feed_bag(
         args.bag, exploration, args.wrench_topic, args.pose_topic, reading=reading
     )
-    if exploration.information == KINEMATICS and exploration.robot is None:
+    if exploration.information != WRENCHES and exploration.robot is None:
         exploration.robot, exploration.robot_problem = robot_from(
             settings, reading.robot_description
         )

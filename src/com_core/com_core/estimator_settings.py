@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from .estimators import DEFAULT_ALPHA, MIN_TILT_SIGMAS
-from .exploration import INFORMATION, KINEMATICS, MAX_LABEL_GAP, METHODS, WRENCHES, Exploration
+from .exploration import INFORMATION, MAX_LABEL_GAP, METHODS, WRENCHES, Exploration
 from .kinematics import DEFAULT_GRAVITY, KinematicsError, RobotModel
 from .tare_cache import load_tares
 from .windows import Window
@@ -40,7 +40,8 @@ SETTINGS: dict[str, tuple[Any, str]] = {
     "tare_cache": ("", "file of cached tare windows for poses without a fresh tare ('': none)"),
     "information": (
         WRENCHES,
-        "'wrenches' (gravity directions unknown) or 'kinematics' (from the URDF and joints)",
+        "'wrenches' (gravity directions unknown), 'kinematics' (from the URDF and joints) "
+        "or 'kinematics+mount' (and the sensor's mounting on its URDF frame fitted)",
     ),
     "robot_description": ("", "URDF text or file for 'kinematics' ('': /robot_description)"),
     "sensor_frame": ("panda_hand", "URDF frame of the F/T sensor (the wrenches' frame)"),
@@ -98,7 +99,7 @@ def exploration_from(settings: Mapping[str, Any], urdf: str = "") -> Exploration
         max_label_gap=value["max_label_gap"],
         information=value["information"],
     )
-    if value["information"] == KINEMATICS:
+    if value["information"] != WRENCHES:
         exploration.robot, exploration.robot_problem = robot_from(value, urdf)
     return exploration
 

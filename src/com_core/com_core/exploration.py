@@ -48,7 +48,7 @@ from .estimators import (
     two_pose,
 )
 from .kinematics import RobotModel
-from .known_gravity import known_gravity_ml
+from .known_gravity import MountedEstimate, known_gravity_ml, mount_rpy, mounted_ml
 from .windows import Window, reduce_window, subtract_tare
 from .wrench_model import STANDARD_GRAVITY, SensorModel
 
@@ -76,8 +76,8 @@ MAX_LABEL_LENGTH = 128
 LOAD_SIGMAS = 5.0
 """A window's load along the tare's gravity must exceed this many sigma to count as held."""
 METHODS = {"ml": ml, "two_pose": two_pose}
-WRENCHES, KINEMATICS = "wrenches", "kinematics"
-INFORMATION = (WRENCHES, KINEMATICS)
+WRENCHES, KINEMATICS, KINEMATICS_MOUNT = "wrenches", "kinematics", "kinematics+mount"
+INFORMATION = (WRENCHES, KINEMATICS, KINEMATICS_MOUNT)
 """What the fit uses: the wrenches only, or also each window's gravity from kinematics."""
 JOINT_STATE_GAP = 0.1
 """s; a window without a joint state in it takes the nearest this close to it."""
@@ -102,6 +102,7 @@ class Solution:
     notes: tuple[str, ...] = ()
     window_samples: Mapping[str, int] = field(default_factory=dict)
     information: str = "wrenches"
+    mount: MountedEstimate | None = None
 
     @property
     def usable(self) -> bool:
@@ -152,6 +153,11 @@ class Solution:
                 "com": e.com.tolist(),
                 "sigma_mass": e.sigma_mass,
                 "sigma_com": e.sigma_com.tolist(),
+            }
+        if self.mount is not None:
+            out |= {
+                "mount_rpy": mount_rpy(self.mount.mount).tolist(),
+                "sigma_mount": np.sqrt(np.diag(self.mount.mount_cov)).tolist(),
             }
         if self.consistency is not None:
             c = self.consistency
@@ -450,19 +456,26 @@ class Exploration:
                 windows = subtract_tare(objects, tares.values())
                 _check_load_direction(windows, tares)
             information = self.information
-            if information == KINEMATICS and self.robot is None:
+            if information != WRENCHES and self.robot is None:
                 why = self.robot_problem or "none given"
-                notes.append(f"no robot model ({why}): information 'wrenches', not 'kinematics'")
+                notes.append(
+                    f"no robot model ({why}): information 'wrenches', not {information!r}"
+                )
                 information = WRENCHES
+            mount = None
             if information == KINEMATICS:
                 windows, gravities = self._with_gravity(windows, until_ns, notes)
                 estimate = known_gravity_ml(windows, gravities)
+            elif information == KINEMATICS_MOUNT:
+                windows, gravities = self._with_gravity(windows, until_ns, notes)
+                mounted = mounted_ml(windows, gravities)
+                estimate, mount = mounted.estimate, mounted
             else:
                 estimate = METHODS[self.method](
                     windows, g=self.g, min_tilt_sigmas=self.min_tilt_sigmas
                 )
             consistency = check_consistency(windows, alpha=self.alpha, g=self.g)
-            if information == KINEMATICS and consistency.consistent:
+            if information != WRENCHES and consistency.consistent:
                 consistency = _kinematic_consistency(estimate, self.alpha)
         except EstimationError as exc:
             reason = str(exc) + ("; " + "; ".join(notes) if notes else "")
@@ -482,6 +495,7 @@ class Exploration:
             tuple(notes),
             window_samples=counts,
             information=information,
+            mount=mount,
         )
 
     def _with_gravity(

@@ -17,7 +17,9 @@ information, most about the COM along gravity (docs/design.md, Estimators).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -26,9 +28,15 @@ from .errors import NonPositiveMassError, TooFewPosesError
 from .estimators import Estimate
 from .stats import chi2_sf
 from .windows import Window
-from .wrench_model import skew
+from .wrench_model import rotation_about, skew
 
-__all__ = ["known_gravity_crlb", "known_gravity_ml"]
+__all__ = [
+    "MountedEstimate",
+    "known_gravity_crlb",
+    "known_gravity_ml",
+    "mount_rpy",
+    "mounted_ml",
+]
 
 METHOD = "ml"  # the maximum-likelihood fit of the kinematics information
 
@@ -116,3 +124,96 @@ def known_gravity_crlb(
     info, _ = _information(g, covs)
     theta = np.concatenate([[mass], mass * np.asarray(com, dtype=np.float64)])
     return _mass_com_covariance(theta, np.linalg.inv(info))
+
+
+def _rotation(rotvec: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation matrix (3, 3) of a rotation vector (axis x angle, rad)."""
+    angle = float(np.linalg.norm(rotvec))
+    if angle < 1e-12:
+        return np.eye(3) + skew(rotvec)
+    return rotation_about(rotvec / angle, angle)
+
+
+def mount_rpy(rotvec: ArrayLike) -> NDArray[np.float64]:
+    """Roll, pitch, yaw (rad; fixed axes x, y, z) of a mounting rotation vector."""
+    r = _rotation(np.asarray(rotvec, dtype=np.float64))
+    return np.array(
+        [
+            math.atan2(r[2, 1], r[2, 2]),
+            -math.asin(max(-1.0, min(1.0, r[2, 0]))),
+            math.atan2(r[1, 0], r[0, 0]),
+        ]
+    )
+
+
+@dataclass(frozen=True)
+class MountedEstimate:
+    """The ``kinematics+mount`` fit: the estimate (in the sensor's own frame) and the
+    sensor's mounting relative to its URDF frame: ``mount`` a rotation vector (3,), rad
+    (the sensor's axes in the URDF frame are R(mount)), with its covariance (3, 3)."""
+
+    estimate: Estimate
+    mount: NDArray[np.float64]
+    mount_cov: NDArray[np.float64]
+
+
+def mounted_ml(
+    windows: Sequence[Window], gravities: ArrayLike, iterations: int = 20
+) -> MountedEstimate:
+    """ML of (m, p) and of a constant mounting rotation R between the URDF's sensor frame
+    (where ``gravities``, (n, 3) m/s^2, are known) and the sensor: the windows see
+    gravity R^T g_i. Gauss-Newton from the known-gravity fit; the covariance of all 7
+    unknowns is the inverse Fisher information (its CRLB); chi2 has 6n - 7 dof. Needs
+    two gravity directions at least (the mounting about gravity is seen only by them).
+    """
+    g = np.asarray(gravities, dtype=np.float64).reshape(-1, 3)
+    start = known_gravity_ml(windows, g)
+    x = np.concatenate([[start.mass], start.mass * start.com, np.zeros(3)])
+    whiten = [np.linalg.cholesky(np.linalg.inv(w.cov)).T for w in windows]
+    means = [w.mean for w in windows]
+
+    def residuals(params: NDArray[np.float64]) -> NDArray[np.float64]:
+        r_t = _rotation(params[4:]).T
+        return np.concatenate(
+            [
+                wh @ (m - _design(r_t @ gi) @ params[:4])
+                for wh, m, gi in zip(whiten, means, g, strict=True)
+            ]
+        )
+
+    def jacobian(params: NDArray[np.float64]) -> NDArray[np.float64]:
+        base = residuals(params)
+        cols = []
+        for k in range(7):
+            step = np.zeros(7)
+            step[k] = 1e-7 * max(1.0, abs(params[k]))
+            cols.append((residuals(params + step) - base) / step[k])
+        return np.stack(cols, axis=1)
+
+    for _ in range(iterations):
+        jac, res = jacobian(x), residuals(x)
+        delta = np.linalg.lstsq(jac, -res, rcond=None)[0]
+        x = x + delta
+        if np.max(np.abs(delta[4:])) < 1e-12 and np.max(np.abs(delta[:4])) < 1e-12 * max(
+            1.0, x[0]
+        ):
+            break
+    jac, res = jacobian(x), residuals(x)
+    info = jac.T @ jac
+    if np.linalg.cond(info) > 1e12:
+        raise TooFewPosesError("the poses' gravity directions do not resolve the mounting")
+    cov = np.linalg.inv(info)
+    if not x[0] > 0:
+        raise NonPositiveMassError(f"mass {x[0] * 1e3:.3g} g: at or below zero")
+    chi2, dof = float(res @ res), 6 * len(windows) - 7
+    estimate = Estimate(
+        method=METHOD,
+        mass=float(x[0]),
+        com=x[1:4] / x[0],
+        cov=_mass_com_covariance(x[:4], cov[:4, :4]),
+        chi2=chi2,
+        dof=dof,
+        p_value=chi2_sf(chi2, dof) if dof > 0 else 1.0,
+        poses=tuple(w.pose for w in windows),
+    )
+    return MountedEstimate(estimate, x[4:].copy(), cov[4:, 4:])

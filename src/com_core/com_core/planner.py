@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .estimators import crlb, two_pose
-from .known_gravity import known_gravity_crlb
+from .known_gravity import known_gravity_crlb, mounted_ml
 from .windows import Window
 from .wrench_model import STANDARD_GRAVITY, SensorModel, as_vector, gravity_wrench, rotation_about
 
@@ -183,11 +183,17 @@ def predict(plan: Plan, method: str = "ml", information: str = "wrenches") -> Pr
     """
     _check_method(method)
     n = len(plan.poses())
+    gravities = plan.gravity_directions() * STANDARD_GRAVITY
     if information == "kinematics" and method == "ml":
-        gravities = plan.gravity_directions() * STANDARD_GRAVITY
         cov = known_gravity_crlb(
             plan.mass_guess, plan.com_guess, gravities, [plan.window_cov()] * n
         )
+    elif information == "kinematics+mount" and method == "ml":  # the fit's own CRLB there
+        windows = [
+            Window(name, gravity_wrench(plan.mass_guess, plan.com_guess, g), plan.window_cov(), 1)
+            for (name, _), g in zip(plan.poses(), gravities, strict=True)
+        ]
+        cov = mounted_ml(windows, gravities).estimate.cov
     elif method == "two_pose":
         cov = _two_pose_cov(plan) * plan._variance_factor(plan.dwell)
     else:

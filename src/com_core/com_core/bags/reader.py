@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from ..contract import JOINT_STATES_TOPIC, POSE_TOPIC, ROBOT_DESCRIPTION_TOPIC, WRENCH_TOPIC
-from ..exploration import KINEMATICS, Exploration
+from ..exploration import WRENCHES, Exploration
 from .cdr import decode_header, decode_wrenches
 
 __all__ = [
@@ -281,7 +281,7 @@ def feed_bag(
             pending.clear()
 
     topics = [wrench_topic, pose_topic]
-    if exploration.information == KINEMATICS:
+    if exploration.information != WRENCHES:
         topics += [JOINT_STATES_TOPIC, ROBOT_DESCRIPTION_TOPIC]
     for topic, msgtype, _, raw in read_raw(bag, topics, reading):
         if topic == wrench_topic:
