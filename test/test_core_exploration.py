@@ -142,6 +142,8 @@ def test_kinematics_without_a_robot_model_or_joint_states_says_why():
     no_model = fed(stream, Exploration(information="kinematics")).solve()
     assert no_model.status == WARN and no_model.information == "wrenches"
     assert "no robot model" in no_model.reason
+    paper = fed(stream, Exploration("two_pose", information="kinematics", robot=robot)).solve()
+    assert paper.information == "wrenches" and "two_pose fits the wrenches" in paper.reason
     ex = Exploration(information="kinematics", robot=robot)
     for stamp, label, q in states:
         if label != "object/home":  # none for this window

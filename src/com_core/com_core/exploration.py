@@ -456,7 +456,12 @@ class Exploration:
                 windows = subtract_tare(objects, tares.values())
                 _check_load_direction(windows, tares)
             information = self.information
-            if information != WRENCHES and self.robot is None:
+            if information != WRENCHES and self.method != "ml":
+                notes.append(
+                    f"information {information!r} is ml's: {self.method} fits the wrenches"
+                )
+                information = WRENCHES
+            elif information != WRENCHES and self.robot is None:
                 why = self.robot_problem or "none given"
                 notes.append(
                     f"no robot model ({why}): information 'wrenches', not {information!r}"
