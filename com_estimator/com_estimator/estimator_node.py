@@ -139,8 +139,12 @@ class EstimatorNode(Node):
                 return SetParametersResult(successful=False, reason=problem)
         return SetParametersResult(successful=True)
 
+    def _settings(self) -> dict:
+        """The estimator settings (``SETTINGS``) as the parameters hold them now."""
+        return {name: self._param(name) for name in SETTINGS}
+
     def _new_exploration(self) -> Exploration:
-        exploration = exploration_from({n: self._param(n) for n in SETTINGS}, self._urdf)
+        exploration = exploration_from(self._settings(), self._urdf)
         if exploration.robot_problem and self._urdf:
             self.get_logger().error(f"robot model: {exploration.robot_problem}")
         return exploration
@@ -171,8 +175,7 @@ class EstimatorNode(Node):
         """The URDF (latched): the robot model of this and the next explorations."""
         self._urdf = msg.data
         if self._exploration.information != WRENCHES:
-            settings = {n: self._param(n) for n in SETTINGS}
-            robot, problem = robot_from(settings, self._urdf)
+            robot, problem = robot_from(self._settings(), self._urdf)
             self._exploration.robot, self._exploration.robot_problem = robot, problem
             if problem:
                 self.get_logger().error(f"robot model: {problem}")

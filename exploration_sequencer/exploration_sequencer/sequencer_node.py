@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import threading
 import traceback
+from collections.abc import Callable
 from datetime import datetime
 from pathlib import Path
 
@@ -370,20 +371,16 @@ class SequencerNode(Node):
     def _check_grasp(self, home: list[float], tare_home: Window, pick: list[float]) -> None:
         """Lift and weigh: the wrench at home beyond the tare must hold ``min_load`` kg
         along gravity, else the object was not picked up (RunError, hand emptied)."""
-        kept = self.io.recorder.capture(WRENCH_TOPIC)
-        try:
-            ready = self.arm.move(home, "lifting")
-            end = ready + round(self.p("grasp_check_dwell") * 1e9)
+        dwell = round(self.p("grasp_check_dwell") * 1e9)
+
+        def lift_and_weigh() -> int:
+            end = self.arm.move(home, "lifting") + dwell
             self.io.sleep_until(end, "weighing the grasp")
-            self.io.wait(
-                lambda: bool(kept) and decode_wrench_batch(kept[-1:])[0][0] >= end,
-                "waiting for the wrenches of the grasp check",
-                wall_timeout=10.0,
-            )
-        finally:
-            raws = self.io.recorder.release(WRENCH_TOPIC)
+            return end
+
+        raws, end = self._wrenches_during(lift_and_weigh, "the grasp check")
         stamps, wrenches, _ = decode_wrench_batch(raws)
-        held = wrenches[(stamps >= ready) & (stamps < end), :3]
+        held = wrenches[(stamps >= end - dwell) & (stamps < end), :3]
         if len(held) == 0:
             raise RunError("no wrenches arrived while weighing the grasp")
         gravity = tare_home.force / np.linalg.norm(tare_home.force)
@@ -401,17 +398,12 @@ class SequencerNode(Node):
         self, poses: list[tuple[str, list[float]]], dwell: float
     ) -> dict[str, Window]:
         """Run a tare pass and reduce its windows from the wrenches the recorder saw."""
-        kept = self.io.recorder.capture(WRENCH_TOPIC)
-        try:
+
+        def tare_pass() -> int:
             self._pass(TARE_PREFIX, poses, dwell)
-            end = self._labels[-1][0]  # the stream must reach the last window's end
-            self.io.wait(
-                lambda: bool(kept) and decode_wrench_batch(kept[-1:])[0][0] >= end,
-                "waiting for the wrenches of the tare",
-                wall_timeout=10.0,
-            )
-        finally:
-            raws = self.io.recorder.release(WRENCH_TOPIC)
+            return self._labels[-1][0]  # the last window's end
+
+        raws, end = self._wrenches_during(tare_pass, "the tare")
         exploration = Exploration(expected_frame="")  # the driver's frame, whatever it is
         if raws:
             exploration.add_samples(*decode_wrench_batch(raws))
@@ -422,6 +414,21 @@ class SequencerNode(Node):
             self.get_logger().warning(f"not usable: {note}")
         self.get_logger().info(f"{TARE_PREFIX}: {len(tares)} windows from {len(raws)} wrenches")
         return tares
+
+    def _wrenches_during(self, act: Callable[[], int], what: str) -> tuple[list[bytes], int]:
+        """(the raw wrenches the recorder saw while ``act`` ran, and up to the sim time
+        it returns; that time, ns): the stream is awaited until it reaches it."""
+        kept = self.io.recorder.capture(WRENCH_TOPIC)
+        try:
+            end = act()
+            self.io.wait(
+                lambda: bool(kept) and decode_wrench_batch(kept[-1:])[0][0] >= end,
+                f"waiting for the wrenches of {what}",
+                wall_timeout=10.0,
+            )
+        finally:
+            raws = self.io.recorder.release(WRENCH_TOPIC)
+        return raws, end
 
     def _pass(self, prefix: str, poses: list[tuple[str, list[float]]], dwell: float) -> None:
         """A window at each pose. Each move after the first is sent ahead, to start at the
