@@ -87,11 +87,23 @@ def client(rclpy_context):
     c.node.destroy_node()
 
 
-def start_system(start_node, tmp_path: Path, sim: dict, sequencer: dict | None = None) -> Path:
+def start_system(
+    start_node,
+    tmp_path: Path,
+    sim: dict,
+    sequencer: dict | None = None,
+    estimator: dict | None = None,
+) -> Path:
+    """The three nodes with the test's noise and one tare cache; ``sim``, ``sequencer`` and
+    ``estimator`` add parameters. Returns the bag directory."""
     bags = tmp_path / "bags"
     cache = {"tare_cache": str(bags / "tare_cache.json")}
     start_node("sim_node", "wrench_sim", params={"real_time_factor": 5.0, **NOISE, **sim})
-    start_node("estimator_node", "com_estimator", params={"use_sim_time": True, **NOISE, **cache})
+    start_node(
+        "estimator_node",
+        "com_estimator",
+        params={"use_sim_time": True, **NOISE, **cache, **(estimator or {})},
+    )
     start_node(
         "sequencer_node",
         "exploration_sequencer",
@@ -319,18 +331,7 @@ def test_kinematics_from_the_urdf_tightens_the_com_and_replays(
     """The estimator takes the URDF from /robot_description and each window's gravity
     from /joint_states: the COM sigma along gravity drops to ~0.6x (predicted and
     reported), the estimate is right, and the bag replays to it."""
-    bags = tmp_path / "bags"
-    start_node("sim_node", "wrench_sim", params={"real_time_factor": 5.0, "seed": 7, **NOISE})
-    start_node(
-        "estimator_node",
-        "com_estimator",
-        params={"use_sim_time": True, "information": "kinematics", **NOISE},
-    )
-    start_node(
-        "sequencer_node",
-        "exploration_sequencer",
-        params={"use_sim_time": True, "bag_dir": str(bags)},
-    )
+    start_system(start_node, tmp_path, {"seed": 7}, estimator={"information": "kinematics"})
     result = client.wait(client.call())
     assert result.success and result.message.startswith("[OK]"), result.message
     assert "predicted ml (kinematics)" in result.message
@@ -354,19 +355,8 @@ def test_a_sensor_mounted_off_its_urdf_frame_is_flagged_by_kinematics(
     misfit (WARN, nothing on ~/estimate) instead of a silently biased COM; the wrenches
     alone, which do not use the URDF, and kinematics+mount, which fits the mounting,
     replay the same bag right."""
-    bags = tmp_path / "bags"
     mount = {"sensor_mount_rpy": [math.radians(3.0), 0.0, 0.0]}
-    start_node("sim_node", "wrench_sim", params={"real_time_factor": 5.0, **mount, **NOISE})
-    start_node(
-        "estimator_node",
-        "com_estimator",
-        params={"use_sim_time": True, "information": "kinematics", **NOISE},
-    )
-    start_node(
-        "sequencer_node",
-        "exploration_sequencer",
-        params={"use_sim_time": True, "bag_dir": str(bags)},
-    )
+    start_system(start_node, tmp_path, mount, estimator={"information": "kinematics"})
     result = client.wait(client.call())
     assert not result.success and "do not fit the kinematic gravity" in result.message
     spin_until(client.node, lambda: bool(client.estimates), 1.0)
