@@ -5,7 +5,7 @@
 - ``ros_env``: the environment for child processes: os.environ plus
   ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and the test's own ROS_DOMAIN_ID.
 - ``start_node(executable, package, params=None, args=None, name=None)`` starts
-  install/<package>/lib/<package>/<executable> as a process (as ``ros2 run`` would), logging
+  <prefix>/lib/<package>/<script> as a process (as ``ros2 run`` would), logging
   to a file under tmp_path (parameters as ``com_core.processes.ros_args`` writes them);
   every node is stopped at teardown (``com_core.processes.stop``: SIGINT, then SIGTERM,
   then SIGKILL), and its log tail is printed when the test failed; a node still running at
@@ -38,7 +38,6 @@ from com_core.processes import STOP_SEQUENCE, executable, ros_args, stop
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 
 WORKSPACE = Path(__file__).resolve().parents[1]
-INSTALL = WORKSPACE / "install"
 _LOCK_DIR = Path(tempfile.gettempdir()) / "ros_domain_id_locks"
 _held_locks: dict[int, Any] = {}
 _counter = itertools.count()
@@ -126,7 +125,8 @@ def start_node(
 ) -> Iterator[Callable[..., subprocess.Popen]]:
     """Callable that starts a node's console script as a process; all are stopped at teardown.
 
-    ``start_node(executable, package, params=None, args=None, name=None)``: ``params`` become
+    ``start_node(script, package, params=None, args=None, name=None)``: the script is found
+    as ``ros2 run`` finds it (``com_core.processes.executable``); ``params`` become
     ``-p name:=value`` (pass ``{"use_sim_time": True}`` to ask for sim time), ``args`` are
     extra command-line arguments placed before ``--ros-args``, ``name`` remaps the node name.
     The process's ``log_path`` attribute is its stdout+stderr log.
@@ -134,18 +134,19 @@ def start_node(
     started: list[tuple[subprocess.Popen, Path]] = []
 
     def start(
-        executable: str,
+        script: str,
         package: str,
         params: dict[str, Any] | None = None,
         args: list[str] | None = None,
         name: str | None = None,
     ) -> subprocess.Popen:
-        path = INSTALL / package / "lib" / package / executable
-        if not path.exists():
-            raise FileNotFoundError(f"{path} not found: build the workspace (make setup)")
         remaps = {"__node": name} if name else None
-        command = [str(path), *(args or []), *ros_args(params or {}, remaps)]
-        log_path = tmp_path / f"{name or executable}-{len(started)}.log"
+        command = [
+            str(executable(package, script)),
+            *(args or []),
+            *ros_args(params or {}, remaps),
+        ]
+        log_path = tmp_path / f"{name or script}-{len(started)}.log"
         with open(log_path, "w") as log:
             process = subprocess.Popen(
                 command, env=ros_env, stdout=log, stderr=subprocess.STDOUT, cwd=tmp_path
