@@ -4,7 +4,7 @@
   machine holds (an exclusive lock file per id, starting from a pid-derived offset).
 - ``ros_env``: the environment for child processes: os.environ plus
   ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and the test's own ROS_DOMAIN_ID.
-- ``start_node(executable, package, params=None, args=None, name=None)`` starts
+- ``start_node(script, package, params=None, args=None, name=None)`` starts
   <prefix>/lib/<package>/<script> as a process (as ``ros2 run`` would), logging
   to a file under tmp_path (parameters as ``com_core.processes.ros_args`` writes them);
   every node is stopped at teardown (``com_core.processes.stop``: SIGINT, then SIGTERM,
