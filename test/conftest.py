@@ -161,17 +161,16 @@ def start_node(
         getattr(getattr(request.node, f"rep_{when}", None), "failed", False)
         for when in ("setup", "call")
     )
-    if failed:
-        for process, log_path in started:
-            print(f"\n----- {log_path.name} (exit code {process.returncode}), last lines -----")
-            print(log_tail(log_path))
-        return
     unclean = [
         f"{log_path.name}: {why}"
         for (process, log_path), sig in zip(started, stopped_by, strict=True)
         if (why := unclean_exit(process, sig, log_path.read_text(errors="replace")))
     ]
-    if unclean:
+    if failed or unclean:
+        for process, log_path in started:
+            print(f"\n----- {log_path.name} (exit code {process.returncode}), last lines -----")
+            print(log_tail(log_path))
+    if unclean and not failed:
         pytest.fail("nodes did not shut down cleanly on SIGINT: " + "; ".join(unclean))
 
 

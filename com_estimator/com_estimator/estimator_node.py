@@ -34,6 +34,7 @@ from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header, String
 from std_srvs.srv import Trigger
@@ -72,7 +73,7 @@ from com_core.exploration import (
     format_solution,
     shorten,
 )
-from com_core.rosenv import keep_dds_local
+from com_core.rosenv import keep_dds_local, stop_on_signals
 
 MAX_MESSAGE_LENGTH = 1000  # characters of a diagnostic message
 
@@ -320,14 +321,15 @@ class EstimatorNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     keep_dds_local()
-    rclpy.init(args=args)
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    stopping = stop_on_signals()
     node = EstimatorNode()
     executor = EventsExecutor()
     executor.add_node(node)
     try:
-        while rclpy.ok():
+        while rclpy.ok() and not stopping.is_set():
             executor.spin_once(timeout_sec=0.1)
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except ExternalShutdownException:
         pass
     finally:
         node.destroy_node()

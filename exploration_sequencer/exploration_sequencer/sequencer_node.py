@@ -37,6 +37,7 @@ from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
+from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
@@ -59,7 +60,7 @@ from com_core.contract import (
 )
 from com_core.exploration import Exploration
 from com_core.planner import Plan, dwell_for_target, predict, within_max_tilt
-from com_core.rosenv import keep_dds_local
+from com_core.rosenv import keep_dds_local, stop_on_signals
 from com_core.tare_cache import (
     BAG_TARE_FILE,
     drift_accepted,
@@ -535,7 +536,8 @@ def _spin_until_shutdown(executor: MultiThreadedExecutor) -> None:
 
 def main(args: list[str] | None = None) -> None:
     keep_dds_local()
-    rclpy.init(args=args)
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    stopping = stop_on_signals()
     io = IoNode()
     node = SequencerNode(io)
     io_executor = EventsExecutor()
@@ -545,13 +547,14 @@ def main(args: list[str] | None = None) -> None:
     worker = threading.Thread(target=_spin_until_shutdown, args=(executor,), daemon=True)
     worker.start()
     try:
-        while rclpy.ok():
+        while rclpy.ok() and not stopping.is_set():
             io_executor.spin_once(timeout_sec=0.1)
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except ExternalShutdownException:
         pass
     finally:
-        # In this order: the service thread ends with the context, a running exploration
-        # ends ("shutting down"), then the recording, the executors and the nodes.
+        # In this order: the context (the service thread ends with it, a running
+        # exploration ends: "shutting down"), the recording, the executors, the nodes.
+        rclpy.try_shutdown()
         worker.join(timeout=5.0)
         if node._lock.acquire(timeout=10.0):
             node._lock.release()

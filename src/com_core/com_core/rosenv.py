@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import os
+import signal
+import threading
 
-__all__ = ["keep_dds_local"]
+__all__ = ["keep_dds_local", "stop_on_signals"]
 
 
 def keep_dds_local(own_domain: bool = False) -> None:
@@ -19,3 +21,20 @@ def keep_dds_local(own_domain: bool = False) -> None:
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     if own_domain:
         os.environ.setdefault("ROS_DOMAIN_ID", str(os.getpid() % 100 + 1))
+
+
+def stop_on_signals(
+    signals: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM),
+) -> threading.Event:
+    """An event set when one of ``signals`` arrives; the handler does nothing else.
+
+    Install it (from the main thread) instead of rclpy's handler (``rclpy.init(...,
+    signal_handler_options=SignalHandlerOptions.NO)``) in a node whose main thread spins
+    an executor: a KeyboardInterrupt raised inside a callback that C++ called (the
+    EventsExecutor) escapes as another error, and the process would end with a traceback
+    instead of tearing down. The main loop checks the event between spins.
+    """
+    stopping = threading.Event()
+    for sig in signals:
+        signal.signal(sig, lambda _signum, _frame: stopping.set())
+    return stopping
