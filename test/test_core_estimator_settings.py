@@ -53,8 +53,8 @@ def test_good_values_pass():
 
 
 def test_the_cached_tare_is_the_current_entry_of_the_file(tmp_path):
-    assert load_cached_tares("") == {}
-    assert load_cached_tares(tmp_path / "none.json") == {}
+    assert load_cached_tares("") is None
+    assert load_cached_tares(tmp_path / "none.json") is None
     window = window_from_mean("home", [0, 0, 9.9, 0, 0, 0], [[0.0] * 6] * 6, 5000)
     save_tares(tmp_path / "cache.json", "hand|plan", {"home": window})
-    assert load_cached_tares(tmp_path / "cache.json")["home"].force[2] == 9.9
+    assert load_cached_tares(tmp_path / "cache.json").windows["home"].force[2] == 9.9

@@ -21,6 +21,7 @@ from com_core.contract import (
     EXPLORE_SERVICE,
     JOINT_STATES_TOPIC,
     POSE_TOPIC,
+    SIM_PARAMETERS_SERVICE,
     TRUTH_TOPIC,
     WRENCH_TOPIC,
 )
@@ -199,6 +200,56 @@ def test_second_run_reuses_the_cached_tare_and_replays_to_the_nodes_estimate(
     offline = replay_json(bag, ros_env)
     online = numbers(result.message, "COM") * 1e-3
     np.testing.assert_allclose(offline["com"], online, atol=0.006e-3)  # 2 decimals in mm
+
+
+def set_parameter(client: Client, service: str, name: str, value: float) -> None:
+    """Set a double parameter of a node through its ``set_parameters`` service."""
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import SetParameters
+
+    setter = client.node.create_client(SetParameters, service)
+    assert setter.wait_for_service(timeout_sec=10.0), service
+    value_msg = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=value)
+    request = SetParameters.Request(parameters=[Parameter(name=name, value=value_msg)])
+    future = setter.call_async(request)
+    assert spin_until(client.node, future.done, 10.0) and future.result().results[0].successful
+    client.node.destroy_client(setter)
+
+
+def test_a_cached_hand_model_absorbs_a_bias_drift_since_the_tare(
+    start_node, client, tmp_path, ros_env
+):
+    """Kinematic information: the second run reuses the cached tare pass as a hand model
+    and fits its own bias, from a window at home and the object's windows together. The
+    sensor drifts 0.05 N/min, and between the runs its bias steps by what 5 minutes of
+    that drift add (0.25 N per force axis): the drift is reported, the run is OK and
+    right; the per-pose tare of the wrenches alone, replayed on the same bag, is off."""
+    drift = [0.05 / 60] * 3 + [0.0] * 3  # N/s
+    bags = start_system(
+        start_node,
+        tmp_path,
+        {"object": "box", "seed": 8, "bias_drift": drift},
+        estimator={"information": "kinematics"},
+    )
+    first = client.wait(client.call())
+    assert first.success, first.message
+    set_parameter(client, SIM_PARAMETERS_SERVICE.replace("get_", "set_"), "bias_f", 0.25)
+    result = client.wait(client.call())
+    assert result.success and result.message.startswith("[OK]"), result.message
+    assert "(wrenches alone: COM +-" in result.message
+    bag = Path(result.message.rsplit(" bag ", 1)[1])
+    labels = [decode_header(raw)[1] for *_, raw in read_raw(bag, (POSE_TOPIC,))]
+    assert "tare/home_check" in labels and "tare/home" not in labels
+    offline = replay_json(bag, ros_env, "--information", "kinematics")
+    assert offline["information"] == "kinematics"
+    np.testing.assert_allclose(offline["bias_drift"][:3], [0.25] * 3, atol=0.02)
+    truth = [t for t in client.truths if abs(t.inertia.com.z) < 0.2][-1].inertia
+    com = [truth.com.x, truth.com.y, truth.com.z]
+    np.testing.assert_allclose(offline["com"], com, atol=4.5 * max(offline["sigma_com"]))
+    assert abs(offline["mass"] - truth.m) < 4.5 * offline["sigma_mass"]
+    wrenches = replay_json(bag, ros_env, "--information", "wrenches")
+    assert abs(wrenches["mass"] - truth.m) > 10 * offline["sigma_mass"], wrenches
+    assert (bags / "tare_cache.json").is_file()
 
 
 def test_a_friction_grasp_is_flagged(start_node, client, tmp_path):

@@ -59,9 +59,9 @@ from com_core.contract import (
 from com_core.estimator_settings import (
     SETTINGS,
     exploration_from,
-    load_cached_tares,
     robot_from,
     setting_problem,
+    use_cached_tares,
 )
 from com_core.exploration import (
     ERROR,
@@ -153,7 +153,7 @@ class EstimatorNode(Node):
     def _solve(self, until_ns: int) -> Solution:
         """Solve the current exploration with the parameters in force now."""
         try:
-            self._exploration.tares = load_cached_tares(self._param("tare_cache"))
+            use_cached_tares(self._exploration, self._param("tare_cache"))
             solution = self._exploration.solve(until_ns=until_ns)
         except Exception as exc:  # a defect must not kill the node: report it as ERROR
             self.get_logger().error(f"solve failed: {traceback.format_exc()}")

@@ -35,9 +35,9 @@ from com_core.contract import OBJECT_PREFIX, POSE_TOPIC, TARE_PREFIX, WRENCH_TOP
 from com_core.estimator_settings import (
     SETTINGS,
     exploration_from,
-    load_cached_tares,
     robot_from,
     setting_problem,
+    use_cached_tares,
 )
 from com_core.exploration import (
     ERROR,
@@ -89,7 +89,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"replay: {'; '.join(problems)}", file=sys.stderr)
         return 2
     exploration = exploration_from(settings)
-    exploration.tares = load_cached_tares(args.tare or args.bag / BAG_TARE_FILE)
+    use_cached_tares(exploration, args.tare or args.bag / BAG_TARE_FILE)
     reading = BagReading()
     n_wrench, n_label = feed_bag(
         args.bag, exploration, args.wrench_topic, args.pose_topic, reading=reading

@@ -24,6 +24,7 @@ import math
 import threading
 import traceback
 from collections.abc import Callable
+from dataclasses import replace
 from datetime import datetime
 from pathlib import Path
 
@@ -58,12 +59,13 @@ from com_core.contract import (
     WRENCH_TOPIC,
     status_of,
 )
-from com_core.exploration import Exploration
+from com_core.exploration import WRENCHES, Exploration
 from com_core.planner import Plan, dwell_for_target, predict, within_max_tilt
 from com_core.rosenv import keep_dds_local, stop_on_signals
 from com_core.tare_cache import (
     BAG_TARE_FILE,
     drift_accepted,
+    latest_hand_model,
     load_tares,
     reusable,
     save_tares,
@@ -101,12 +103,16 @@ PARAMETERS: dict[str, tuple[object, str]] = {
     "bag_dir": ("bags", "directory that receives one rosbag2 directory per run"),
     "tare_cache": ("", "file of the cached tare pass ('': <bag_dir>/tare_cache.json)"),
     "tare_max_age": (3600.0, "s; a cached tare older than this is taken again"),
-    "drift_dwell": (0.5, "s of the fresh tare window at home that checks the cache"),
+    "bias_dwell": (
+        2.0,
+        "s of the empty-hand window at home before the grasp, with a cached tare: this "
+        "run's sensor bias (kinematic information), or the cache's drift check (wrenches)",
+    ),
     "hand_id": ("panda_hand", "names the hand: a cached tare serves this hand only"),
     "min_load": (0.005, "kg; the grasp must hold at least this before the object pass"),
     "grasp_check_dwell": (0.2, "s of samples at home after lifting that check the grasp"),
 }
-DRIFT_CHECK_SUFFIX = "_check"  # the drift window's pose: tare/home_check
+BIAS_WINDOW_SUFFIX = "_check"  # the empty-hand window of a run with a cached tare
 
 
 class SequencerNode(Node):
@@ -129,6 +135,9 @@ class SequencerNode(Node):
         self._lock = threading.Lock()
         self._running: str | None = None
         self._labels: list[tuple[int, str]] = []  # this run's labels
+        # each window's middle (s, sim time) and joint positions at its end (rad, m), by
+        # label: a tare window's are cached with it
+        self._window_seen: dict[str, tuple[float, dict[str, float]]] = {}
         group = ReentrantCallbackGroup()
         self.create_service(Trigger, EXPLORE_SERVICE, self.explore_callback, callback_group=group)
         self._sim_params = self.create_client(
@@ -173,12 +182,15 @@ class SequencerNode(Node):
                 return SetParametersResult(successful=False, reason=reason)
         return SetParametersResult(successful=True)
 
-    def _planned(self, method: str, information: str) -> Plan:
+    def _planned(self, method: str, information: str, bias_drift_rate: tuple[float, ...]) -> Plan:
         """The plan of the parameters, within ``max_tilt`` and, with ``target_com_sigma``,
         its dwell (and with ``raise_tilt`` its tilt) set by the planner for the estimator's
         ``method`` and ``information``; every change is logged with its reason. RunError
         when the target cannot be met (the reason says what would)."""
-        plan, lowered = within_max_tilt(self.plan(), self.p("max_tilt"))
+        plan = self.plan()
+        if len(bias_drift_rate) == 2:  # the estimator's (kinematic information)
+            plan = replace(plan, bias_drift_rate=bias_drift_rate)
+        plan, lowered = within_max_tilt(plan, self.p("max_tilt"))
         changes = list(lowered)
         target = self.p("target_com_sigma")
         if target > 0:
@@ -214,6 +226,7 @@ class SequencerNode(Node):
             mass_guess=self.p("mass_guess"),
             com_guess=tuple(self.p("com_guess")),
             gravity_home=tuple(self.p("gravity_home")),
+            bias_dwell=self.p("bias_dwell"),
         )
 
     # --- the service ---------------------------------------------------------------------
@@ -263,10 +276,12 @@ class SequencerNode(Node):
         self._call(self._estimator_reset, Trigger.Request(), "resetting the estimator")
         self.io.diagnostics.clear()  # only this run's answers from here on
         home, pick = self._joint_sets()
-        request = GetParameters.Request(names=["method", "information", "tare_cache"])
+        names = ["method", "information", "tare_cache", "bias_drift_rate"]
+        request = GetParameters.Request(names=names)
         answer = self._call(self._estimator_params, request, "reading the estimator's settings")
-        method, information, estimator_cache = (value.string_value for value in answer.values)
-        plan = self._planned(method, information)
+        method, information, estimator_cache = (value.string_value for value in answer.values[:3])
+        drift_rate = tuple(answer.values[3].double_array_value)
+        plan = self._planned(method, information, drift_rate)
         prediction = predict(plan, method, information)
         poses = pose_joints(plan, home)
         log.info(
@@ -279,7 +294,7 @@ class SequencerNode(Node):
 
         self._to_known_state(home, pick)
         self.arm.gripper(FINGER_OPEN)
-        tare_home = self._tare(plan, poses, bag, estimator_cache)
+        tare_home = self._tare(plan, poses, bag, estimator_cache, information != WRENCHES)
         log.info("phase 2/4: grasp and lift")
         self.arm.move(home, "home")
         self.arm.move(pick, "the object")
@@ -304,23 +319,34 @@ class SequencerNode(Node):
     # --- steps ------------------------------------------------------------------------
 
     def _tare(
-        self, plan: Plan, poses: list[tuple[str, list[float]]], bag: Path, estimator_cache: str
+        self,
+        plan: Plan,
+        poses: list[tuple[str, list[float]]],
+        bag: Path,
+        estimator_cache: str,
+        hand_model: bool,
     ) -> Window:
-        """Phase 1: reuse the cached tare pass of this hand and plan if still valid, else
-        take a new one; returns the tare window at home.
+        """Phase 1: reuse the cached tare pass of this hand if still valid, else take a new
+        one; returns an empty-hand window at home (of this run when it has one).
 
-        Valid: an entry for the same hand and plan (signature), younger than
-        ``tare_max_age``, and a fresh ``drift_dwell`` window at home agrees with it
-        (chi-square, 6 dof, ``tare_cache.drift_accepted``). A reused entry becomes the
-        cache's current one and is copied beside the bag; the estimator must read the same
-        file (its ``tare_cache``), else a fresh pass is taken.
+        With a ``hand_model`` (the estimator's kinematic information) a cached pass of
+        this hand with its joint positions serves any plan while younger than
+        ``tare_max_age``: the estimator fits the hand from it, and this run's bias from a
+        ``bias_dwell`` window at home, so a drift since is absorbed. With the wrenches
+        alone an entry serves the same hand and plan (signature) only, and only while that
+        window agrees with it (chi-square, 6 dof, ``tare_cache.drift_accepted``). A reused
+        entry becomes the cache's current one and is copied beside the bag; the estimator
+        must read the same file (its ``tare_cache``), else a fresh pass is taken.
         """
         log = self.get_logger()
         path = Path(self.p("tare_cache") or Path(self.p("bag_dir")) / "tare_cache.json")
         home_name, home = poses[0]
         signature = tare_signature(self.p("hand_id"), poses)
         try:
-            cache = load_tares(path, signature)
+            if hand_model:
+                cache = latest_hand_model(path, self.p("hand_id"))
+            else:
+                cache = load_tares(path, signature)
         except (ValueError, KeyError, OSError) as exc:
             log.warning(f"tare cache {path} unreadable ({exc}): taking a new tare")
             cache = None
@@ -330,26 +356,32 @@ class SequencerNode(Node):
                 f"the estimator reads the tare cache {estimator_cache or '(none)'!r}, not "
                 f"{str(path)!r}: taking a fresh tare pass (give both nodes one tare_cache)"
             )
-        if shared and reusable(cache, self.p("tare_max_age"), [name for name, _ in poses]):
-            log.info(f"phase 1/4: drift check of the cached tare ({cache.age():.0f} s old)")
+        needed = [] if hand_model else [name for name, _ in poses]
+        if shared and reusable(cache, self.p("tare_max_age"), needed):
+            what = "this run's bias" if hand_model else "drift check of the cached tare"
+            log.info(f"phase 1/4: {what} ({cache.age():.0f} s old), empty hand at home")
             self.arm.move(home, "home")
-            check = f"{home_name}{DRIFT_CHECK_SUFFIX}"  # matches no object window: the
-            fresh = self._captured_tares(  # estimator keeps the longer cached home tare
-                [(check, home)], self.p("drift_dwell")
-            ).get(check)
-            reuse, chi2, p = drift_accepted(cache.windows[home_name], fresh)
+            check = f"{home_name}{BIAS_WINDOW_SUFFIX}"  # matches no object window
+            fresh = self._captured_tares([(check, home)], self.p("bias_dwell")).get(check)
+            if hand_model and fresh is not None:
+                reuse, verdict = True, "its hand model; the bias is fitted with the object"
+            else:
+                reuse, chi2, p = drift_accepted(cache.windows[home_name], fresh)
+                verdict = f"drift chi2 {chi2:.1f}, 6 dof, p {p:.2g}"
             if reuse:
                 use_tares(path, cache)
                 use_tares(bag / BAG_TARE_FILE, cache)
-                log.info(f"tare: reusing the cache (drift chi2 {chi2:.1f}, 6 dof, p {p:.2g})")
-                return cache.windows[home_name]
-            log.warning(f"tare drifted (chi2 {chi2:.1f}, 6 dof, p {p:.2g}): new tare pass")
+                log.info(f"tare: reusing the cache ({verdict})")
+                return fresh if hand_model else cache.windows[home_name]
+            log.warning(f"tare not reusable ({verdict}): new tare pass")
         log.info("phase 1/4: tare pass with the empty hand")
         windows = self._captured_tares(poses, plan.tare_dwell or plan.dwell)
         if home_name not in windows:
             raise RunError(f"the tare window at {home_name} was not recorded")
         if len(windows) == len(poses):
-            save_tares(path, signature, windows)
+            seen = {pose: self._window_seen[TARE_PREFIX + pose] for pose in windows}
+            times = {pose: time for pose, (time, _) in seen.items()}
+            save_tares(path, signature, windows, {p: j for p, (_, j) in seen.items()}, times)
             log.info(f"tare: saved to {path}")
         return windows[home_name]
 
@@ -445,6 +477,8 @@ class SequencerNode(Node):
             if following is not None:
                 arrival = self.arm.command(following[1], start_ns=end)
             self.io.sleep_until(end, f"recording {prefix}{name}")
+            joints = {j: q for j, (q, _) in self.io.joints.items()}
+            self._window_seen[prefix + name] = ((start + end) * 0.5e-9, joints)
             self._label(end, MOVING)
             if following is not None:
                 start = self.arm.arrive(following[1], following[0], arrival)
@@ -518,10 +552,18 @@ class SequencerNode(Node):
 
 
 def _summary(status, prediction, object_time: float, bag: Path) -> str:
+    """One line: the estimator's status and message, for a kinematic fit the COM sigma
+    the wrenches alone give on the same windows, the prediction, the pass, the bag."""
     if status is None:
         head = "[ERROR] the estimator did not answer"
     else:
         head = f"[{status_of(status.level)}] {status.message}"
+        values = {kv.key: kv.value for kv in status.values}
+        if "wrenches_sigma_com" in values:
+            mm = ", ".join(
+                f"{float(v) * 1e3:.2f}" for v in values["wrenches_sigma_com"].split(",")
+            )
+            head += f" (wrenches alone: COM +- ({mm}) mm)"
     return f"{head}; predicted {prediction}; object pass {object_time:.1f} s (sim); bag {bag}"
 
 

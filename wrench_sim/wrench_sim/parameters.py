@@ -37,6 +37,8 @@ PARAMETERS = [  # name, default, description, read-only, lower bound of a float
     ("sigma_tau", 0.0, "sensor noise sigma per torque axis, N m", False, 0.0),
     ("bias_f", 0.0, "sensor bias on each force axis, N", False, None),
     ("bias_tau", 0.0, "sensor bias on each torque axis, N m", False, None),
+    ("bias_drift", [0.0] * 6, "sensor bias drift from sim time 0, per axis: forces N/s, "
+     "torques N m/s (a sensor warming up)", False, None),
     ("resolution_f", 0.0, "force quantisation step, N; 0 = none", False, 0.0),
     ("resolution_tau", 0.0, "torque quantisation step, N m; 0 = none", False, 0.0),
     ("limit_f", 0.0, "force range (saturation), N; 0 = none", False, 0.0),
@@ -47,7 +49,9 @@ PARAMETERS = [  # name, default, description, read-only, lower bound of a float
     ("real_time_factor", 0.0, "sim s per wall s; 0 = as fast as possible", False, 0.0),
 ]  # fmt: skip
 SENSOR_PARAMETERS = tuple(
-    entry[0] for entry in PARAMETERS if entry[0].startswith(("sigma", "bias", "resolution", "lim"))
+    entry[0]
+    for entry in PARAMETERS
+    if entry[0].startswith(("sigma", "bias_f", "bias_tau", "resolution", "lim"))
 )
 
 
@@ -71,6 +75,8 @@ def check_parameter(parameter: Parameter, shape: str | None = None) -> str | Non
         len(value) != 3 or not all(math.isfinite(v) and abs(v) < math.pi for v in value)
     ):
         return "sensor_mount_rpy must be 3 finite angles (rad) within +-pi"
+    if name == "bias_drift" and (len(value) != 6 or not all(map(math.isfinite, value))):
+        return "bias_drift must be 6 finite rates (3 forces N/s, 3 torques N m/s)"
     if name in ("home_joints", "pick_joints") and len(value) != 7:
         return f"{name} must be 7 values (rad)"
     if name in ("rate", "clock_rate") and not (

@@ -86,6 +86,7 @@ class SimNode(Node):
         self.sensor = WrenchSensor(
             self._sensor_model(), random_streams(self.world.config.seed)["sensor"]
         )
+        self._drift = np.array(parameter("bias_drift").value, dtype=np.float64)  # per s
         self._real_time_factor = parameter("real_time_factor").value
         self._publish_every = round(1000.0 / parameter("rate").value)
         self._clock_every = round(1000.0 / parameter("clock_rate").value)
@@ -146,6 +147,8 @@ class SimNode(Node):
             except ValueError as error:
                 return SetParametersResult(successful=False, reason=str(error))
             self._publish_every = round(1000.0 / self.sensor.model.rate_hz)
+        if "bias_drift" in changes:
+            self._drift = np.array(changes["bias_drift"], dtype=np.float64)
         if "real_time_factor" in changes:
             self._real_time_factor = changes["real_time_factor"]
             self._pace_origin = None
@@ -200,7 +203,7 @@ class SimNode(Node):
             now = world.time_ns
             reading = None
             if steps % self._publish_every == 0:
-                reading = sensor.read(self._mounted(world.wrench))
+                reading = sensor.read(self._mounted(world.wrench) + self._drift * (now * 1e-9))
                 self._saturated_readings += sensor.saturated
             if publish:
                 if steps % self._clock_every == 0:

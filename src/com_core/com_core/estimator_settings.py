@@ -16,13 +16,28 @@ from pathlib import Path
 from typing import Any
 
 from .estimators import DEFAULT_ALPHA, MIN_TILT_SIGMAS
-from .exploration import INFORMATION, MAX_LABEL_GAP, METHODS, WRENCHES, Exploration
+from .exploration import (
+    INFORMATION,
+    MAX_DRIFT_F,
+    MAX_DRIFT_TAU,
+    MAX_LABEL_GAP,
+    METHODS,
+    WRENCHES,
+    Exploration,
+)
 from .kinematics import DEFAULT_GRAVITY, KinematicsError, RobotModel
-from .tare_cache import load_tares
-from .windows import Window
+from .known_gravity import BIAS_DRIFT_RATE
+from .tare_cache import TareCache, load_tares
 from .wrench_model import SensorModel
 
-__all__ = ["SETTINGS", "exploration_from", "load_cached_tares", "robot_from", "setting_problem"]
+__all__ = [
+    "SETTINGS",
+    "exploration_from",
+    "load_cached_tares",
+    "robot_from",
+    "setting_problem",
+    "use_cached_tares",
+]
 
 SETTINGS: dict[str, tuple[Any, str]] = {
     "method": ("ml", "'ml' (multi-pose maximum likelihood) or 'two_pose' (the paper)"),
@@ -47,6 +62,13 @@ SETTINGS: dict[str, tuple[Any, str]] = {
     "sensor_frame": ("panda_hand", "URDF frame of the F/T sensor (the wrenches' frame)"),
     "base_frame": ("", "URDF frame gravity is given in ('': the URDF's root)"),
     "gravity": (list(DEFAULT_GRAVITY), "m/s^2 in base_frame (a tilted base gives its own)"),
+    "bias_drift_rate": (
+        list(BIAS_DRIFT_RATE),
+        "N/s, N m/s: 1-sigma drift rate of the sensor bias to allow for within a run "
+        "(kinematic information; [0, 0]: a constant bias within a run)",
+    ),
+    "max_drift_f": (MAX_DRIFT_F, "N; a larger bias drift since the cached tare is a WARN"),
+    "max_drift_tau": (MAX_DRIFT_TAU, "N m; a larger bias drift since the cached tare is a WARN"),
 }
 """name: (default, description with units)."""
 
@@ -57,6 +79,7 @@ _CHECKS = {
     "sensor_frame": lambda v: isinstance(v, str) and v != "",
     "base_frame": lambda v: isinstance(v, str),
     "gravity": lambda v: len(v) == 3 and 0 < math.hypot(*v) < math.inf,
+    "bias_drift_rate": lambda v: len(v) == 2 and all(0 <= r < math.inf for r in v),
     "alpha": lambda v: 0.0 < v < 0.5,
     "expected_frame": lambda v: isinstance(v, str),
     "tare_cache": lambda v: isinstance(v, str),
@@ -98,6 +121,9 @@ def exploration_from(settings: Mapping[str, Any], urdf: str = "") -> Exploration
         min_tilt_sigmas=value["min_tilt_sigmas"],
         max_label_gap=value["max_label_gap"],
         information=value["information"],
+        bias_drift_rate=tuple(value["bias_drift_rate"]),
+        max_drift_f=value["max_drift_f"],
+        max_drift_tau=value["max_drift_tau"],
     )
     if value["information"] != WRENCHES:
         exploration.robot, exploration.robot_problem = robot_from(value, urdf)
@@ -128,13 +154,20 @@ def _urdf_text(description: str) -> str:
     return Path(description).read_text() if description else ""
 
 
-def load_cached_tares(path: str | Path) -> dict[str, Window]:
-    """The current entry's tare windows of the cache file ``path`` ({} for '', none, or a
-    broken file: the solution then says which poses have no tare)."""
+def load_cached_tares(path: str | Path) -> TareCache | None:
+    """The current entry of the cache file ``path`` (None for '', none, or a broken file:
+    the solution then says which poses have no tare)."""
     if not str(path):
-        return {}
+        return None
     try:
-        cache = load_tares(path)
+        return load_tares(path)
     except (ValueError, KeyError, TypeError, OSError):  # a broken file: as if none
-        return {}
-    return dict(cache.windows) if cache else {}
+        return None
+
+
+def use_cached_tares(exploration: Exploration, path: str | Path) -> None:
+    """Give ``exploration`` the current entry of the cache file ``path``: its tare windows,
+    their joint positions and times (none for '', no file or a broken one)."""
+    cache = load_cached_tares(path) or TareCache("", 0.0, {})
+    exploration.tares, exploration.tare_joints = cache.windows, cache.joints
+    exploration.tare_times = cache.times

@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .contract import DONE, ERROR, OBJECT_PREFIX, OK, TARE_PREFIX, WARN
-from .errors import EstimationError, NonPositiveMassError, WindowError
+from .errors import EstimationError, MissingTareError, NonPositiveMassError, WindowError
 from .estimators import (
     DEFAULT_ALPHA,
     MIN_TILT_SIGMAS,
@@ -47,8 +47,8 @@ from .estimators import (
     ml,
     two_pose,
 )
-from .kinematics import RobotModel
-from .known_gravity import MountedEstimate, known_gravity_ml, mount_rpy, mounted_ml
+from .kinematics import KinematicsError, RobotModel
+from .known_gravity import BIAS_DRIFT_RATE, KinematicFit, Observation, kinematic_ml, mount_rpy
 from .windows import Window, reduce_window, subtract_tare
 from .wrench_model import STANDARD_GRAVITY, SensorModel
 
@@ -83,6 +83,9 @@ JOINT_STATE_GAP = 0.1
 """s; a window without a joint state in it takes the nearest this close to it."""
 JOINT_MOTION = 2e-3
 """rad (or m); joints that move more than this within a window leave it out."""
+MAX_DRIFT_F, MAX_DRIFT_TAU = 1.0, 0.05
+"""N, N m: a bias drift since the tare beyond either is a WARN (re-tare; the fit absorbs
+it, but a sensor drifting that fast is warming up or was overloaded)."""
 
 
 @dataclass(frozen=True)
@@ -102,7 +105,8 @@ class Solution:
     notes: tuple[str, ...] = ()
     window_samples: Mapping[str, int] = field(default_factory=dict)
     information: str = "wrenches"
-    mount: MountedEstimate | None = None
+    fit: KinematicFit | None = None
+    wrenches_sigma_com: NDArray[np.float64] | None = None
 
     @property
     def usable(self) -> bool:
@@ -154,11 +158,9 @@ class Solution:
                 "sigma_mass": e.sigma_mass,
                 "sigma_com": e.sigma_com.tolist(),
             }
-        if self.mount is not None:
-            out |= {
-                "mount_rpy": mount_rpy(self.mount.mount).tolist(),
-                "sigma_mount": np.sqrt(np.diag(self.mount.mount_cov)).tolist(),
-            }
+        if self.wrenches_sigma_com is not None:
+            out["wrenches_sigma_com"] = self.wrenches_sigma_com.tolist()
+        out |= _fit_dict(self.fit) if self.fit is not None else {}
         if self.consistency is not None:
             c = self.consistency
             out |= {
@@ -185,9 +187,16 @@ class Exploration:
         tare; the solution is then at best WARN and says so.
     max_label_gap : s (sensor time); a label this long after the previous one starts a
         new exploration (0: never).
-    information : 'wrenches' (each pose's gravity direction unknown: the wrenches only)
-        or 'kinematics' (gravity per window from ``robot`` and the joint states; with no
-        robot model the fit falls back to 'wrenches' and says so).
+    tare_joints, tare_times : the joint positions (rad, m; by name) and the time (s) of
+        each cached tare window, for the hand model of the kinematic information.
+    information : 'wrenches' (each pose's gravity direction unknown: the wrenches only),
+        'kinematics' (each window's orientation from ``robot`` and the joint states; the
+        hand, the sensor bias and the object fitted together, ``known_gravity``) or
+        'kinematics+mount' (and the sensor's mounting and the base tilt); with no robot
+        model the fit falls back to 'wrenches' and says so.
+    bias_drift_rate : N/s, N m/s; the sensor bias's drift rate to allow for within a
+        run (1 sigma; (0, 0): a constant bias within a run).
+    max_drift_f, max_drift_tau : N, N m; a larger bias drift since a cached tare is a WARN.
     """
 
     method: str = "ml"
@@ -197,11 +206,16 @@ class Exploration:
     min_tilt_sigmas: float = MIN_TILT_SIGMAS
     g: float = STANDARD_GRAVITY
     tares: Mapping[str, Window] = field(default_factory=dict)
+    tare_joints: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
+    tare_times: Mapping[str, float] = field(default_factory=dict)
     untared: bool = False
     max_label_gap: float = MAX_LABEL_GAP
     information: str = WRENCHES
     robot: RobotModel | None = None
     robot_problem: str = ""
+    bias_drift_rate: tuple[float, float] = BIAS_DRIFT_RATE
+    max_drift_f: float = MAX_DRIFT_F
+    max_drift_tau: float = MAX_DRIFT_TAU
     _joint_states: list[tuple[int, dict[str, float]]] = field(default_factory=list, repr=False)
     _stamps: list[NDArray[np.int64]] = field(default_factory=list, repr=False)
     _wrenches: list[NDArray[np.float64]] = field(default_factory=list, repr=False)
@@ -373,10 +387,10 @@ class Exploration:
         ``stamp_ns``, for the gravity of each window under ``information`` 'kinematics'."""
         self._joint_states.append((int(stamp_ns), dict(zip(names, positions, strict=True))))
 
-    def window_gravity(self, label: str, until_ns: int | None = None) -> NDArray[np.float64]:
-        """Gravity (3,), m/s^2 in the sensor frame, over window ``label`` from the robot
-        model and the joint states in its span (or the nearest within JOINT_STATE_GAP s
-        of it). Raises WindowError with the reason when there is none or the joints moved."""
+    def window_rotation(self, label: str, until_ns: int | None = None) -> NDArray[np.float64]:
+        """R_base_sensor (3, 3) over window ``label`` from the robot model and the joint
+        states in its span (or the nearest within JOINT_STATE_GAP s of it). Raises
+        WindowError with the reason when there is none or the joints moved."""
         assert self.robot is not None
         spans = self.spans(until_ns)[label]
         stamps = np.array([t for t, _ in self._joint_states], dtype=np.int64)
@@ -399,7 +413,7 @@ class Exploration:
         moved = float(np.max(np.ptp(q, axis=0)))
         if moved > JOINT_MOTION:
             raise WindowError(f"window {label!r}: the joints moved {moved * 1e3:.1f} mrad")
-        return self.robot.gravity_in_sensor(dict(zip(names, q.mean(axis=0), strict=True)))
+        return self.robot.sensor_rotation(dict(zip(names, q.mean(axis=0), strict=True)))
 
     def reduced_windows(
         self, until_ns: int | None = None
@@ -451,37 +465,30 @@ class Exploration:
                 notes.append(
                     "no tare: the estimate is of the whole load beyond the sensor (hand + object)"
                 )
-                windows = objects
-            else:
-                windows = subtract_tare(objects, tares.values())
+            information = self._information(notes)
+            try:  # the object windows minus the tare of their pose
+                windows = objects if self.untared else subtract_tare(objects, tares.values())
+            except MissingTareError:
+                if information == WRENCHES:
+                    raise
+                windows = []  # the kinematic fit needs no tare per pose
+            if windows and not self.untared:
                 _check_load_direction(windows, tares)
-            information = self.information
-            if information != WRENCHES and self.method != "ml":
-                notes.append(
-                    f"information {information!r} is ml's: {self.method} fits the wrenches"
-                )
-                information = WRENCHES
-            elif information != WRENCHES and self.robot is None:
-                why = self.robot_problem or "none given"
-                notes.append(
-                    f"no robot model ({why}): information 'wrenches', not {information!r}"
-                )
-                information = WRENCHES
-            mount = None
-            if information == KINEMATICS:
-                windows, gravities = self._with_gravity(windows, until_ns, notes)
-                estimate = known_gravity_ml(windows, gravities)
-            elif information == KINEMATICS_MOUNT:
-                windows, gravities = self._with_gravity(windows, until_ns, notes)
-                mounted = mounted_ml(windows, gravities)
-                estimate, mount = mounted.estimate, mounted
-            else:
+            if information == WRENCHES:
+                fit, wrenches_sigma = None, None
                 estimate = METHODS[self.method](
                     windows, g=self.g, min_tilt_sigmas=self.min_tilt_sigmas
                 )
-            consistency = check_consistency(windows, alpha=self.alpha, g=self.g)
-            if information != WRENCHES and consistency.consistent:
-                consistency = _kinematic_consistency(estimate, self.alpha)
+                consistency = check_consistency(windows, alpha=self.alpha, g=self.g)
+                used = windows
+            else:
+                fit, used = self._kinematic_fit(
+                    objects, windows, fresh_tares, information, until_ns, notes
+                )
+                estimate = fit.estimate
+                consistency, wrenches_sigma = self._wrenches_beside(windows)
+                if consistency.consistent:
+                    consistency = _kinematic_consistency(estimate, self.alpha)
         except EstimationError as exc:
             reason = str(exc) + ("; " + "; ".join(notes) if notes else "")
             return Solution(ERROR, reason, self.method, notes=tuple(notes), window_samples=counts)
@@ -496,26 +503,131 @@ class Exploration:
             self.method,
             estimate,
             consistency,
-            tuple(windows),
+            tuple(used),
             tuple(notes),
             window_samples=counts,
             information=information,
-            mount=mount,
+            fit=fit,
+            wrenches_sigma_com=wrenches_sigma,
         )
 
-    def _with_gravity(
-        self, windows: list[Window], until_ns: int | None, notes: list[str]
-    ) -> tuple[list[Window], NDArray[np.float64]]:
-        """The windows with a kinematic gravity, and those gravities (n, 3), m/s^2; a
-        window without one is left out, with the reason in ``notes``."""
-        kept, gravities = [], []
-        for window in windows:
+    def _information(self, notes: list[str]) -> str:
+        """The information the fit can use: ``information``, or 'wrenches' (with the reason
+        in ``notes``) for a method other than ml or without a robot model."""
+        if self.information == WRENCHES:
+            return WRENCHES
+        if self.method != "ml":
+            notes.append(
+                f"information {self.information!r} is ml's: {self.method} fits the wrenches"
+            )
+            return WRENCHES
+        if self.robot is None:
+            why = self.robot_problem or "none given"
+            notes.append(
+                f"no robot model ({why}): information 'wrenches', not {self.information!r}"
+            )
+            return WRENCHES
+        return self.information
+
+    def _wrenches_beside(
+        self, windows: list[Window]
+    ) -> tuple[Consistency, NDArray[np.float64] | None]:
+        """For a kinematic fit, what the wrenches alone say of the tare-subtracted
+        ``windows`` (none when a pose has no tare): the object-moved test, which names the
+        pose (else a consistent placeholder), and the COM sigma of their ML fit (None
+        when the windows do not give one)."""
+        passed = Consistency(True, 0.0, 0, 1.0, self.alpha, None, "")
+        if not windows:
+            return passed, None
+        try:
+            sigma = ml(windows, g=self.g, min_tilt_sigmas=0.0).sigma_com
+            return check_consistency(windows, alpha=self.alpha, g=self.g), sigma
+        except EstimationError:
+            return passed, None
+
+    def _kinematic_fit(
+        self,
+        objects: list[Window],
+        subtracted: list[Window],
+        fresh_tares: Mapping[str, Window],
+        information: str,
+        until_ns: int | None,
+        notes: list[str],
+    ) -> tuple[KinematicFit, list[Window]]:
+        """The hand, the bias and the object fitted to every window with its orientation
+        (``known_gravity.kinematic_ml``): this run's empty-hand windows (its tare pass, or
+        the window that checks a cached tare) share this run's bias, a cached tare pass
+        has its own; a window without an orientation is left out, with the reason in
+        ``notes``. A cached tare without joint positions cannot give the hand at other
+        poses: the tare-subtracted windows (``subtracted``) are fitted, as the load alone.
+        A bias drift beyond ``max_drift_f`` or ``max_drift_tau`` is noted (a WARN).
+        Returns the fit and the load windows fitted."""
+        assert self.robot is not None
+        robot = self.robot
+        observations: list[Observation] = []
+
+        stamps = self.samples()[0]
+
+        def add(
+            window: Window,
+            label: str,
+            load: bool,
+            epoch: int,
+            cached: tuple[Mapping[str, float], float] | None = None,
+        ) -> None:
             try:
-                gravities.append(self.window_gravity(OBJECT_PREFIX + window.pose, until_ns))
-                kept.append(window)
-            except WindowError as exc:
+                if cached is None:
+                    rotation = self.window_rotation(label, until_ns)
+                    inside = np.zeros(len(stamps), dtype=bool)
+                    for a, b in self.spans(until_ns)[label]:
+                        inside |= (stamps >= a) & (stamps < b)
+                    time = float(np.mean(stamps[inside])) * 1e-9
+                else:
+                    rotation, time = robot.sensor_rotation(cached[0]), cached[1]
+            except (WindowError, KinematicsError) as exc:
                 notes.append(f"left out: {exc}")
-        return kept, np.array(gravities).reshape(-1, 3)
+                return
+            observations.append(Observation(window, rotation, load, epoch, time))
+
+        if not self.untared:
+            for pose, window in fresh_tares.items():
+                add(window, TARE_PREFIX + pose, False, 0)
+            for pose, window in self.tares.items():
+                if pose not in fresh_tares and pose in self.tare_joints:
+                    cached = (self.tare_joints[pose], self.tare_times.get(pose, 0.0))
+                    add(window, f"cached tare {pose!r}", False, 1, cached)
+        loads = objects
+        if not self.untared and all(o.load for o in observations):
+            if not subtracted:
+                raise MissingTareError(
+                    "no tare for the object's poses, and no empty-hand window with joint "
+                    "positions to model the hand from"
+                )
+            notes.append("the tare has no joint positions: subtracted per pose, no bias fit")
+            loads = subtracted
+        for window in loads:
+            add(window, OBJECT_PREFIX + window.pose, True, 0)
+        fit = kinematic_ml(
+            observations,
+            robot.gravity,
+            fit_mount=information == KINEMATICS_MOUNT,
+            drift_rate_sigma=self.bias_drift_rate,
+        )
+        e = fit.estimate
+        if not self.untared and e.mass < LOAD_SIGMAS * e.sigma_mass:
+            raise NonPositiveMassError(
+                f"no load beyond the hand ({e.mass * 1e3:.3g} +- {e.sigma_mass * 1e3:.2g} g): "
+                "the object was not held (an empty grasp, or it fell)"
+            )
+        drift = fit.drift()[0]
+        force, torque = float(np.linalg.norm(drift[:3])), float(np.linalg.norm(drift[3:]))
+        if force > self.max_drift_f or torque > self.max_drift_tau:
+            notes.append(
+                f"the sensor's bias drifted {force:.3g} N, {torque:.3g} N m since the cached "
+                f"tare (more than {self.max_drift_f:g} N or {self.max_drift_tau:g} N m): the "
+                "fit absorbed it; re-tare"
+            )
+        return fit, [o.window for o in observations if o.load]
 
 
 def done_stamp(labels: Sequence[tuple[int, str]]) -> int | None:
@@ -558,6 +670,30 @@ def _check_load_direction(windows: Sequence[Window], tares: Mapping[str, Window]
             f"pose {w.pose!r}: no load beyond the hand ({grams}): the object was not held "
             f"(an empty grasp, or it fell)"
         )
+
+
+def _fit_dict(fit: KinematicFit) -> dict:
+    """The kinematic fit's own unknowns for ``Solution.as_dict``: the sensor's bias in
+    this run (N, N m), its drift since a cached tare, the hand's mass (kg) and COM (m,
+    sensor frame), the mounting (roll, pitch, yaw, rad) and the base tilt (rad)."""
+    out: dict = {}
+    if len(fit.bias):
+        out["bias"] = fit.bias[0].tolist()
+        out["sigma_bias"] = np.sqrt(np.diag(fit.bias_cov)[:6]).tolist()
+    if len(fit.bias) > 1:
+        drift, cov = fit.drift()
+        out["bias_drift"] = drift.tolist()
+        out["bias_rate"] = fit.bias_rate[0].tolist()
+        out["sigma_bias_drift"] = np.sqrt(np.diag(cov)).tolist()
+    if fit.hand is not None:
+        out["hand_mass"], out["hand_com"] = fit.hand.mass, fit.hand.com.tolist()
+    if fit.mount is not None and fit.mount_cov is not None:
+        out["mount_rpy"] = mount_rpy(fit.mount).tolist()
+        out["sigma_mount"] = np.sqrt(np.diag(fit.mount_cov)).tolist()
+    if fit.base_tilt is not None and fit.base_tilt_cov is not None:
+        out["base_tilt"] = fit.base_tilt.tolist()
+        out["sigma_base_tilt"] = np.sqrt(np.diag(fit.base_tilt_cov)).tolist()
+    return out
 
 
 def _kinematic_consistency(estimate: Estimate, alpha: float) -> Consistency:

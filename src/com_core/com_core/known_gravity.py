@@ -1,18 +1,42 @@
-"""Mass and COM when each pose's gravity in the sensor frame is known (the ``kinematics``
-information model: gravity from the robot's forward kinematics, ``com_core.kinematics``).
+"""Mass and COM when each window's orientation is known from the robot's kinematics (the
+``kinematics`` and ``kinematics+mount`` information models), with the hand and the
+sensor's bias as a model (the ft_calib model).
 
-With g_i known (m/s^2, sensor frame), a static load's wrench is linear in the unknowns
-theta = (m, c) with c = m p (kg m):
+Each window i has R_i = R_base_sensor from forward kinematics (``com_core.kinematics``)
+and so gravity in the sensor frame g_i = R_i^T g_base (m/s^2). A static rigid load of
+mass m and COM p (sensor frame) has the wrench A(g_i) theta with theta = (m, c), c = m p
+(kg m):
 
     f_i   = m g_i
-    tau_i = p x (m g_i) = c x g_i = -[g_i]_x c
+    tau_i = p x (m g_i) = c x g_i = -[g_i]_x c.
 
-so the maximum-likelihood fit under Gaussian window noise (covariance S_i of each window
-mean, N and N m) is weighted least squares, theta = (sum A_i^T S_i^-1 A_i)^-1 sum A_i^T
-S_i^-1 w_i, and its covariance (sum A_i^T S_i^-1 A_i)^-1 is exactly the Cramer-Rao bound
-for this information. (m, p = c / m) and their covariance follow to first order. The
-wrench-only ``estimators.ml`` treats each g_i direction as unknown; knowing it adds
-information, most about the COM along gravity (docs/design.md, Estimators).
+The sensor reads the wrench of everything beyond it plus a bias b (6,): its zero, which
+drifts. Window i is an ``Observation``: the empty hand (``load`` False) or the hand
+holding the object (``load`` True), read with the bias of its ``epoch`` (0: this run's;
+1: the bias at an earlier tare pass, a cached one):
+
+    w_i = b_epoch(i) + A(g_i) (theta_hand + load_i theta_object).
+
+The hand is the paper's W_HAND (eq. 2) as a model: known at any orientation once fitted,
+not only at the poses a tare pass visited. The bias of each epoch is fitted with the
+hand and the object, so a drift since the tare is absorbed and reported
+(``KinematicFit.drift``). Within an epoch the bias may drift too: with
+``drift_rate_sigma`` (N/s, N m/s) each epoch's bias is b + r (t_i - t_epoch), t_i the
+window's time (s) and t_epoch the mean of its epoch's, and the rate r has a zero-mean
+Gaussian prior of that sigma per axis (a sensor's drift specification). The prior enters
+as 6 pseudo-observations per epoch, so the fit stays linear and its covariance is the
+(Bayesian) bound; without it the bias is constant within an epoch.
+
+The unknowns are linear: the maximum-likelihood fit under Gaussian window noise
+(covariance S_i of each window mean, N and N m) is weighted least squares, and its
+covariance, the inverse Fisher information, is exactly the Cramer-Rao
+bound for this information. (m, p = c / m) and their covariance follow to first order.
+
+``fit_mount`` adds the ``kinematics+mount`` unknowns: the sensor's mounting rotation
+R_m relative to its URDF frame and the base's tilt R_t (2 angles about the axes across
+gravity), constants the windows see as g_i = R_m^T R_i^T R_t g_base; Gauss-Newton from
+the fit without them. Without empty-hand windows (no tare: the load beyond the sensor,
+or windows that are already tare-subtracted) there is no bias nor hand to fit.
 """
 
 from __future__ import annotations
@@ -26,104 +50,104 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import NonPositiveMassError, TooFewPosesError
 from .estimators import Estimate
+from .kinematics import DEFAULT_GRAVITY
 from .stats import chi2_sf
 from .windows import Window
 from .wrench_model import rotation_about, skew
 
 __all__ = [
-    "MountedEstimate",
-    "known_gravity_crlb",
-    "known_gravity_ml",
+    "BIAS_DRIFT_RATE",
+    "KinematicFit",
+    "Observation",
+    "kinematic_ml",
     "mount_rpy",
-    "mounted_ml",
 ]
 
 METHOD = "ml"  # the maximum-likelihood fit of the kinematics information
+BIAS_DRIFT_RATE = (0.05 / 60, 0.0025 / 60)
+"""N/s, N m/s: the default 1-sigma prior of the bias's drift rate within an epoch, per
+axis: 0.05 N/min, and in torque as much relative to a 0.1 N / 0.005 N m sensor's noise."""
+_MAX_CONDITION = 1e10
+"""The scaled Fisher information (``_condition``) of a fit that resolves its unknowns
+is better conditioned."""
+
+
+@dataclass(frozen=True)
+class Observation:
+    """A static window and what it saw: ``rotation`` R_base_sensor (3, 3) of the URDF's
+    sensor frame over it, whether it holds the object (``load``; else the empty hand),
+    and the ``epoch`` of the sensor bias it was read with (0: this run; 1: an earlier
+    tare pass), and its ``time`` (s, the middle of the window; any origin within an
+    epoch)."""
+
+    window: Window
+    rotation: NDArray[np.float64]
+    load: bool = True
+    epoch: int = 0
+    time: float = 0.0
+
+
+@dataclass(frozen=True)
+class KinematicFit:
+    """The fit of ``kinematic_ml``.
+
+    Attributes
+    ----------
+    estimate : the object's mass (kg) and COM (m, sensor frame), covariance the CRLB; its
+        chi2 and dof are the whole fit's. With no load window: the hand's.
+    hand : the hand's mass and COM (sensor frame); None without empty-hand windows.
+    bias : (epochs, 6) the sensor's bias per epoch (N, N m) at the mean time of the
+        epoch's windows; empty without empty-hand windows. bias_cov : (6 epochs, 6
+        epochs), the covariance of all epochs' biases together.
+    bias_rate : (epochs, 6) its drift rate within each epoch (N/s, N m/s); zeros unless
+        ``drift_rate_sigma`` was given.
+    mount : the mounting rotation vector (3,), rad (the sensor's axes in the URDF frame
+        are R(mount)), and its covariance ``mount_cov`` (3, 3); None unless fitted.
+    base_tilt : the base's tilt, a rotation vector (3,), rad, in the base frame (across
+        gravity: the base's gravity is R(base_tilt) g), with ``base_tilt_cov`` (3, 3);
+        None unless fitted.
+    cov : covariance of every unknown, in the order bias, hand, object, mount, tilt.
+    """
+
+    estimate: Estimate
+    hand: Estimate | None
+    bias: NDArray[np.float64]
+    bias_cov: NDArray[np.float64]
+    bias_rate: NDArray[np.float64]
+    mount: NDArray[np.float64] | None
+    mount_cov: NDArray[np.float64] | None
+    base_tilt: NDArray[np.float64] | None
+    base_tilt_cov: NDArray[np.float64] | None
+    cov: NDArray[np.float64]
+
+    def drift(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(bias of this run minus that of the tare pass (6,), its covariance (6, 6)): the
+        drift since the tare; zeros when the run has one epoch."""
+        if len(self.bias) < 2:
+            return np.zeros(6), np.zeros((6, 6))
+        c = self.bias_cov
+        cov = c[:6, :6] + c[6:12, 6:12] - c[:6, 6:12] - c[6:12, :6]
+        return self.bias[0] - self.bias[1], cov
 
 
 def _design(gravity: NDArray[np.float64]) -> NDArray[np.float64]:
-    """A_i (6, 4): the wrench of theta = (m, c) at gravity g_i (m/s^2)."""
+    """A (6, 4): the wrench of theta = (m, c) at gravity g (m/s^2, sensor frame)."""
     a = np.zeros((6, 4))
     a[:3, 0] = gravity
     a[3:, 1:] = -skew(gravity)
     return a
 
 
-def _information(
-    gravities: NDArray[np.float64], covs: Sequence[NDArray[np.float64]]
-) -> tuple[NDArray[np.float64], list[NDArray[np.float64]]]:
-    """(sum A^T S^-1 A (4, 4), the A_i^T S_i^-1 (4, 6) per pose)."""
-    info = np.zeros((4, 4))
-    weighted = []
-    for g, cov in zip(gravities, covs, strict=True):
-        a = _design(g)
-        at_w = np.linalg.solve(cov, a).T  # A^T S^-1 (S symmetric)
-        info += at_w @ a
-        weighted.append(at_w)
-    return info, weighted
-
-
-def _mass_com_covariance(
+def _mass_com(
     theta: NDArray[np.float64], cov_theta: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """Covariance (4, 4) of (m, p = c / m) from that of theta = (m, c), first order."""
+) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
+    """(m, p = c / m, covariance (4, 4) of (m, p)) from theta = (m, c), first order."""
     m, c = theta[0], theta[1:]
     jac = np.zeros((4, 4))
     jac[0, 0] = 1.0
     jac[1:, 0] = -c / m**2
     jac[1:, 1:] = np.eye(3) / m
-    return jac @ cov_theta @ jac.T
-
-
-def known_gravity_ml(windows: Sequence[Window], gravities: ArrayLike) -> Estimate:
-    """The ML mass (kg) and COM (m, sensor frame) of tare-subtracted ``windows`` whose
-    gravity vectors ``gravities`` (n, 3), m/s^2 in the sensor frame, are known; its
-    covariance is the CRLB; chi2 has 6n - 4 degrees of freedom.
-
-    Raises TooFewPosesError for no window, NonPositiveMassError for a mass at or below
-    zero. One pose suffices for m and the COM across gravity; the component along
-    gravity needs a second gravity direction (else the information is singular:
-    TooFewPosesError).
-    """
-    g = np.asarray(gravities, dtype=np.float64).reshape(-1, 3)
-    if len(windows) == 0 or len(windows) != len(g):
-        raise TooFewPosesError(f"need one gravity per window: {len(windows)} windows, {len(g)}")
-    info, weighted = _information(g, [w.cov for w in windows])
-    if np.linalg.cond(info) > 1e12:
-        raise TooFewPosesError("the poses' gravity directions do not resolve the COM along them")
-    cov_theta = np.linalg.inv(info)
-    theta = cov_theta @ sum(at_w @ w.mean for at_w, w in zip(weighted, windows, strict=True))
-    if not theta[0] > 0:
-        raise NonPositiveMassError(f"mass {theta[0] * 1e3:.3g} g: at or below zero")
-    residuals = [w.mean - _design(gi) @ theta for w, gi in zip(windows, g, strict=True)]
-    chi2 = float(
-        sum(r @ np.linalg.solve(w.cov, r) for r, w in zip(residuals, windows, strict=True))
-    )
-    dof = 6 * len(windows) - 4
-    return Estimate(
-        method=METHOD,
-        mass=float(theta[0]),
-        com=theta[1:] / theta[0],
-        cov=_mass_com_covariance(theta, cov_theta),
-        chi2=chi2,
-        dof=dof,
-        p_value=chi2_sf(chi2, dof) if dof > 0 else 1.0,
-        poses=tuple(w.pose for w in windows),
-    )
-
-
-def known_gravity_crlb(
-    mass: float,
-    com: ArrayLike,
-    gravities: ArrayLike,
-    covs: Sequence[NDArray[np.float64]],
-) -> NDArray[np.float64]:
-    """The Cramer-Rao bound (4, 4) of (m, p) at the truth (kg, m; sensor frame) when the
-    gravities (n, 3, m/s^2) are known and the windows have covariances ``covs``."""
-    g = np.asarray(gravities, dtype=np.float64).reshape(-1, 3)
-    info, _ = _information(g, covs)
-    theta = np.concatenate([[mass], mass * np.asarray(com, dtype=np.float64)])
-    return _mass_com_covariance(theta, np.linalg.inv(info))
+    return float(m), c / m, jac @ cov_theta @ jac.T
 
 
 def _rotation(rotvec: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -132,6 +156,203 @@ def _rotation(rotvec: NDArray[np.float64]) -> NDArray[np.float64]:
     if angle < 1e-12:
         return np.eye(3) + skew(rotvec)
     return rotation_about(rotvec / angle, angle)
+
+
+def _across(gravity: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(2, 3): two unit axes across ``gravity``, about which a base tilts."""
+    u = gravity / np.linalg.norm(gravity)
+    first = np.cross(u, np.eye(3)[int(np.argmin(np.abs(u)))])
+    first /= np.linalg.norm(first)
+    return np.stack([first, np.cross(u, first)])
+
+
+class _Model:
+    """The unknowns' layout (per epoch its bias and, with a rate prior, its rate; the
+    hand; the object; the mounting and the tilt) and the whitened residuals."""
+
+    def __init__(
+        self,
+        observations: Sequence[Observation],
+        gravity: NDArray[np.float64],
+        fit_mount: bool,
+        drift_rate_sigma: tuple[float, float] | None,
+    ) -> None:
+        self.obs = list(observations)
+        self.gravity = gravity
+        empty = [o for o in self.obs if not o.load]
+        self.epochs = 1 + max((o.epoch for o in self.obs), default=0) if empty else 0
+        rates = drift_rate_sigma is not None and max(drift_rate_sigma) > 0
+        self.rate_sigma = (
+            np.repeat(np.asarray(drift_rate_sigma, dtype=float), 3) if rates else None
+        )
+        stride = 12 if rates else 6
+        self.bias = [slice(stride * e, stride * e + 6) for e in range(self.epochs)]
+        self.rate = (
+            [slice(stride * e + 6, stride * e + 12) for e in range(self.epochs)] if rates else []
+        )
+        self.has_hand = bool(empty)
+        self.has_object = any(o.load for o in self.obs)
+        start = stride * self.epochs
+        self.hand = slice(start, start + 4) if self.has_hand else slice(start, start)
+        start = self.hand.stop
+        self.object = slice(start, start + 4) if self.has_object else slice(start, start)
+        start = self.object.stop
+        self.mount = slice(start, start + 5) if fit_mount else slice(start, start)
+        self.size = self.mount.stop
+        self.tilt_axes = _across(gravity)
+        self.whiten = [np.linalg.cholesky(np.linalg.inv(o.window.cov)).T for o in self.obs]
+        self.epoch_time = [
+            float(np.mean([o.time for o in self.obs if o.epoch == e] or [0.0]))
+            for e in range(self.epochs)
+        ]
+
+    def gravities(self, x: NDArray[np.float64]) -> list[NDArray[np.float64]]:
+        """g_i (m/s^2, sensor frame) per observation at the unknowns ``x``."""
+        if self.mount.stop == self.mount.start:
+            return [o.rotation.T @ self.gravity for o in self.obs]
+        mount_t = _rotation(x[self.mount][:3]).T
+        base = _rotation(x[self.mount][3:] @ self.tilt_axes) @ self.gravity
+        return [mount_t @ o.rotation.T @ base for o in self.obs]
+
+    def linear_design(self, gravities: list[NDArray[np.float64]]) -> NDArray[np.float64]:
+        """(6n, size): the wrenches' derivative by bias, rate, hand and object (mount
+        columns 0)."""
+        rows = np.zeros((6 * len(self.obs), self.size))
+        for i, (o, g) in enumerate(zip(self.obs, gravities, strict=True)):
+            r = slice(6 * i, 6 * i + 6)
+            a = _design(g)
+            if self.epochs:
+                rows[r, self.bias[o.epoch]] = np.eye(6)
+            if self.rate:
+                rows[r, self.rate[o.epoch]] = (o.time - self.epoch_time[o.epoch]) * np.eye(6)
+            if self.has_hand:
+                rows[r, self.hand] = a
+            if o.load:
+                rows[r, self.object] = a
+        return rows
+
+    def residuals(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Whitened residuals at the unknowns ``x``: 6 per window, then 6 per epoch for
+        the rate prior."""
+        predicted = self.linear_design(self.gravities(x)) @ x
+        data = [
+            wh @ (o.window.mean - predicted[6 * i : 6 * i + 6])
+            for i, (wh, o) in enumerate(zip(self.whiten, self.obs, strict=True))
+        ]
+        prior = [-x[r] / self.rate_sigma for r in self.rate]
+        return np.concatenate(data + prior)
+
+    def jacobian(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """d residuals / d x: exact for the linear unknowns, central differences for the
+        mounting and the tilt."""
+        n = 6 * len(self.obs)
+        whitened = np.zeros((n + 6 * len(self.rate), self.size))
+        design = self.linear_design(self.gravities(x))
+        for i, wh in enumerate(self.whiten):
+            r = slice(6 * i, 6 * i + 6)
+            whitened[r] = -wh @ design[r]
+        for e, r in enumerate(self.rate):
+            whitened[n + 6 * e : n + 6 * e + 6, r] = -np.diag(1.0 / self.rate_sigma)
+        for k in range(self.mount.start, self.mount.stop):
+            step = np.zeros(self.size)
+            step[k] = 1e-6
+            whitened[:, k] = (self.residuals(x + step) - self.residuals(x - step)) / 2e-6
+        return whitened
+
+
+def _estimate(
+    x: NDArray[np.float64], cov: NDArray[np.float64], part: slice, chi2: float, dof: int, poses
+) -> Estimate:
+    mass, com, cov_mp = _mass_com(x[part], cov[part, part])
+    return Estimate(
+        method=METHOD,
+        mass=mass,
+        com=com,
+        cov=cov_mp,
+        chi2=chi2,
+        dof=dof,
+        p_value=chi2_sf(chi2, dof) if dof > 0 else 1.0,
+        poses=poses,
+    )
+
+
+def _condition(jac: NDArray[np.float64]) -> float:
+    """Condition number of the Fisher information J^T J with its unknowns scaled to unit
+    information (their units, and how precise each window is, do not enter)."""
+    info = jac.T @ jac
+    scale = 1.0 / np.sqrt(np.maximum(np.diag(info), np.finfo(float).tiny))
+    return float(np.linalg.cond(info * np.outer(scale, scale)))
+
+
+def kinematic_ml(
+    observations: Sequence[Observation],
+    gravity: ArrayLike = DEFAULT_GRAVITY,
+    fit_mount: bool = False,
+    drift_rate_sigma: tuple[float, float] | None = None,
+    iterations: int = 30,
+) -> KinematicFit:
+    """The ML fit of bias, hand and object to ``observations`` (see module), with
+    ``gravity`` (m/s^2) in the base frame; ``fit_mount`` also fits the sensor's mounting
+    and the base's tilt; ``drift_rate_sigma`` (N/s, N m/s) lets each epoch's bias drift
+    (see module). The covariance is the CRLB; chi2 has 6n (+ 6 per epoch with a rate
+    prior) - (unknowns) dof.
+
+    Raises TooFewPosesError when the windows' orientations do not resolve the unknowns
+    (a COM needs two gravity directions; a bias beside the load needs its gravity to
+    change; the mounting and the tilt need rotations about two axes), and
+    NonPositiveMassError for an object mass at or below zero.
+    """
+    g = np.asarray(gravity, dtype=np.float64).reshape(3)
+    model = _Model(observations, g, fit_mount, drift_rate_sigma)
+    if not model.obs:
+        raise TooFewPosesError("no windows to fit")
+    x = np.zeros(model.size)
+    free = np.arange(model.mount.start)  # the linear unknowns first: one step solves them
+    for k in range(1 + (iterations if fit_mount else 0)):
+        jac = model.jacobian(x)[:, free]
+        if _condition(jac) > _MAX_CONDITION:
+            raise TooFewPosesError(
+                "the windows' orientations do not resolve the fit (a COM needs two gravity "
+                "directions; a bias beside the load, its gravity to change; the mounting "
+                "and the base tilt, rotations about two axes)"
+            )
+        delta = np.linalg.lstsq(jac, -model.residuals(x), rcond=None)[0]
+        x[free] += delta
+        if k > 0 and np.max(np.abs(delta[model.mount])) < 1e-12:
+            break
+        free = np.arange(model.size)  # then Gauss-Newton with the mount and the tilt
+    jac, res = model.jacobian(x), model.residuals(x)
+    cov = np.linalg.inv(jac.T @ jac)
+    chi2, dof = float(res @ res), len(res) - model.size
+    poses = tuple(o.window.pose for o in model.obs if o.load)
+    hand = (
+        _estimate(x, cov, model.hand, chi2, dof, tuple(o.window.pose for o in model.obs))
+        if model.has_hand
+        else None
+    )
+    if model.has_object:
+        if not x[model.object][0] > 0:
+            raise NonPositiveMassError(f"mass {x[model.object][0] * 1e3:.3g} g: at or below zero")
+        estimate = _estimate(x, cov, model.object, chi2, dof, poses)
+    else:
+        assert hand is not None
+        estimate = hand
+    axes = model.tilt_axes
+    biases = np.array([i for b in model.bias for i in range(b.start, b.stop)], dtype=int)
+    return KinematicFit(
+        estimate=estimate,
+        hand=hand,
+        bias=x[biases].reshape(-1, 6),
+        bias_cov=cov[np.ix_(biases, biases)],
+        bias_rate=np.array([x[r] for r in model.rate] or np.zeros((model.epochs, 6))).reshape(
+            -1, 6
+        ),
+        mount=x[model.mount][:3].copy() if fit_mount else None,
+        mount_cov=cov[model.mount, model.mount][:3, :3].copy() if fit_mount else None,
+        base_tilt=x[model.mount][3:] @ axes if fit_mount else None,
+        base_tilt_cov=axes.T @ cov[model.mount, model.mount][3:, 3:] @ axes if fit_mount else None,
+        cov=cov,
+    )
 
 
 def mount_rpy(rotvec: ArrayLike) -> NDArray[np.float64]:
@@ -144,76 +365,3 @@ def mount_rpy(rotvec: ArrayLike) -> NDArray[np.float64]:
             math.atan2(r[1, 0], r[0, 0]),
         ]
     )
-
-
-@dataclass(frozen=True)
-class MountedEstimate:
-    """The ``kinematics+mount`` fit: the estimate (in the sensor's own frame) and the
-    sensor's mounting relative to its URDF frame: ``mount`` a rotation vector (3,), rad
-    (the sensor's axes in the URDF frame are R(mount)), with its covariance (3, 3)."""
-
-    estimate: Estimate
-    mount: NDArray[np.float64]
-    mount_cov: NDArray[np.float64]
-
-
-def mounted_ml(
-    windows: Sequence[Window], gravities: ArrayLike, iterations: int = 20
-) -> MountedEstimate:
-    """ML of (m, p) and of a constant mounting rotation R between the URDF's sensor frame
-    (where ``gravities``, (n, 3) m/s^2, are known) and the sensor: the windows see
-    gravity R^T g_i. Gauss-Newton from the known-gravity fit; the covariance of all 7
-    unknowns is the inverse Fisher information (its CRLB); chi2 has 6n - 7 dof. Needs
-    two gravity directions at least (the mounting about gravity is seen only by them).
-    """
-    g = np.asarray(gravities, dtype=np.float64).reshape(-1, 3)
-    start = known_gravity_ml(windows, g)
-    x = np.concatenate([[start.mass], start.mass * start.com, np.zeros(3)])
-    whiten = [np.linalg.cholesky(np.linalg.inv(w.cov)).T for w in windows]
-    means = [w.mean for w in windows]
-
-    def residuals(params: NDArray[np.float64]) -> NDArray[np.float64]:
-        r_t = _rotation(params[4:]).T
-        return np.concatenate(
-            [
-                wh @ (m - _design(r_t @ gi) @ params[:4])
-                for wh, m, gi in zip(whiten, means, g, strict=True)
-            ]
-        )
-
-    def jacobian(params: NDArray[np.float64]) -> NDArray[np.float64]:
-        base = residuals(params)
-        cols = []
-        for k in range(7):
-            step = np.zeros(7)
-            step[k] = 1e-7 * max(1.0, abs(params[k]))
-            cols.append((residuals(params + step) - base) / step[k])
-        return np.stack(cols, axis=1)
-
-    for _ in range(iterations):
-        jac, res = jacobian(x), residuals(x)
-        delta = np.linalg.lstsq(jac, -res, rcond=None)[0]
-        x = x + delta
-        if np.max(np.abs(delta[4:])) < 1e-12 and np.max(np.abs(delta[:4])) < 1e-12 * max(
-            1.0, x[0]
-        ):
-            break
-    jac, res = jacobian(x), residuals(x)
-    info = jac.T @ jac
-    if np.linalg.cond(info) > 1e12:
-        raise TooFewPosesError("the poses' gravity directions do not resolve the mounting")
-    cov = np.linalg.inv(info)
-    if not x[0] > 0:
-        raise NonPositiveMassError(f"mass {x[0] * 1e3:.3g} g: at or below zero")
-    chi2, dof = float(res @ res), 6 * len(windows) - 7
-    estimate = Estimate(
-        method=METHOD,
-        mass=float(x[0]),
-        com=x[1:4] / x[0],
-        cov=_mass_com_covariance(x[:4], cov[:4, :4]),
-        chi2=chi2,
-        dof=dof,
-        p_value=chi2_sf(chi2, dof) if dof > 0 else 1.0,
-        poses=tuple(w.pose for w in windows),
-    )
-    return MountedEstimate(estimate, x[4:].copy(), cov[4:, 4:])

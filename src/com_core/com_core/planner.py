@@ -32,9 +32,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .estimators import crlb, two_pose
-from .known_gravity import known_gravity_crlb, mounted_ml
+from .kinematics import DEFAULT_GRAVITY
+from .known_gravity import BIAS_DRIFT_RATE, Observation, kinematic_ml
 from .windows import Window
-from .wrench_model import STANDARD_GRAVITY, SensorModel, as_vector, gravity_wrench, rotation_about
+from .wrench_model import (
+    STANDARD_GRAVITY,
+    SensorModel,
+    as_vector,
+    gravity_wrench,
+    rotation_about,
+    skew,
+)
 
 __all__ = [
     "HOME",
@@ -51,6 +59,10 @@ HOME = "home"
 
 METHODS: tuple[str, ...] = ("ml", "two_pose")
 """Estimators the planner predicts for (``com_core.estimators``)."""
+
+_GRASP_TIME = 4.0
+"""s from the end of a run's empty-hand window at home to its object pass: to the stand,
+the fingers, the lift and the grasp check."""
 
 _TILT_CEILING = 1.5
 """rad; the largest tilt the planner ever suggests as a remedy (Plan needs < pi/2)."""
@@ -80,6 +92,12 @@ class Plan:
     mass_guess : kg. com_guess : shape (3,); m; sensor frame.
     gravity_home : shape (3,); gravity direction at home in the sensor frame (measure it
         from the tare's force; the paper's top grasp is (0, 0, -1)).
+    bias_dwell : s of the empty-hand window of the object run that fits the sensor's
+        bias (kinematic information; 0: the bias is fitted from the object windows).
+    bias_drift_rate : N/s, N m/s; the estimator's prior on the bias's drift rate within
+        a run (``known_gravity``).
+    hand_mass_guess : kg. hand_com_guess : shape (3,); m; sensor frame (the hand's load
+        is what resolves the mounting of ``kinematics+mount``).
     """
 
     tilt: float = math.pi / 6
@@ -93,6 +111,10 @@ class Plan:
     mass_guess: float = 0.1
     com_guess: tuple[float, float, float] = (0.0, 0.0, 0.05)
     gravity_home: tuple[float, float, float] = (0.0, 0.0, -1.0)
+    bias_dwell: float = 2.0
+    bias_drift_rate: tuple[float, float] = BIAS_DRIFT_RATE
+    hand_mass_guess: float = 1.0
+    hand_com_guess: tuple[float, float, float] = (0.0, 0.0, 0.04)
 
     def __post_init__(self) -> None:
         if not 0.0 < self.tilt < math.pi / 2:
@@ -103,6 +125,8 @@ class Plan:
             raise ValueError("dwell and mass_guess must be > 0")
         if self.tare_dwell is not None and not self.tare_dwell > 0:
             raise ValueError(f"tare_dwell must be > 0 or None, got {self.tare_dwell}")
+        if not self.bias_dwell >= 0:
+            raise ValueError(f"bias_dwell must be >= 0, got {self.bias_dwell}")
 
     def poses(self) -> list[tuple[str, NDArray[np.float64]]]:
         """(name, R_home_pose) per pose, home first: 'home', 'tilt_x+', 'tilt_x-', ..."""
@@ -183,17 +207,8 @@ def predict(plan: Plan, method: str = "ml", information: str = "wrenches") -> Pr
     """
     _check_method(method)
     n = len(plan.poses())
-    gravities = plan.gravity_directions() * STANDARD_GRAVITY
-    if information == "kinematics" and method == "ml":
-        cov = known_gravity_crlb(
-            plan.mass_guess, plan.com_guess, gravities, [plan.window_cov()] * n
-        )
-    elif information == "kinematics+mount" and method == "ml":  # the fit's own CRLB there
-        windows = [
-            Window(name, gravity_wrench(plan.mass_guess, plan.com_guess, g), plan.window_cov(), 1)
-            for (name, _), g in zip(plan.poses(), gravities, strict=True)
-        ]
-        cov = mounted_ml(windows, gravities).estimate.cov
+    if information != "wrenches" and method == "ml":
+        cov = _kinematic_cov(plan, information == "kinematics+mount")
     elif method == "two_pose":
         cov = _two_pose_cov(plan) * plan._variance_factor(plan.dwell)
     else:
@@ -204,6 +219,67 @@ def predict(plan: Plan, method: str = "ml", information: str = "wrenches") -> Pr
             np.repeat(plan.window_cov()[None], n, axis=0),
         )
     return Prediction(math.sqrt(cov[0, 0]), np.sqrt(np.diag(cov)[1:]), cov, method, information)
+
+
+def _home_rotation(gravity_home: NDArray[np.float64]) -> NDArray[np.float64]:
+    """A rotation R_base_sensor at home that sees the base's gravity (DEFAULT_GRAVITY)
+    along ``gravity_home`` (unit, sensor frame): R @ gravity_home = the base's direction."""
+    down = np.asarray(DEFAULT_GRAVITY) / np.linalg.norm(DEFAULT_GRAVITY)
+    axis = np.cross(gravity_home, down)
+    sin, cos = float(np.linalg.norm(axis)), float(gravity_home @ down)
+    if sin < 1e-12:
+        return np.eye(3) if cos > 0 else np.diag([1.0, -1.0, -1.0])
+    k = skew(axis / sin)
+    return np.eye(3) + sin * k + (1 - cos) * k @ k
+
+
+def _kinematic_cov(plan: Plan, fit_mount: bool) -> NDArray[np.float64]:
+    """The CRLB (4, 4) of (m, p) of the kinematic fit (``known_gravity.kinematic_ml``) for
+    a run that reuses a cached tare pass of the plan's poses (``tare_dwell`` per pose)
+    and fits its bias, drifting at up to ``bias_drift_rate``, from a ``bias_dwell``
+    window at home ``_GRASP_TIME`` s before the object pass and the object's windows:
+    the fit's covariance at noise-free windows of the guesses is its CRLB. With
+    ``tare_dwell`` inf the hand and the bias are known exactly: the object's windows
+    alone."""
+    g_home = as_vector(plan.gravity_home, 3, "gravity_home")
+    home = _home_rotation(g_home / np.linalg.norm(g_home))
+    base_g = np.asarray(DEFAULT_GRAVITY)
+    sample_cov, rate = plan.sensor.sample_covariance(), plan.sensor.rate_hz
+    tare_dwell = plan.dwell if plan.tare_dwell is None else plan.tare_dwell
+    hand_known = math.isinf(tare_dwell)
+
+    def seen(
+        pose: str, rotation, dwell: float, load: bool, epoch: int, time: float
+    ) -> Observation:
+        g = rotation.T @ base_g
+        wrench = (
+            0.0 if hand_known else gravity_wrench(plan.hand_mass_guess, plan.hand_com_guess, g)
+        )
+        if load:
+            wrench = wrench + gravity_wrench(plan.mass_guess, plan.com_guess, g)
+        n = max(1, round(dwell * rate))
+        return Observation(Window(pose, wrench, sample_cov / n, n), rotation, load, epoch, time)
+
+    rotations = [(name, home @ r) for name, r in plan.poses()]
+    step = plan.move_time + plan.settle  # s between windows
+
+    def at(k: int, dwell: float) -> float:  # the middle of the k-th window of a pass, s
+        return k * (step + dwell) + dwell / 2
+
+    observations = [
+        seen(name, r, plan.dwell, True, 0, at(k, plan.dwell))
+        for k, (name, r) in enumerate(rotations)
+    ]
+    if not hand_known:
+        observations += [
+            seen(name, r, tare_dwell, False, 1, at(k, tare_dwell))
+            for k, (name, r) in enumerate(rotations)
+        ]
+        if plan.bias_dwell > 0:
+            bias_time = -_GRASP_TIME - plan.bias_dwell / 2
+            observations.append(seen(HOME, home, plan.bias_dwell, False, 0, bias_time))
+    rate = None if hand_known else plan.bias_drift_rate
+    return kinematic_ml(observations, base_g, fit_mount, rate).estimate.cov
 
 
 def _check_method(method: str) -> None:
@@ -264,9 +340,8 @@ class Advice:
 class _Need:
     """What a plan (at its tilt) needs for a target; see ``_need``."""
 
-    worst_unit: float  # m; worst COM-axis sigma at variance factor c = 1
-    c_needed: float  # the largest variance factor that meets the target
-    tare_term: float  # 1/N_tare of a fixed tare, 0 for tare_dwell None or inf
+    floor: float  # m; the worst COM-axis sigma with an unlimited dwell (the tare's)
+    c_needed: float  # the largest variance factor that meets the target (nan: kinematic)
     dwell: float | None  # s per pose; None when the tare alone exceeds the target
     duration: float  # s of the object pass at that dwell (inf when dwell is None)
 
@@ -276,8 +351,11 @@ def _need(plan: Plan, target: float, method: str, information: str) -> _Need:
 
     sigma^2 = c * worst_unit^2 with c = 1/N + 1/N_tare (module): c_needed =
     (target / worst_unit)^2; a fixed tare leaves 1/N = c_needed - 1/N_tare, a tare of
-    the same dwell (tare_dwell None) 2/N = c_needed.
+    the same dwell (tare_dwell None) 2/N = c_needed. The kinematic fit's tare and bias
+    windows are observations of their own, not a term of c: its dwell is bisected.
     """
+    if information != "wrenches" and method == "ml":
+        return _kinematic_need(plan, target, information)
     c_now = plan._variance_factor(plan.dwell)
     worst_unit = float(predict(plan, method, information).sigma_com.max()) / math.sqrt(c_now)
     c_needed = (target / worst_unit) ** 2
@@ -286,11 +364,35 @@ def _need(plan: Plan, target: float, method: str, information: str) -> _Need:
     tare_term = 0.0
     if fixed_tare and not math.isinf(plan.tare_dwell):
         tare_term = 1.0 / max(1.0, round(plan.tare_dwell * rate))
+    floor = worst_unit * math.sqrt(tare_term)
     if fixed_tare and c_needed <= tare_term:
-        return _Need(worst_unit, c_needed, tare_term, None, math.inf)
+        return _Need(floor, c_needed, None, math.inf)
     per_window = (1.0 if fixed_tare else 2.0) / (c_needed - tare_term)
     dwell = math.ceil(per_window) / rate
-    return _Need(worst_unit, c_needed, tare_term, dwell, replace(plan, dwell=dwell).duration())
+    return _Need(floor, c_needed, dwell, replace(plan, dwell=dwell).duration())
+
+
+def _kinematic_need(plan: Plan, target: float, information: str) -> _Need:
+    """``_need`` for the kinematic fit: the fewest samples per window that meet the
+    target, by bisection (the sigma falls as the dwell grows, to the tare's floor)."""
+    rate = plan.sensor.rate_hz
+
+    def worst(samples: int) -> float:
+        return float(
+            predict(replace(plan, dwell=samples / rate), "ml", information).sigma_com.max()
+        )
+
+    floor = worst(10**7)  # 10^4 s per window: the tare's and the bias window's floor
+    if floor > target:
+        return _Need(floor, math.nan, None, math.inf)
+    lo, hi = 0, 1
+    while worst(hi) > target:
+        lo, hi = hi, 2 * hi
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (lo, mid) if worst(mid) <= target else (mid, hi)
+    dwell = hi / rate
+    return _Need(floor, math.nan, dwell, replace(plan, dwell=dwell).duration())
 
 
 def _up(x: float) -> float:
@@ -416,7 +518,7 @@ def dwell_for_target(
     # Infeasible: what fails, what would make it feasible, what the limits reach.
     n = len(base.poses())
     if need.dwell is None:
-        floor = need.worst_unit * math.sqrt(need.tare_term) * 1e3
+        floor = need.floor * 1e3
         fails = (
             f"the tare ({base.tare_dwell:g} s per pose) alone gives {method} COM sigma "
             f"{floor:.3g} mm > target {target_mm:.3g} mm; take a longer tare"
@@ -446,6 +548,8 @@ def dwell_for_target(
             remedies.append(f"tilt >= {least:.3f} rad{above}")
     if need.dwell is not None:
         remedies.append(f"max_time >= {_up(need.duration):.3g} s")
+    elif math.isnan(need.c_needed):
+        remedies.append("a longer tare_dwell or bias_dwell (the kinematic fit's hand and bias)")
     else:
         # a tare long enough to leave room for a dwell within max_time, else the tare
         # and dwell that meet it, with the time they take

@@ -18,7 +18,7 @@ import json
 import math
 import time
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +32,7 @@ __all__ = [
     "TareCache",
     "drift",
     "drift_accepted",
+    "latest_hand_model",
     "load_tares",
     "reusable",
     "save_tares",
@@ -46,24 +47,38 @@ DRIFT_ALPHA = 1e-3
 
 @dataclass(frozen=True)
 class TareCache:
-    """Tare windows by pose, what they were taken for, and when (unix time, s)."""
+    """Tare windows by pose, what they were taken for, and when (unix time, s); with the
+    joint positions of each window (rad, m, by joint name), the hand's wrench is known
+    at any orientation (``known_gravity``), not only at these poses; ``times`` are the
+    windows' middles (s, the sensor's clock), for a bias that drifts within the pass."""
 
     signature: str
     created: float
     windows: dict[str, Window]
+    joints: dict[str, dict[str, float]] = field(default_factory=dict)
+    times: dict[str, float] = field(default_factory=dict)
 
     def age(self) -> float:
         return time.time() - self.created
 
+    @property
+    def hand_id(self) -> str:
+        return self.signature.split("|", 1)[0]
+
+    @property
+    def has_joints(self) -> bool:
+        """Every window has its joint positions (a hand model can be fitted)."""
+        return bool(self.windows) and self.windows.keys() <= self.joints.keys()
+
     def as_json(self) -> dict:
-        return {
-            "signature": self.signature,
-            "created": self.created,
-            "windows": {
-                pose: {"mean": w.mean.tolist(), "cov": w.cov.tolist(), "n": w.n}
-                for pose, w in self.windows.items()
-            },
-        }
+        windows: dict = {}
+        for pose, w in self.windows.items():
+            windows[pose] = {"mean": w.mean.tolist(), "cov": w.cov.tolist(), "n": w.n}
+            if pose in self.joints:
+                windows[pose]["joints"] = self.joints[pose]
+            if pose in self.times:
+                windows[pose]["time"] = self.times[pose]
+        return {"signature": self.signature, "created": self.created, "windows": windows}
 
     @staticmethod
     def from_json(data: dict) -> TareCache:
@@ -71,7 +86,13 @@ class TareCache:
             pose: window_from_mean(pose, w["mean"], w["cov"], w["n"])
             for pose, w in data["windows"].items()
         }
-        return TareCache(data["signature"], float(data["created"]), windows)
+        joints = {
+            pose: {name: float(q) for name, q in w["joints"].items()}
+            for pose, w in data["windows"].items()
+            if "joints" in w
+        }
+        times = {pose: float(w["time"]) for pose, w in data["windows"].items() if "time" in w}
+        return TareCache(data["signature"], float(data["created"]), windows, joints, times)
 
 
 def tare_signature(hand_id: str, poses: Sequence[tuple[str, Sequence[float]]]) -> str:
@@ -111,11 +132,21 @@ def _read_or_empty(path: Path) -> dict[str, TareCache]:
         return {}
 
 
-def save_tares(path: Path | str, signature: str, windows: dict[str, Window]) -> None:
-    """Add (or replace) the entry for ``signature``, taken now, and make it current."""
+def save_tares(
+    path: Path | str,
+    signature: str,
+    windows: dict[str, Window],
+    joints: dict[str, dict[str, float]] | None = None,
+    times: dict[str, float] | None = None,
+) -> None:
+    """Add (or replace) the entry for ``signature``, taken now, and make it current;
+    ``joints`` and ``times``: each window's joint positions (rad, m, by joint name) and
+    time (s, the middle of the window, the sensor's clock)."""
     path = Path(path)
     entries = _read_or_empty(path)
-    entries[signature] = TareCache(signature, time.time(), dict(windows))
+    entries[signature] = TareCache(
+        signature, time.time(), dict(windows), dict(joints or {}), dict(times or {})
+    )
     _write(path, entries, signature)
 
 
@@ -132,6 +163,15 @@ def load_tares(path: Path | str, signature: str | None = None) -> TareCache | No
     there is no file or no such entry (a broken file raises)."""
     entries, current = _read(Path(path))
     return entries.get(signature if signature is not None else current or "")
+
+
+def latest_hand_model(path: Path | str, hand_id: str) -> TareCache | None:
+    """The newest entry of ``path`` for ``hand_id`` whose windows all have their joint
+    positions: it gives the hand's wrench at any pose, whatever plan it was taken for
+    (None when there is none or no file; a broken file raises)."""
+    entries, _ = _read(Path(path))
+    usable = [e for e in entries.values() if e.hand_id == hand_id and e.has_joints]
+    return max(usable, key=lambda e: e.created, default=None)
 
 
 def drift(cached: Window, fresh: Window) -> tuple[float, float]:
