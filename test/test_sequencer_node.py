@@ -242,7 +242,8 @@ def test_a_cached_hand_model_absorbs_a_bias_drift_since_the_tare(
     assert "tare/home_check" in labels and "tare/home" not in labels
     offline = replay_json(bag, ros_env, "--information", "kinematics")
     assert offline["information"] == "kinematics"
-    np.testing.assert_allclose(offline["bias_drift"][:3], [0.25] * 3, atol=0.02)
+    # the step, plus what the sensor drifted between the runs (well under 2 min apart)
+    assert all(0.25 < d < 0.25 + 0.05 * 2 for d in offline["bias_drift"][:3]), offline
     truth = [t for t in client.truths if abs(t.inertia.com.z) < 0.2][-1].inertia
     com = [truth.com.x, truth.com.y, truth.com.z]
     np.testing.assert_allclose(offline["com"], com, atol=4.5 * max(offline["sigma_com"]))

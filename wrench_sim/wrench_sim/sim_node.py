@@ -109,7 +109,7 @@ class SimNode(Node):
 
         self._wrench = WrenchStamped()
         self._wrench.header.frame_id = SENSOR_FRAME
-        self._clock = Clock()
+        self._clock_msg = Clock()
         self._joint_state = JointState()
         self._saturated = False  # in a saturation episode
         self._saturated_readings = 0  # since the last report
@@ -234,8 +234,8 @@ class SimNode(Node):
             time.sleep(max(0.0, remaining - time.perf_counter()))
 
     def _publish_clock(self, now: int) -> None:
-        self._clock.clock.sec, self._clock.clock.nanosec = divmod(now, 1_000_000_000)
-        self.clock_publisher.publish(self._clock)
+        self._clock_msg.clock.sec, self._clock_msg.clock.nanosec = divmod(now, 1_000_000_000)
+        self.clock_publisher.publish(self._clock_msg)
 
     def _publish_wrench(self, now: int, reading: np.ndarray) -> None:
         msg = self._wrench

@@ -48,7 +48,15 @@ from .estimators import (
     two_pose,
 )
 from .kinematics import KinematicsError, RobotModel
-from .known_gravity import BIAS_DRIFT_RATE, KinematicFit, Observation, kinematic_ml, mount_rpy
+from .known_gravity import (
+    BIAS_DRIFT_RATE,
+    KinematicFit,
+    Observation,
+    kinematic_ml,
+    locate_move,
+    mount_rpy,
+)
+from .stats import chi2_sf
 from .windows import Window, reduce_window, subtract_tare
 from .wrench_model import STANDARD_GRAVITY, SensorModel
 
@@ -482,13 +490,13 @@ class Exploration:
                 consistency = check_consistency(windows, alpha=self.alpha, g=self.g)
                 used = windows
             else:
-                fit, used = self._kinematic_fit(
+                fit, observations = self._kinematic_fit(
                     objects, windows, fresh_tares, information, until_ns, notes
                 )
                 estimate = fit.estimate
-                consistency, wrenches_sigma = self._wrenches_beside(windows)
-                if consistency.consistent:
-                    consistency = _kinematic_consistency(estimate, self.alpha)
+                used = [o.window for o in observations if o.load]
+                consistency = self._kinematic_consistency(fit, observations, information)
+                wrenches_sigma = self._wrenches_sigma(windows)
         except EstimationError as exc:
             reason = str(exc) + ("; " + "; ".join(notes) if notes else "")
             return Solution(ERROR, reason, self.method, notes=tuple(notes), window_samples=counts)
@@ -529,21 +537,48 @@ class Exploration:
             return WRENCHES
         return self.information
 
-    def _wrenches_beside(
-        self, windows: list[Window]
-    ) -> tuple[Consistency, NDArray[np.float64] | None]:
-        """For a kinematic fit, what the wrenches alone say of the tare-subtracted
-        ``windows`` (none when a pose has no tare): the object-moved test, which names the
-        pose (else a consistent placeholder), and the COM sigma of their ML fit (None
-        when the windows do not give one)."""
-        passed = Consistency(True, 0.0, 0, 1.0, self.alpha, None, "")
-        if not windows:
-            return passed, None
+    def _wrenches_sigma(self, windows: list[Window]) -> NDArray[np.float64] | None:
+        """For a kinematic fit, the COM sigma (m) the wrenches alone give on the same
+        tare-subtracted ``windows`` (None when a pose has no tare or they give none)."""
         try:
-            sigma = ml(windows, g=self.g, min_tilt_sigmas=0.0).sigma_com
-            return check_consistency(windows, alpha=self.alpha, g=self.g), sigma
+            return ml(windows, g=self.g, min_tilt_sigmas=0.0).sigma_com if windows else None
         except EstimationError:
-            return passed, None
+            return None
+
+    def _kinematic_consistency(
+        self, fit: KinematicFit, observations: list[Observation], information: str
+    ) -> Consistency:
+        """The chi-square test of the kinematic fit. When it fails and the object having
+        moved in the grasp at one pose explains the windows (``known_gravity.locate_move``,
+        the best alternative passing the test), the message names that pose; else the
+        misfit is the model's: what the wrenches alone cannot see (a sensor mounted off its
+        URDF frame, a wrong base gravity, joint states of another time) or a bias drifting
+        faster than ``bias_drift_rate``."""
+        e = fit.estimate
+        head = f"chi2 {e.chi2:.1f}, {e.dof} dof, p {e.p_value:.2g}"
+        if e.p_value >= self.alpha:
+            return Consistency(True, e.chi2, e.dof, e.p_value, self.alpha, None, "")
+        robot = self.robot
+        assert robot is not None
+        found = locate_move(
+            observations,
+            robot.gravity,
+            information == KINEMATICS_MOUNT,
+            self.bias_drift_rate,
+        )
+        loads = [o.window.pose for o in observations if o.load]
+        if found is not None and chi2_sf(found[1], e.dof - 4) >= self.alpha:
+            pose = loads[found[0]]
+            message = (
+                f"poses inconsistent ({head}): the object moved in the grasp at pose {pose!r}"
+            )
+            return Consistency(False, e.chi2, e.dof, e.p_value, self.alpha, pose, message)
+        message = (
+            f"the wrenches do not fit the kinematic gravity ({head}): a sensor mounted off "
+            "its URDF frame, a wrong base gravity, joint states of another time, or a bias "
+            "drifting faster than bias_drift_rate"
+        )
+        return Consistency(False, e.chi2, e.dof, e.p_value, self.alpha, None, message)
 
     def _kinematic_fit(
         self,
@@ -553,7 +588,7 @@ class Exploration:
         information: str,
         until_ns: int | None,
         notes: list[str],
-    ) -> tuple[KinematicFit, list[Window]]:
+    ) -> tuple[KinematicFit, list[Observation]]:
         """The hand, the bias and the object fitted to every window with its orientation
         (``known_gravity.kinematic_ml``): this run's empty-hand windows (its tare pass, or
         the window that checks a cached tare) share this run's bias, a cached tare pass
@@ -561,7 +596,7 @@ class Exploration:
         ``notes``. A cached tare without joint positions cannot give the hand at other
         poses: the tare-subtracted windows (``subtracted``) are fitted, as the load alone.
         A bias drift beyond ``max_drift_f`` or ``max_drift_tau`` is noted (a WARN).
-        Returns the fit and the load windows fitted."""
+        Returns the fit and its observations."""
         assert self.robot is not None
         robot = self.robot
         observations: list[Observation] = []
@@ -627,7 +662,7 @@ class Exploration:
                 f"tare (more than {self.max_drift_f:g} N or {self.max_drift_tau:g} N m): the "
                 "fit absorbed it; re-tare"
             )
-        return fit, [o.window for o in observations if o.load]
+        return fit, observations
 
 
 def done_stamp(labels: Sequence[tuple[int, str]]) -> int | None:
@@ -694,25 +729,6 @@ def _fit_dict(fit: KinematicFit) -> dict:
         out["base_tilt"] = fit.base_tilt.tolist()
         out["sigma_base_tilt"] = np.sqrt(np.diag(fit.base_tilt_cov)).tolist()
     return out
-
-
-def _kinematic_consistency(estimate: Estimate, alpha: float) -> Consistency:
-    """The chi-square test of the known-gravity fit: with the gravity from kinematics, a
-    misfit the wrenches alone cannot see (a sensor mounted off its URDF frame, a wrong
-    base gravity, joint states of another time) fails it."""
-    consistent = estimate.p_value >= alpha
-    message = (
-        ""
-        if consistent
-        else (
-            f"the wrenches do not fit the kinematic gravity (chi2 {estimate.chi2:.1f}, "
-            f"{estimate.dof} dof, p {estimate.p_value:.2g}): a sensor mounted off its URDF "
-            "frame, a wrong base gravity, or joint states of another time"
-        )
-    )
-    return Consistency(
-        consistent, estimate.chi2, estimate.dof, estimate.p_value, alpha, None, message
-    )
 
 
 def _summary(e: Estimate) -> str:

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -60,6 +60,7 @@ __all__ = [
     "KinematicFit",
     "Observation",
     "kinematic_ml",
+    "locate_move",
     "mount_rpy",
 ]
 
@@ -77,14 +78,16 @@ class Observation:
     """A static window and what it saw: ``rotation`` R_base_sensor (3, 3) of the URDF's
     sensor frame over it, whether it holds the object (``load``; else the empty hand),
     and the ``epoch`` of the sensor bias it was read with (0: this run; 1: an earlier
-    tare pass), and its ``time`` (s, the middle of the window; any origin within an
-    epoch)."""
+    tare pass), its ``time`` (s, the middle of the window; any origin within an epoch),
+    and for a load window its ``group``: windows of another group see the object
+    elsewhere in the hand (``locate_move``'s alternatives; the estimate is group 0's)."""
 
     window: Window
     rotation: NDArray[np.float64]
     load: bool = True
     epoch: int = 0
     time: float = 0.0
+    group: int = 0
 
 
 @dataclass(frozen=True)
@@ -192,11 +195,13 @@ class _Model:
         )
         self.has_hand = bool(empty)
         self.has_object = any(o.load for o in self.obs)
+        groups = 1 + max((o.group for o in self.obs if o.load), default=0)
         start = stride * self.epochs
         self.hand = slice(start, start + 4) if self.has_hand else slice(start, start)
         start = self.hand.stop
         self.object = slice(start, start + 4) if self.has_object else slice(start, start)
-        start = self.object.stop
+        self.moved = [slice(start + 4 * k, start + 4 * k + 4) for k in range(groups)]
+        start = self.moved[-1].stop if self.has_object else start
         self.mount = slice(start, start + 5) if fit_mount else slice(start, start)
         self.size = self.mount.stop
         self.tilt_axes = _across(gravity)
@@ -228,7 +233,7 @@ class _Model:
             if self.has_hand:
                 rows[r, self.hand] = a
             if o.load:
-                rows[r, self.object] = a
+                rows[r, self.moved[o.group]] = a
         return rows
 
     def residuals(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -353,6 +358,36 @@ def kinematic_ml(
         base_tilt_cov=axes.T @ cov[model.mount, model.mount][3:, 3:] @ axes if fit_mount else None,
         cov=cov,
     )
+
+
+def locate_move(
+    observations: Sequence[Observation],
+    gravity: ArrayLike = DEFAULT_GRAVITY,
+    fit_mount: bool = False,
+    drift_rate_sigma: tuple[float, float] | None = None,
+) -> tuple[int, float] | None:
+    """Where the object moved in the grasp, for a fit that failed its chi-square test:
+    (index of the load window, in the order given, and the chi-square of the best
+    alternative), or None when there are too few load windows. The alternatives give the
+    object a second place in the hand: "window k alone" and "from window k on" (as
+    ``estimators.check_consistency`` does for the wrenches alone); the one with the
+    smallest chi-square names k."""
+    loads = [i for i, o in enumerate(observations) if o.load]
+    best: tuple[int, float] | None = None
+    for k in range(len(loads)):
+        alone, after = {loads[k]}, set(loads[k:])
+        for moved in (alone, after) if 0 < k < len(loads) - 1 else (alone,):
+            split = [
+                replace(o, group=int(i in moved)) if o.load else o
+                for i, o in enumerate(observations)
+            ]
+            try:
+                chi2 = kinematic_ml(split, gravity, fit_mount, drift_rate_sigma).estimate.chi2
+            except (TooFewPosesError, NonPositiveMassError):
+                continue
+            if best is None or chi2 < best[1]:
+                best = (k, chi2)
+    return best
 
 
 def mount_rpy(rotvec: ArrayLike) -> NDArray[np.float64]:
