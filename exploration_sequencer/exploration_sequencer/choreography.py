@@ -26,10 +26,10 @@ from collections.abc import Sequence
 
 from com_core.planner import HOME, Plan
 
-__all__ = ["PANDA_VELOCITY_LIMITS", "WRIST_TURN", "motion_time", "pose_joints"]
+__all__ = ["PANDA_VELOCITY_LIMITS", "TILT_JOINT", "WRIST_TURN", "motion_time", "pose_joints"]
 
 WRIST_TURN = math.pi / 2
-_TILT_JOINT, _TURN_JOINT = 5, 6  # indices of panda_joint6 and panda_joint7
+TILT_JOINT, _TURN_JOINT = 5, 6  # indices of panda_joint6 and panda_joint7
 
 
 def pose_joints(plan: Plan, home: Sequence[float]) -> list[tuple[str, list[float]]]:
@@ -51,7 +51,7 @@ def pose_joints(plan: Plan, home: Sequence[float]) -> list[tuple[str, list[float
                 q[_TURN_JOINT] += WRIST_TURN
             elif axis != "y":
                 raise ValueError(f"this arm tilts about the sensor's x and y only, not {axis}")
-            q[_TILT_JOINT] += sign * plan.tilt
+            q[TILT_JOINT] += sign * plan.tilt
         out.append((name, q))
     return out
 

@@ -25,6 +25,7 @@ from com_core.contract import (
     EXPLORE_SERVICE,
     TRUTH_TOPIC,
 )
+from com_core.exploration import INFORMATION
 from com_core.processes import executable, ros_args, stop
 from com_core.rosenv import keep_dds_local
 
@@ -59,9 +60,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=("ml", "two_pose"), default="ml")
     p.add_argument(
         "--information",
-        choices=("wrenches", "kinematics"),
-        default="wrenches",
-        help="what the estimator fits: the wrenches, or also each pose's gravity from the URDF",
+        choices=INFORMATION,
+        default=None,
+        help="what the estimator fits (default: its own, kinematics+mount): the wrenches, or "
+        "also each window's orientation from the URDF (with the hand and the bias)",
     )
     p.add_argument("--real-time-factor", type=float, default=5.0, help="0: as fast as possible")
     p.add_argument("--bag-dir", type=Path, default=Path("bags"))
@@ -89,11 +91,10 @@ def main(argv: list[str] | None = None) -> int:
     estimator_params = {
         "use_sim_time": True,
         "method": args.method,
-        "information": args.information,
         "sigma_f": args.sigma_f,
         "sigma_tau": args.sigma_tau,
         "tare_cache": tare_cache,
-    }
+    } | ({"information": args.information} if args.information else {})
     sequencer_params = {
         "use_sim_time": True,
         "tilt_axes": args.axes.split(","),

@@ -75,7 +75,7 @@ from com_core.tare_cache import (
 from com_core.windows import Window
 from com_core.wrench_model import STANDARD_GRAVITY, SensorModel
 from exploration_sequencer.arm import Arm
-from exploration_sequencer.choreography import pose_joints
+from exploration_sequencer.choreography import TILT_JOINT, motion_time, pose_joints
 from exploration_sequencer.io_node import IoNode, RunError, TimeoutRunError
 
 PARAMETERS: dict[str, tuple[object, str]] = {
@@ -89,6 +89,7 @@ PARAMETERS: dict[str, tuple[object, str]] = {
     "max_tilt": (math.pi / 6, "rad; the largest tilt the object allows (a full mug: small)"),
     "raise_tilt": (False, "with target_com_sigma: the tilt may be raised up to max_tilt"),
     "target_com_sigma": (0.0, "m; extend dwell until the predicted COM sigma meets it (0: off)"),
+    "fewer_poses": (False, "with target_com_sigma: the planner may drop poses for a shorter pass"),
     "max_object_time": (20.0, "s (sim) the object pass may take when meeting target_com_sigma"),
     "sigma_f": (0.1, "N; the sensor's force noise per sample (for the prediction)"),
     "sigma_tau": (0.005, "N m; the sensor's torque noise per sample (for the prediction)"),
@@ -105,14 +106,16 @@ PARAMETERS: dict[str, tuple[object, str]] = {
     "tare_max_age": (3600.0, "s; a cached tare older than this is taken again"),
     "bias_dwell": (
         2.0,
-        "s of the empty-hand window at home before the grasp, with a cached tare: this "
-        "run's sensor bias (kinematic information), or the cache's drift check (wrenches)",
+        "s of the empty-hand windows at home before the grasp (with a cached tare) and, "
+        "with kinematic information, after the release: they give the run's sensor bias "
+        "and its drift (with the wrenches alone, the first checks the cache's drift)",
     ),
     "hand_id": ("panda_hand", "names the hand: a cached tare serves this hand only"),
     "min_load": (0.005, "kg; the grasp must hold at least this before the object pass"),
     "grasp_check_dwell": (0.2, "s of samples at home after lifting that check the grasp"),
 }
 BIAS_WINDOW_SUFFIX = "_check"  # the empty-hand window of a run with a cached tare
+BIAS_AFTER_SUFFIX = "_after"  # the empty-hand window after the pass (kinematic information)
 
 
 class SequencerNode(Node):
@@ -182,12 +185,18 @@ class SequencerNode(Node):
                 return SetParametersResult(successful=False, reason=reason)
         return SetParametersResult(successful=True)
 
-    def _planned(self, method: str, information: str, bias_drift_rate: tuple[float, ...]) -> Plan:
+    def _planned(
+        self,
+        method: str,
+        information: str,
+        bias_drift_rate: tuple[float, ...],
+        home: list[float],
+    ) -> Plan:
         """The plan of the parameters, within ``max_tilt`` and, with ``target_com_sigma``,
         its dwell (and with ``raise_tilt`` its tilt) set by the planner for the estimator's
         ``method`` and ``information``; every change is logged with its reason. RunError
         when the target cannot be met (the reason says what would)."""
-        plan = self.plan()
+        plan = self.plan(home)
         if len(bias_drift_rate) == 2:  # the estimator's (kinematic information)
             plan = replace(plan, bias_drift_rate=bias_drift_rate)
         plan, lowered = within_max_tilt(plan, self.p("max_tilt"))
@@ -202,6 +211,7 @@ class SequencerNode(Node):
                 raise_tilt=self.p("raise_tilt"),
                 method=method,
                 information=information,
+                fewer_poses=self.p("fewer_poses"),
             )
             if not advice.feasible:
                 raise RunError(f"target COM sigma cannot be met: {advice.reason}")
@@ -210,8 +220,11 @@ class SequencerNode(Node):
             self.get_logger().warning(f"plan changed: {change}")
         return plan
 
-    def plan(self) -> Plan:
-        """The plan the parameters ask for, as set."""
+    def plan(self, home: list[float]) -> Plan:
+        """The plan the parameters ask for, as set, its move time that of one tilt from
+        ``home`` (rad) at ``speed``."""
+        tilted = list(home)
+        tilted[TILT_JOINT] += self.p("tilt")
         return Plan(
             tilt=self.p("tilt"),
             axes=tuple(self.p("tilt_axes")),
@@ -219,7 +232,7 @@ class SequencerNode(Node):
             dwell=self.p("dwell"),
             tare_dwell=self.p("tare_dwell"),
             settle=self.p("settle"),
-            move_time=1.0,
+            move_time=motion_time(home, tilted, self.p("speed")),
             sensor=SensorModel.from_scalars(
                 self.p("sigma_f"), self.p("sigma_tau"), rate_hz=self.p("rate")
             ),
@@ -281,7 +294,7 @@ class SequencerNode(Node):
         answer = self._call(self._estimator_params, request, "reading the estimator's settings")
         method, information, estimator_cache = (value.string_value for value in answer.values[:3])
         drift_rate = tuple(answer.values[3].double_array_value)
-        plan = self._planned(method, information, drift_rate)
+        plan = self._planned(method, information, drift_rate, home)
         prediction = predict(plan, method, information)
         poses = pose_joints(plan, home)
         log.info(
@@ -303,13 +316,21 @@ class SequencerNode(Node):
         log.info("phase 3/4: object pass")
         start = self.io.now_ns()
         self._pass(OBJECT_PREFIX, poses, plan.dwell)
-        done = self._labels[-1][0]  # the last window's end: the same windows if "moving" is lost
-        self._label(done, DONE)
-        self._label(max(done, self.io.now_ns()), MOVING)  # the latched label is no "done"
-        object_time = (done - start) * 1e-9
+        end = self._labels[-1][0]  # the last window's end: the same windows if "moving" is lost
+        object_time = (end - start) * 1e-9
         log.info("phase 4/4: return and release")
-        self.arm.put_back(home, pick)
-        status = self._estimator_answer(done)
+        if information == WRENCHES:
+            self._label(end, DONE)
+            self._label(max(end, self.io.now_ns()), MOVING)  # the latched label is no "done"
+            self.arm.put_back(home, pick)
+        else:  # an empty-hand window after the pass: the bias's drift is bracketed
+            self.arm.put_back(home, pick)
+            after = f"{poses[0][0]}{BIAS_AFTER_SUFFIX}"
+            self._pass(TARE_PREFIX, [(after, home)], self.p("bias_dwell"))
+            end = self._labels[-1][0]
+            self._label(end, DONE)
+            self._label(max(end, self.io.now_ns()), MOVING)
+        status = self._estimator_answer(end)
         counts = self._stop_recording()
         summary = _summary(status, prediction, object_time, bag)
         log.info(f"run {run_id}: {summary} ({sum(counts.values())} messages recorded)")
@@ -341,7 +362,8 @@ class SequencerNode(Node):
         log = self.get_logger()
         path = Path(self.p("tare_cache") or Path(self.p("bag_dir")) / "tare_cache.json")
         home_name, home = poses[0]
-        signature = tare_signature(self.p("hand_id"), poses)
+        tare_poses = pose_joints(plan.tare_plan(), home)
+        signature = tare_signature(self.p("hand_id"), tare_poses)
         try:
             if hand_model:
                 cache = latest_hand_model(path, self.p("hand_id"))
@@ -375,10 +397,10 @@ class SequencerNode(Node):
                 return fresh if hand_model else cache.windows[home_name]
             log.warning(f"tare not reusable ({verdict}): new tare pass")
         log.info("phase 1/4: tare pass with the empty hand")
-        windows = self._captured_tares(poses, plan.tare_dwell or plan.dwell)
+        windows = self._captured_tares(tare_poses, plan.tare_dwell or plan.dwell)
         if home_name not in windows:
             raise RunError(f"the tare window at {home_name} was not recorded")
-        if len(windows) == len(poses):
+        if len(windows) == len(tare_poses):
             seen = {pose: self._window_seen[TARE_PREFIX + pose] for pose in windows}
             times = {pose: time for pose, (time, _) in seen.items()}
             save_tares(path, signature, windows, {p: j for p, (_, j) in seen.items()}, times)

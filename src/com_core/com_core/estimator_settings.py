@@ -18,6 +18,7 @@ from typing import Any
 from .estimators import DEFAULT_ALPHA, MIN_TILT_SIGMAS
 from .exploration import (
     INFORMATION,
+    KINEMATICS_MOUNT,
     MAX_DRIFT_F,
     MAX_DRIFT_TAU,
     MAX_LABEL_GAP,
@@ -54,9 +55,10 @@ SETTINGS: dict[str, tuple[Any, str]] = {
     ),
     "tare_cache": ("", "file of cached tare windows for poses without a fresh tare ('': none)"),
     "information": (
-        WRENCHES,
-        "'wrenches' (gravity directions unknown), 'kinematics' (from the URDF and joints) "
-        "or 'kinematics+mount' (and the sensor's mounting on its URDF frame fitted)",
+        KINEMATICS_MOUNT,
+        "ml's information: 'wrenches' (gravity directions unknown), 'kinematics' (from the "
+        "URDF and joints, with the hand and the bias fitted) or 'kinematics+mount' (and the "
+        "sensor's mounting and the base tilt); two_pose uses the wrenches",
     ),
     "robot_description": ("", "URDF text or file for 'kinematics' ('': /robot_description)"),
     "sensor_frame": ("panda_hand", "URDF frame of the F/T sensor (the wrenches' frame)"),

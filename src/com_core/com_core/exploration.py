@@ -520,14 +520,9 @@ class Exploration:
         )
 
     def _information(self, notes: list[str]) -> str:
-        """The information the fit can use: ``information``, or 'wrenches' (with the reason
-        in ``notes``) for a method other than ml or without a robot model."""
-        if self.information == WRENCHES:
-            return WRENCHES
-        if self.method != "ml":
-            notes.append(
-                f"information {self.information!r} is ml's: {self.method} fits the wrenches"
-            )
+        """The information the fit can use: ``information``; 'wrenches' for a method other
+        than ml, and without a robot model (with the reason in ``notes``)."""
+        if self.information == WRENCHES or self.method != "ml":  # two_pose: the wrenches
             return WRENCHES
         if self.robot is None:
             why = self.robot_problem or "none given"

@@ -60,9 +60,10 @@ HOME = "home"
 METHODS: tuple[str, ...] = ("ml", "two_pose")
 """Estimators the planner predicts for (``com_core.estimators``)."""
 
-_GRASP_TIME = 4.0
-"""s from the end of a run's empty-hand window at home to its object pass: to the stand,
-the fingers, the lift and the grasp check."""
+_GRASP_TIME, _RELEASE_TIME = 4.0, 5.0
+"""s from the end of a run's empty-hand window at home to its object pass (to the stand,
+the fingers, the lift, the grasp check), and from the pass to the window after it (home,
+the stand, the fingers, home): the sequencer's."""
 
 _TILT_CEILING = 1.5
 """rad; the largest tilt the planner ever suggests as a remedy (Plan needs < pi/2)."""
@@ -127,6 +128,13 @@ class Plan:
             raise ValueError(f"tare_dwell must be > 0 or None, got {self.tare_dwell}")
         if not self.bias_dwell >= 0:
             raise ValueError(f"bias_dwell must be >= 0, got {self.bias_dwell}")
+
+    def tare_plan(self) -> Plan:
+        """The plan of the tare pass: both directions about x, y and the plan's axes. A
+        hand model needs tilts about two axes, and a pass cut to fewer poses
+        (``fewer_poses``) then finds its poses tared."""
+        axes = tuple(dict.fromkeys((*self.axes, "x", "y")))
+        return replace(self, axes=axes, both_directions=True)
 
     def poses(self) -> list[tuple[str, NDArray[np.float64]]]:
         """(name, R_home_pose) per pose, home first: 'home', 'tilt_x+', 'tilt_x-', ..."""
@@ -235,9 +243,9 @@ def _home_rotation(gravity_home: NDArray[np.float64]) -> NDArray[np.float64]:
 
 def _kinematic_cov(plan: Plan, fit_mount: bool) -> NDArray[np.float64]:
     """The CRLB (4, 4) of (m, p) of the kinematic fit (``known_gravity.kinematic_ml``) for
-    a run that reuses a cached tare pass of the plan's poses (``tare_dwell`` per pose)
-    and fits its bias, drifting at up to ``bias_drift_rate``, from a ``bias_dwell``
-    window at home ``_GRASP_TIME`` s before the object pass and the object's windows:
+    a run that reuses a cached tare pass (``tare_plan``, ``tare_dwell`` per pose)
+    and fits its bias, drifting at up to ``bias_drift_rate``, from the object's windows
+    and two ``bias_dwell`` windows at home that bracket them (the sequencer's):
     the fit's covariance at noise-free windows of the guesses is its CRLB. With
     ``tare_dwell`` inf the hand and the bias are known exactly: the object's windows
     alone."""
@@ -261,6 +269,7 @@ def _kinematic_cov(plan: Plan, fit_mount: bool) -> NDArray[np.float64]:
         return Observation(Window(pose, wrench, sample_cov / n, n), rotation, load, epoch, time)
 
     rotations = [(name, home @ r) for name, r in plan.poses()]
+    tare_rotations = [(name, home @ r) for name, r in plan.tare_plan().poses()]
     step = plan.move_time + plan.settle  # s between windows
 
     def at(k: int, dwell: float) -> float:  # the middle of the k-th window of a pass, s
@@ -273,11 +282,13 @@ def _kinematic_cov(plan: Plan, fit_mount: bool) -> NDArray[np.float64]:
     if not hand_known:
         observations += [
             seen(name, r, tare_dwell, False, 1, at(k, tare_dwell))
-            for k, (name, r) in enumerate(rotations)
+            for k, (name, r) in enumerate(tare_rotations)
         ]
         if plan.bias_dwell > 0:
-            bias_time = -_GRASP_TIME - plan.bias_dwell / 2
-            observations.append(seen(HOME, home, plan.bias_dwell, False, 0, bias_time))
+            before = -_GRASP_TIME - plan.bias_dwell / 2
+            after = len(rotations) * (step + plan.dwell) + _RELEASE_TIME + plan.bias_dwell / 2
+            for time in (before, after):
+                observations.append(seen(HOME, home, plan.bias_dwell, False, 0, time))
     rate = None if hand_known else plan.bias_drift_rate
     return kinematic_ml(observations, base_g, fit_mount, rate).estimate.cov
 
@@ -428,6 +439,27 @@ def _least_tilt(
     return tilt if tilt < math.pi / 2 and fits(tilt) else hi
 
 
+def _fewer_poses(plan: Plan, method: str, information: str) -> list[tuple[Plan, str]]:
+    """The plan with fewer poses, each with the change in words: one tilt direction per
+    axis, both about the first axis only, and (with kinematic information, where home and
+    one tilt resolve the COM) one tilt only."""
+    n = len(plan.poses())
+    cuts = []
+    if plan.both_directions:
+        cuts.append(replace(plan, both_directions=False))
+    if len(plan.axes) > 1:
+        cuts.append(replace(plan, axes=plan.axes[:1]))
+    if information != "wrenches" and method == "ml" and n > 2:
+        cuts.append(replace(plan, axes=plan.axes[:1], both_directions=False))
+    return [
+        (
+            cut,
+            f"poses {n} -> {len(cut.poses())}: {[name for name, _ in cut.poses()]} (fewer_poses)",
+        )
+        for cut in cuts
+    ]
+
+
 def within_max_tilt(plan: Plan, max_tilt: float | None) -> tuple[Plan, tuple[str, ...]]:
     """``plan`` with its tilt lowered to ``max_tilt`` (rad) when above it, and the change
     said in words (none when the tilt is within it or there is no limit)."""
@@ -446,6 +478,7 @@ def dwell_for_target(
     raise_tilt: bool = False,
     method: str = "ml",
     information: str = "wrenches",
+    fewer_poses: bool = False,
 ) -> Advice:
     """Shortest dwell whose predicted worst COM-axis sigma is <= ``target_com_sigma`` (m).
 
@@ -476,9 +509,25 @@ def dwell_for_target(
     (the least tilt, the time limit, or the tare needed) and the sigma reachable
     within the limits.
 
+    fewer_poses : the plan's poses may also be cut (``_fewer_poses``): the advice is then
+        the feasible one of the shortest object pass, its cut named in ``changes``.
+
     Raises ValueError for a target <= 0, an unknown method, max_tilt outside
     (0, pi/2), max_time <= 0, or raise_tilt without max_tilt.
     """
+    if fewer_poses:
+        options = dict(max_tilt=max_tilt, max_time=max_time, raise_tilt=raise_tilt)
+        options |= dict(method=method, information=information)
+        full = dwell_for_target(plan, target_com_sigma, **options)
+        best = full
+        for cut, why in _fewer_poses(plan, method, information):
+            advice = dwell_for_target(cut, target_com_sigma, **options)
+            shorter = advice.feasible and (
+                not best.feasible or advice.plan.duration() < best.plan.duration()
+            )
+            if shorter:
+                best = replace(advice, changes=(why, *advice.changes))
+        return best
     if not target_com_sigma > 0:
         raise ValueError(f"target_com_sigma must be > 0 m, got {target_com_sigma}")
     _check_method(method)

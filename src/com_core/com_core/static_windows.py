@@ -188,9 +188,11 @@ def split_load_levels(
         paired.
 
     The gravity load |f| (N) of a static window does not depend on the orientation, so
-    the windows fall into load levels (``load_levels``): the lightest level is the empty
-    hand, the heaviest one with a window of the stream is the hand with the object;
-    levels between them are left out. Each object window is paired with the tare window
+    the windows fall into load levels (``load_levels``): the empty hand's is the level
+    of most cached tare windows, else the lightest (a hand pressed on by something, as
+    the fingers on an object still on its stand, weighs less than when empty), the
+    heaviest one with a window of the stream is the hand with the object; other levels
+    are left out. Each object window is paired with the tare window
     (of the stream or of ``tares``) whose force points closest to its own, and takes its
     pose name; a pair more than ``max_angle`` rad apart is refused (the window is left
     out), since the tare then holds the hand in another orientation: the hand's force
@@ -205,10 +207,11 @@ def split_load_levels(
     weights = level_weights(candidates, level)
     found_level = level[: len(found)]
     heaviest = int(found_level.max())
-    if heaviest == 0:
+    empty = int(np.bincount(level[len(found) :]).argmax()) if cached else 0
+    if heaviest == empty:
         labels = [_window_labels(s, f"{OBJECT_PREFIX}{s.window.pose}") for s in found]
         return LoadLevels(_in_time_order(labels), weights[:1], object_windows=len(found))
-    tare_side = [k for k, lv in enumerate(level) if lv == 0]  # indices into candidates
+    tare_side = [k for k, lv in enumerate(level) if lv == empty]  # indices into candidates
     labels: list[tuple[tuple[int, str], tuple[int, str]]] = []
     paired: set[int] = set()
     unpaired = cached_pairs = 0
