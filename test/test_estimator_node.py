@@ -24,6 +24,7 @@ from com_core.wrench_model import SensorModel
 pytestmark = pytest.mark.system
 
 PACKAGE = "com_estimator"
+WRENCHES_ONLY = {"information": "wrenches"}  # a synthetic stream has no robot model
 SET_PARAMETERS_SERVICE = ESTIMATOR_PARAMETERS_SERVICE.replace("/get_", "/set_")
 TRUTH_MASS, TRUTH_COM = 0.1, (0.01, -0.02, 0.10)
 
@@ -85,7 +86,7 @@ def listener(rclpy_context):
 def test_estimate_is_within_its_sigma_band_and_replay_matches_to_the_bit(
     start_node, listener, ros_env, tmp_path
 ):
-    start_node("estimator_node", PACKAGE)
+    start_node("estimator_node", PACKAGE, params=WRENCHES_ONLY)
     listener.wait_for_node()
     bag = tmp_path / "run"
     run_publisher(start_node, "--bag", str(bag), "--seed", "4", "--speed", "3000")
@@ -111,7 +112,7 @@ def test_estimate_is_within_its_sigma_band_and_replay_matches_to_the_bit(
     com = np.array([estimate.com.x, estimate.com.y, estimate.com.z])
     assert np.all(np.abs(com - TRUTH_COM) < 4 * sigma_com)
 
-    offline = replay_json(bag, ros_env)
+    offline = replay_json(bag, ros_env, "--information", "wrenches")
     assert offline["status"] == "OK" and offline["messages"] == 8050  # 1 s lead-in + run
     node_windows = {
         k.split(" ", 1)[1]: int(v) for k, v in values.items() if k.startswith("samples ")
@@ -143,7 +144,7 @@ def test_every_bad_input_gives_its_status_and_the_node_keeps_serving(start_node,
     from rcl_interfaces.srv import SetParameters
     from std_srvs.srv import Trigger
 
-    start_node("estimator_node", PACKAGE)
+    start_node("estimator_node", PACKAGE, params=WRENCHES_ONLY)
     listener.wait_for_node()
     # the object moved in the grasp: WARN in the diagnostics, and no estimate on ~/estimate
     run_publisher(start_node, "--shift-sigma", "0.01", "--dwell", "0.4", "--speed", "4000")

@@ -495,7 +495,7 @@ class Exploration:
                 )
                 estimate = fit.estimate
                 used = [o.window for o in observations if o.load]
-                consistency = self._kinematic_consistency(fit, observations, information)
+                consistency = self._kinematic_consistency(fit, observations, information, windows)
                 wrenches_sigma = self._wrenches_sigma(windows)
         except EstimationError as exc:
             reason = str(exc) + ("; " + "; ".join(notes) if notes else "")
@@ -541,14 +541,19 @@ class Exploration:
             return None
 
     def _kinematic_consistency(
-        self, fit: KinematicFit, observations: list[Observation], information: str
+        self,
+        fit: KinematicFit,
+        observations: list[Observation],
+        information: str,
+        subtracted: list[Window],
     ) -> Consistency:
-        """The chi-square test of the kinematic fit. When it fails and the object having
-        moved in the grasp at one pose explains the windows (``known_gravity.locate_move``,
-        the best alternative passing the test), the message names that pose; else the
-        misfit is the model's: what the wrenches alone cannot see (a sensor mounted off its
-        URDF frame, a wrong base gravity, joint states of another time) or a bias drifting
-        faster than ``bias_drift_rate``."""
+        """The chi-square test of the kinematic fit. When it fails, the object moved in the
+        grasp if one move explains the windows (``known_gravity.locate_move``: the best
+        alternative passes the test; the message names the pose), or if the wrenches alone
+        fail too (``check_consistency`` of the tare-subtracted windows: a slip that goes on,
+        a friction grasp); else the misfit is the kinematic model's: what the wrenches
+        alone cannot see (a sensor mounted off its URDF frame, a wrong base gravity, joint
+        states of another time) or a bias drifting faster than ``bias_drift_rate``."""
         e = fit.estimate
         head = f"chi2 {e.chi2:.1f}, {e.dof} dof, p {e.p_value:.2g}"
         if e.p_value >= self.alpha:
@@ -568,6 +573,17 @@ class Exploration:
                 f"poses inconsistent ({head}): the object moved in the grasp at pose {pose!r}"
             )
             return Consistency(False, e.chi2, e.dof, e.p_value, self.alpha, pose, message)
+        try:
+            alone = (
+                check_consistency(subtracted, alpha=self.alpha, g=self.g) if subtracted else None
+            )
+        except EstimationError:
+            alone = None
+        if alone is not None and not alone.consistent:
+            message = f"kinematic fit {head}; the wrenches alone: {alone.message}"
+            return Consistency(
+                False, e.chi2, e.dof, e.p_value, self.alpha, alone.suspect_pose, message
+            )
         message = (
             f"the wrenches do not fit the kinematic gravity ({head}): a sensor mounted off "
             "its URDF frame, a wrong base gravity, joint states of another time, or a bias "

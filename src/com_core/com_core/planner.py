@@ -51,6 +51,7 @@ __all__ = [
     "Plan",
     "Prediction",
     "dwell_for_target",
+    "plan_observations",
     "predict",
     "within_max_tilt",
 ]
@@ -208,12 +209,14 @@ def predict(plan: Plan, method: str = "ml", information: str = "wrenches") -> Pr
     """Predicted sigma of mass and each COM axis for ``plan`` and estimator ``method``.
 
     ``method`` 'ml': the CRLB at the guess (``estimators.crlb``; with ``information``
-    'kinematics', each pose's gravity known: ``known_gravity.known_gravity_crlb``);
+    'kinematics' or 'kinematics+mount', the kinematic fit's, ``_kinematic_cov``);
     'two_pose': the paper's method's own first-order covariance at noise-free windows of
-    the guess (home and the first tilt; see the module). Raises ValueError for another
+    the guess (home and the first tilt; see the module), the wrenches' information
+    whatever ``information`` says (as the estimator's). Raises ValueError for another
     method.
     """
     _check_method(method)
+    information = information if method == "ml" else "wrenches"
     n = len(plan.poses())
     if information != "wrenches" and method == "ml":
         cov = _kinematic_cov(plan, information == "kinematics+mount")
@@ -241,14 +244,13 @@ def _home_rotation(gravity_home: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.eye(3) + sin * k + (1 - cos) * k @ k
 
 
-def _kinematic_cov(plan: Plan, fit_mount: bool) -> NDArray[np.float64]:
-    """The CRLB (4, 4) of (m, p) of the kinematic fit (``known_gravity.kinematic_ml``) for
-    a run that reuses a cached tare pass (``tare_plan``, ``tare_dwell`` per pose)
-    and fits its bias, drifting at up to ``bias_drift_rate``, from the object's windows
-    and two ``bias_dwell`` windows at home that bracket them (the sequencer's):
-    the fit's covariance at noise-free windows of the guesses is its CRLB. With
-    ``tare_dwell`` inf the hand and the bias are known exactly: the object's windows
-    alone."""
+def plan_observations(plan: Plan) -> list[Observation]:
+    """The windows (noise-free, of the guesses; N, N m) the kinematic fit
+    (``known_gravity.kinematic_ml``) sees in a run of ``plan`` that reuses a cached tare
+    pass (``tare_plan``, ``tare_dwell`` per pose; epoch 1) and fits its bias from the
+    object's windows and two ``bias_dwell`` windows at home that bracket them (the
+    sequencer's; epoch 0), each at its time in the run. With ``tare_dwell`` inf the hand
+    and the bias are known exactly: the object's windows alone."""
     g_home = as_vector(plan.gravity_home, 3, "gravity_home")
     home = _home_rotation(g_home / np.linalg.norm(g_home))
     base_g = np.asarray(DEFAULT_GRAVITY)
@@ -289,8 +291,16 @@ def _kinematic_cov(plan: Plan, fit_mount: bool) -> NDArray[np.float64]:
             after = len(rotations) * (step + plan.dwell) + _RELEASE_TIME + plan.bias_dwell / 2
             for time in (before, after):
                 observations.append(seen(HOME, home, plan.bias_dwell, False, 0, time))
-    rate = None if hand_known else plan.bias_drift_rate
-    return kinematic_ml(observations, base_g, fit_mount, rate).estimate.cov
+    return observations
+
+
+def _kinematic_cov(plan: Plan, fit_mount: bool) -> NDArray[np.float64]:
+    """The CRLB (4, 4) of (m, p) of the kinematic fit for a run of ``plan``
+    (``plan_observations``), its bias drifting at up to ``bias_drift_rate``: the fit's
+    covariance at noise-free windows of the guesses is its CRLB."""
+    observations = plan_observations(plan)
+    rate = None if all(o.load for o in observations) else plan.bias_drift_rate
+    return kinematic_ml(observations, DEFAULT_GRAVITY, fit_mount, rate).estimate.cov
 
 
 def _check_method(method: str) -> None:
