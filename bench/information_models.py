@@ -32,7 +32,7 @@ from com_core.errors import TooFewPosesError
 from com_core.estimators import crlb, ml
 from com_core.kinematics import DEFAULT_GRAVITY
 from com_core.known_gravity import Observation, kinematic_ml
-from com_core.planner import Plan, plan_observations
+from com_core.planner import Plan, plan_observations, predict
 from com_core.study import PAPER_LOAD
 from com_core.windows import window_from_mean
 from com_core.wrench_model import STANDARD_GRAVITY, SensorModel, gravity_wrench, rotation_about
@@ -112,6 +112,49 @@ def wrench_seen(plan: Plan, o: Observation, gravity: np.ndarray) -> np.ndarray:
     return wrench
 
 
+def bias_designs() -> None:
+    """The reference plan's COM sigma for ways of knowing the run's bias (the bounds; the
+    fit reaches them, as the grid shows), against the wrenches alone with the tare
+    subtracted per pose, which assumes the bias has not moved since the tare."""
+    plan = Plan(tilt=math.pi / 6, dwell=0.9, tare_dwell=5.0, com_guess=(0.005, 0.005, 0.06))
+    wrenches = predict(plan).sigma_com
+    rate = plan.bias_drift_rate
+    run = plan_observations(plan)
+    empty_now = [i for i, o in enumerate(run) if not o.load and o.epoch == 0]
+    designs = {
+        "bias known (no drift since the tare)": (
+            plan_observations(replace(plan, tare_dwell=math.inf)),
+            None,
+        ),
+        "no empty-hand window: bias from the object's": (
+            plan_observations(replace(plan, bias_dwell=0.0)),
+            None,
+        ),
+        "one 2 s window before the grasp, constant bias": (
+            [o for i, o in enumerate(run) if i != empty_now[-1]],
+            None,
+        ),
+        "one 2 s window before the grasp, drift prior": (
+            [o for i, o in enumerate(run) if i != empty_now[-1]],
+            rate,
+        ),
+        "two 2 s windows bracketing, constant bias": (run, None),
+        "two 2 s windows bracketing, drift prior (default)": (run, rate),
+    }
+    print(
+        f"\nthe run's bias, reference plan (0.1 kg, COM (5, 5, 60) mm, 5 poses, 0.9 s, cached "
+        f"5 s tare), drift prior {rate[0] * 60:g} N/min; wrenches alone: COM sigma "
+        f"({', '.join(f'{v * 1e3:.3f}' for v in wrenches)}) mm"
+    )
+    for name, (observations, prior) in designs.items():
+        sigma = kinematic_ml(observations, drift_rate_sigma=prior).estimate.sigma_com
+        ratio = sigma / wrenches
+        print(
+            f"{name:>50}: COM sigma ({', '.join(f'{v * 1e3:.3f}' for v in sigma)}) mm, "
+            f"/ wrenches ({', '.join(f'{r:.2f}' for r in ratio)})"
+        )
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--trials", type=int, default=1000)
@@ -147,6 +190,7 @@ def main() -> int:
                 )
     for model in MODELS:
         print(f"worst spread / bound where SNR > {SNR_MIN:g}, {model}: {worst[model]:.3f}")
+    bias_designs()
     return 0
 
 

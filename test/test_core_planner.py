@@ -224,3 +224,21 @@ def test_the_kinematics_prediction_is_the_kinematic_fits_bound():
         replace(plan, tare_dwell=0.01, bias_dwell=0.01), 1e-5, information="kinematics"
     )
     assert not floor.feasible and "bias_dwell" in floor.reason
+
+
+def test_fewer_poses_gives_the_shortest_feasible_pass_and_names_the_cut():
+    """A target that five poses meet at a longer pass: with fewer_poses the planner cuts
+    poses when that shortens the pass, says so, and the tare pass keeps every pose."""
+    plan = Plan(tilt=np.pi / 6, dwell=0.9, tare_dwell=5.0, axes=("y", "x"), move_time=0.6)
+    target = 3.5e-4
+    full = dwell_for_target(plan, target, information="kinematics")
+    cut = dwell_for_target(plan, target, information="kinematics", fewer_poses=True)
+    assert full.feasible and cut.feasible
+    assert cut.plan.duration() < full.plan.duration()
+    assert len(cut.plan.poses()) < 5 and cut.changes[0].startswith("poses 5 -> ")
+    assert max(cut.prediction.sigma_com) <= target
+    names = [name for name, _ in cut.plan.tare_plan().poses()]
+    assert sorted(names) == ["home", "tilt_x+", "tilt_x-", "tilt_y+", "tilt_y-"]
+    # home and one tilt resolve the COM only with the orientations known
+    wrenches = dwell_for_target(plan, target, fewer_poses=True)
+    assert len(wrenches.plan.poses()) >= 3

@@ -9,6 +9,7 @@ from com_core.planner import Plan
 from com_core.tare_cache import (
     BAG_TARE_FILE,
     drift,
+    latest_hand_model,
     load_tares,
     save_tares,
     tare_signature,
@@ -51,6 +52,24 @@ def test_a_bag_copy_holds_one_entry_and_old_single_entry_files_load(tmp_path):
     assert again.signature == sample.signature and again.created == sample.created
     np.testing.assert_array_equal(again.windows["home"].mean, sample.windows["home"].mean)
     np.testing.assert_array_equal(again.windows["home"].cov, sample.windows["home"].cov)
+
+
+def test_the_hand_model_is_the_newest_entry_of_the_hand_with_joints_whatever_its_plan(tmp_path):
+    """A hand model serves any plan: the newest entry of the hand whose windows all have
+    their joint positions; they and the windows' times round-trip to the bit."""
+    path = tmp_path / "tare_cache.json"
+    joints = {"home": {"panda_joint1": 0.1, "panda_joint2": -0.2}}
+    times = {"home": 12.345678901234567}
+    default = tare_signature("panda_hand", pose_joints(Plan(), HOME))
+    paper = tare_signature("panda_hand", pose_joints(Plan(0.05, ("x",), False), HOME))
+    save_tares(path, default, windows(9.9), joints, times)
+    save_tares(path, paper, windows(9.8))  # newer, but without joints: no hand model
+    save_tares(path, tare_signature("gripper_2", [("home", HOME)]), windows(7.0), joints)
+    model = latest_hand_model(path, "panda_hand")
+    assert model is not None and model.signature == default and model.has_joints
+    assert model.joints == joints and model.times == times
+    assert latest_hand_model(path, "no such hand") is None
+    assert latest_hand_model(tmp_path / "none.json", "panda_hand") is None
 
 
 def test_drift_is_chi_square_in_the_noise_and_large_beyond_it():

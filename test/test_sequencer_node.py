@@ -372,6 +372,9 @@ def test_the_demo_prints_its_summary_and_exits_cleanly(ros_env, tmp_path):
     out = demo.stdout + demo.stderr
     assert demo.returncode == 0, out
     assert "=== summary ===" in out and "error:    mass" in out, out
+    # the default model, named, and what the wrenches alone give on the same windows
+    assert "mm in ft_sensor, information kinematics+mount" in out, out
+    assert "the wrenches alone on the same windows: COM +-" in out, out
     logs = "".join(p.read_text() for p in (tmp_path / "logs").glob("*.log"))
     for text in UNCLEAN_EXIT:
         assert text not in out + logs, out + logs

@@ -202,9 +202,22 @@ def print_summary(result, estimates, truths, statuses, wall: float) -> None:
             f"estimate: mass {float(values['mass']) * 1e3:.2f} +- "
             f"{float(values['sigma_mass']) * 1e3:.2f} g, COM "
             f"({', '.join(f'{c * 1e3:.2f}' for c in com)}) +- "
-            f"({', '.join(f'{s:.2f}' for s in sig)}) mm in ft_sensor"
+            f"({', '.join(f'{s:.2f}' for s in sig)}) mm in ft_sensor, information "
+            f"{values.get('information', '?')}"
             + ("" if estimates else " (flagged: not published on ~/estimate)")
         )
+        if "wrenches_sigma_com" in values:
+            alone = [float(v) * 1e3 for v in values["wrenches_sigma_com"].split(",")]
+            print(
+                f"          the wrenches alone on the same windows: COM +- "
+                f"({', '.join(f'{s:.2f}' for s in alone)}) mm"
+            )
+        if "bias_drift" in values:
+            drift = [float(v) for v in values["bias_drift"].split(",")]
+            print(
+                f"          sensor bias drift since the tare: "
+                f"{math.hypot(*drift[:3]):.3f} N, {math.hypot(*drift[3:]) * 1e3:.2f} mN m"
+            )
         held = [t for t in truths if t.header.stamp.sec * 10**9 + t.header.stamp.nanosec <= stamp]
         if held:
             t = held[-1].inertia
