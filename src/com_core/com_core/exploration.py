@@ -480,8 +480,8 @@ class Exploration:
                 if information == WRENCHES:
                     raise
                 windows = []  # the kinematic fit needs no tare per pose
-            if windows and not self.untared:
-                _check_load_direction(windows, tares)
+            if windows and not self.untared and information == WRENCHES:
+                _check_load_direction(windows, tares)  # the kinematic fit checks its own
             if information == WRENCHES:
                 fit, wrenches_sigma = None, None
                 estimate = METHODS[self.method](

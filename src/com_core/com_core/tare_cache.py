@@ -3,11 +3,14 @@
 The empty hand's wrench in every pose of a plan (its tare windows) depends on the hand
 and the plan only, so one tare pass serves many objects. The file holds one entry per
 hand and plan: the windows (mean and covariance of the mean per pose, to the last bit:
-JSON floats round-trip), the signature of what they were taken for (``signature``), and
-when; and which entry is ``current`` (the one the running exploration uses, which the
-estimator reads). A run reuses an entry when its signature matches, it is young enough,
-and a short fresh tare window at home agrees with it (``drift``); a run with another
-plan adds its own entry beside it. A run that reuses one keeps a copy beside its bag
+JSON floats round-trip) with their joint positions and times, the signature of what
+they were taken for (``signature``), and when; and which entry is ``current`` (the one
+the running exploration uses, which the estimator reads). With the wrenches alone a run
+reuses an entry when its signature matches, it is young enough, and a short fresh tare
+window at home agrees with it (``drift``); a run with another plan adds its own entry
+beside it. With the joint positions an entry is a model of the hand at any orientation
+(``known_gravity``): the newest one of the hand serves any plan
+(``latest_hand_model``). A run that reuses one keeps a copy beside its bag
 (``tare.json``, one entry) so the offline replay sees the same tare as the node did.
 A file of one entry without ``entries`` (as the sample bag's tare.json) loads too.
 """
