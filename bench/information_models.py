@@ -118,7 +118,7 @@ def bias_designs() -> None:
     subtracted per pose, which assumes the bias has not moved since the tare."""
     plan = Plan(tilt=math.pi / 6, dwell=0.9, tare_dwell=5.0, com_guess=(0.005, 0.005, 0.06))
     wrenches = predict(plan).sigma_com
-    rate = plan.bias_drift_rate
+    rate, dwell = plan.bias_drift_rate, plan.bias_dwell
     run = plan_observations(plan)
     empty_now = [i for i, o in enumerate(run) if not o.load and o.epoch == 0]
     designs = {
@@ -130,16 +130,16 @@ def bias_designs() -> None:
             plan_observations(replace(plan, bias_dwell=0.0)),
             None,
         ),
-        "one 2 s window before the grasp, constant bias": (
+        f"one {dwell:g} s window before the grasp, constant bias": (
             [o for i, o in enumerate(run) if i != empty_now[-1]],
             None,
         ),
-        "one 2 s window before the grasp, drift prior": (
+        f"one {dwell:g} s window before the grasp, drift prior": (
             [o for i, o in enumerate(run) if i != empty_now[-1]],
             rate,
         ),
-        "two 2 s windows bracketing, constant bias": (run, None),
-        "two 2 s windows bracketing, drift prior (default)": (run, rate),
+        f"two {dwell:g} s windows bracketing, constant bias": (run, None),
+        f"two {dwell:g} s windows bracketing, drift prior (default)": (run, rate),
     }
     print(
         f"\nthe run's bias, reference plan (0.1 kg, COM (5, 5, 60) mm, 5 poses, 0.9 s, cached "

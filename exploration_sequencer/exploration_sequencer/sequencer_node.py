@@ -105,7 +105,7 @@ PARAMETERS: dict[str, tuple[object, str]] = {
     "tare_cache": ("", "file of the cached tare pass ('': <bag_dir>/tare_cache.json)"),
     "tare_max_age": (3600.0, "s; a cached tare older than this is taken again"),
     "bias_dwell": (
-        2.0,
+        3.0,
         "s of the empty-hand windows at home before the grasp (with a cached tare) and, "
         "with kinematic information, after the release: they give the run's sensor bias "
         "and its drift (with the wrenches alone, the first checks the cache's drift)",

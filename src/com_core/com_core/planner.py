@@ -113,7 +113,7 @@ class Plan:
     mass_guess: float = 0.1
     com_guess: tuple[float, float, float] = (0.0, 0.0, 0.05)
     gravity_home: tuple[float, float, float] = (0.0, 0.0, -1.0)
-    bias_dwell: float = 2.0
+    bias_dwell: float = 3.0
     bias_drift_rate: tuple[float, float] = BIAS_DRIFT_RATE
     hand_mass_guess: float = 1.0
     hand_com_guess: tuple[float, float, float] = (0.0, 0.0, 0.04)
