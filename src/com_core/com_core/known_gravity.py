@@ -109,7 +109,9 @@ class KinematicFit:
     base_tilt : the base's tilt, a rotation vector (3,), rad, in the base frame (across
         gravity: the base's gravity is R(base_tilt) g), with ``base_tilt_cov`` (3, 3);
         None unless fitted.
-    cov : covariance of every unknown, in the order bias, hand, object, mount, tilt.
+    cov : covariance of every unknown, in the order: per epoch its bias (and with a rate
+        prior its rate), the hand, the object (and its other places, ``group``), the
+        mounting, the tilt.
     """
 
     estimate: Estimate
