@@ -470,6 +470,37 @@ def _fewer_poses(plan: Plan, method: str, information: str) -> list[tuple[Plan, 
     ]
 
 
+def _tilt_rules(
+    plan: Plan, max_tilt: float | None, raise_tilt: bool
+) -> tuple[Plan, Plan, list[str]]:
+    """(``plan`` within ``max_tilt``, that plan at the tilt the planner uses, the changes
+    in words): the tilt is lowered to ``max_tilt``, and raised to it only with
+    ``raise_tilt``."""
+    plan, lowered = within_max_tilt(plan, max_tilt)
+    changes = list(lowered)
+    if raise_tilt and max_tilt is not None and max_tilt > plan.tilt:
+        changes.append(
+            f"tilt {plan.tilt:.3g} -> {max_tilt:.3g} rad (raise_tilt: more tilt, less dwell)"
+        )
+        return plan, replace(plan, tilt=max_tilt), changes
+    return plan, plan, changes
+
+
+def _fits(
+    plan: Plan,
+    target: float,
+    *,
+    max_tilt: float | None,
+    max_time: float,
+    raise_tilt: bool,
+    method: str,
+    information: str,
+) -> bool:
+    """``dwell_for_target`` would find ``plan`` feasible (without its remedies' cost)."""
+    need = _need(_tilt_rules(plan, max_tilt, raise_tilt)[1], target, method, information)
+    return need.dwell is not None and need.duration <= max_time
+
+
 def within_max_tilt(plan: Plan, max_tilt: float | None) -> tuple[Plan, tuple[str, ...]]:
     """``plan`` with its tilt lowered to ``max_tilt`` (rad) when above it, and the change
     said in words (none when the tilt is within it or there is no limit)."""
@@ -525,19 +556,6 @@ def dwell_for_target(
     Raises ValueError for a target <= 0, an unknown method, max_tilt outside
     (0, pi/2), max_time <= 0, or raise_tilt without max_tilt.
     """
-    if fewer_poses:
-        options = dict(max_tilt=max_tilt, max_time=max_time, raise_tilt=raise_tilt)
-        options |= dict(method=method, information=information)
-        full = dwell_for_target(plan, target_com_sigma, **options)
-        best = full
-        for cut, why in _fewer_poses(plan, method, information):
-            advice = dwell_for_target(cut, target_com_sigma, **options)
-            shorter = advice.feasible and (
-                not best.feasible or advice.plan.duration() < best.plan.duration()
-            )
-            if shorter:
-                best = replace(advice, changes=(why, *advice.changes))
-        return best
     if not target_com_sigma > 0:
         raise ValueError(f"target_com_sigma must be > 0 m, got {target_com_sigma}")
     _check_method(method)
@@ -547,16 +565,24 @@ def dwell_for_target(
         raise ValueError(f"max_time must be > 0 s, got {max_time}")
     if raise_tilt and max_tilt is None:
         raise ValueError("raise_tilt needs max_tilt (the tilt to raise to)")
+    if fewer_poses:  # the feasible plans (a cheap test), then the advice of the shortest
+        options = dict(max_tilt=max_tilt, max_time=max_time, raise_tilt=raise_tilt)
+        options |= dict(method=method, information=information)
+        feasible = [
+            (cut, why)
+            for cut, why in [(plan, ""), *_fewer_poses(plan, method, information)]
+            if _fits(cut, target_com_sigma, **options)
+        ]
+        if not feasible:
+            return dwell_for_target(plan, target_com_sigma, **options)
+        advices = [
+            (dwell_for_target(cut, target_com_sigma, **options), why) for cut, why in feasible
+        ]
+        best, why = min(advices, key=lambda a: a[0].plan.duration())
+        return replace(best, changes=(why, *best.changes)) if why else best
 
-    plan, lowered = within_max_tilt(plan, max_tilt)
-    changes = list(lowered)
-    tilt = plan.tilt
-    if raise_tilt and max_tilt is not None and max_tilt > plan.tilt:
-        tilt = max_tilt
-        changes.append(
-            f"tilt {plan.tilt:.3g} -> {tilt:.3g} rad (raise_tilt: more tilt, less dwell)"
-        )
-    base = replace(plan, tilt=tilt)
+    plan, base, changes = _tilt_rules(plan, max_tilt, raise_tilt)
+    tilt = base.tilt
     target_mm = target_com_sigma * 1e3
     need = _need(base, target_com_sigma, method, information)
 
