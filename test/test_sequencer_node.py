@@ -194,7 +194,7 @@ def test_second_run_reuses_the_cached_tare_and_replays_to_the_nodes_estimate(
     bag = Path(result.message.rsplit(" bag ", 1)[1])
     assert (bag / "tare.json").is_file()  # the cached tare this run used, beside its bag
     labels = [decode_header(raw)[1] for *_, raw in read_raw(bag, (POSE_TOPIC,))]
-    # a short drift check at home, no tare pass; the estimator uses the cached tare
+    # an empty-hand window at home, no tare pass; the estimator uses the cached tare
     assert "tare/home_check" in labels and "tare/home" not in labels
     assert not any(lbl.startswith("tare/tilt") for lbl in labels)
     offline = replay_json(bag, ros_env)
