@@ -245,3 +245,20 @@ def test_report_module_leaves_pyplot_alone():
     test_ros_free checks for every core module)."""
     code = "import sys, com_core.bags.report; assert 'matplotlib.pyplot' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_report_of_a_kinematic_run_shows_its_own_numbers():
+    """The sample run (information kinematics+mount): the banner names the model and the
+    numbers show what the wrenches alone give on its windows, the bias drift, the hand
+    fitted (1.010 kg, the sim's), the mounting and the base tilt; lines fit the column."""
+    from conftest import WORKSPACE
+
+    from com_core.bags.report import _summary_lines
+
+    run = read_run(WORKSPACE / "bags" / "sample")
+    assert run.diagnostic["values"]["information"] == "kinematics+mount"
+    lines = _summary_lines(run, [])
+    text = "\n".join(lines)
+    for start in ("wrenches   alone: COM", "bias drift", "hand fit   1.010 kg", "mounting   rpy"):
+        assert start in text, text
+    assert "base tilt " in text and all(len(line) <= 64 for line in lines), text

@@ -414,6 +414,7 @@ def _summary_lines(run: RunData, rows: list[_Row]) -> list[str]:
             f"chi2/dof   {_fmt(_value(values, 'chi2'), '.2f')} / {values['dof']}"
             f",  p = {_fmt(_value(values, 'p_value'), '.3g')}"
         )
+    lines += _kinematic_lines(values)
     suspect = values.get("suspect_pose")
     if suspect not in (None, "", "None"):
         lines.append(f"suspect    {suspect} (the object moved in the grasp?)")
@@ -445,6 +446,38 @@ def _summary_lines(run: RunData, rows: list[_Row]) -> list[str]:
         )
     if run.estimate is None and rows:
         lines.append(f"estimate   from {DIAGNOSTICS_TOPIC} ({ESTIMATE_TOPIC} missing)")
+    return lines
+
+
+def _kinematic_lines(values: dict) -> list[str]:
+    """The kinematic fit's own numbers from the diagnostic values: the COM sigma the
+    wrenches alone give on the same windows, the bias drift since the tare, the hand
+    fitted, the mounting and the base tilt (none for the wrenches alone)."""
+
+    def vector(key: str, scale: float = 1.0) -> list[float] | None:
+        text = values.get(key)
+        return [float(v) * scale for v in text.split(",")] if text else None
+
+    lines = []
+    alone = vector("wrenches_sigma_com", 1e3)
+    if alone:
+        lines.append(
+            f"wrenches   alone: COM 1{_SIGMA} ({', '.join(f'{v:.3f}' for v in alone)}) mm"
+        )
+    drift = vector("bias_drift")
+    if drift:
+        lines.append(
+            f"bias drift {math.hypot(*drift[:3]):.3f} N, {math.hypot(*drift[3:]) * 1e3:.2f} mN m"
+            " since the cached tare"
+        )
+    if "hand_mass" in values and (com := vector("hand_com", 1e3)):
+        lines.append(
+            f"hand fit   {float(values['hand_mass']):.3f} kg, COM "
+            f"({', '.join(f'{v:.1f}' for v in com)}) mm"
+        )
+    for key, name in (("mount_rpy", "mounting   rpy"), ("base_tilt", "base tilt ")):
+        if angles := vector(key):
+            lines.append(f"{name} ({', '.join(f'{math.degrees(v):.2f}' for v in angles)}) deg")
     return lines
 
 
@@ -502,6 +535,7 @@ def _draw_banner(fig, run: RunData) -> None:
     poses = [p for p in values.get("poses", "").split(",") if p]
     facts = [
         f"method {values['method']}" if "method" in values else None,
+        f"information {values['information']}" if "information" in values else None,
         f"{len(poses)} poses" if poses else None,
         f"chi2/dof {_fmt(_value(values, 'chi2'), '.2f')} / {values['dof']}"
         if "dof" in values
