@@ -319,17 +319,16 @@ class SequencerNode(Node):
         end = self._labels[-1][0]  # the last window's end: the same windows if "moving" is lost
         object_time = (end - start) * 1e-9
         log.info("phase 4/4: return and release")
-        if information == WRENCHES:
-            self._label(end, DONE)
-            self._label(max(end, self.io.now_ns()), MOVING)  # the latched label is no "done"
-            self.arm.put_back(home, pick)
-        else:  # an empty-hand window after the pass: the bias's drift is bracketed
+        bracket = information != WRENCHES  # an empty-hand window after the pass brackets
+        if bracket:  # the bias's drift (kinematic information): done after it
             self.arm.put_back(home, pick)
             after = f"{poses[0][0]}{BIAS_AFTER_SUFFIX}"
             self._pass(TARE_PREFIX, [(after, home)], self.p("bias_dwell"))
             end = self._labels[-1][0]
-            self._label(end, DONE)
-            self._label(max(end, self.io.now_ns()), MOVING)
+        self._label(end, DONE)
+        self._label(max(end, self.io.now_ns()), MOVING)  # the latched label is no "done"
+        if not bracket:
+            self.arm.put_back(home, pick)
         status = self._estimator_answer(end)
         counts = self._stop_recording()
         summary = _summary(status, prediction, object_time, bag)

@@ -7,15 +7,20 @@ covariance and N = dwell * rate samples (the window mean minus its pose's tare m
 
 - ``ml``: the Cramer-Rao bound of the wrench-only model (``estimators.crlb``). The ML
   estimator reaches the bound, so the prediction is the spread a user will see.
+- ``ml`` with information ``kinematics`` or ``kinematics+mount``: the bound of the
+  kinematic fit (``known_gravity``) for the run's windows at their times
+  (``plan_observations``: a cached tare pass, the bracketing bias windows, the object's);
+  its dwell for a target is bisected on samples (the tare and bias windows are
+  observations of their own, not a term of the variance factor below).
 - ``two_pose`` (the paper's eqs. 3, 7, 8, 11): ``estimators.two_pose``'s own first-order
   covariance, J cov J^T, evaluated at noise-free windows built from the guess with the
   wrench model (f = m g_s, tau = p x f). It uses the first two windows in exploration
   order, home and the first tilt, so a plan's further poses do not improve it; with
   five poses it is 1.8-2.9x the ``ml`` bound.
 
-Both covariances are linear in the window variance factor c = 1/N + 1/N_tare (J does
-not depend on the noise; the Fisher information scales with 1/c), which is how
-``dwell_for_target`` solves the dwell for a requested COM sigma in closed form.
+The wrenches' two covariances are linear in the window variance factor c = 1/N +
+1/N_tare (J does not depend on the noise; the Fisher information scales with 1/c), which
+is how ``dwell_for_target`` solves their dwell for a requested COM sigma in closed form.
 
 Information about the COM component along gravity grows with sin^2(tilt): at 0.05 rad
 a plan needs ~100x the dwell of pi/6 for the same sigma. ``dwell_for_target`` says so
