@@ -45,3 +45,14 @@ def test_study_cli_json_and_figures(tmp_path):
         assert len(r["ml"]["sd"]) == 3 and len(r["two_pose"]["sd"]) == 3
     assert {r["samples_per_pose"] for r in records} == {1, 1000}
     assert len(list(tmp_path.glob("fig*_z_theta_*.png"))) == 3
+
+
+def test_the_orientations_make_the_papers_one_sample_data_efficient():
+    """The paper's setting (one sample per pose, home and a 0.05 rad tilt, noise 0.1):
+    the wrench-only ML is far from its bound there (the directions are barely resolved),
+    while the fit with the orientations known is linear and at its own bound. 400 trials:
+    a spread's relative sd is 3.5 %, so 15 % is more than 4 of them."""
+    record = run_cell(Cell("I", "paper", 0.05, 0.1), 400, seed=2)
+    kin, bound = record["kinematics"]["sd"], record["kinematics_bound"]["com"]
+    assert all(abs(k / b - 1.0) < 0.15 for k, b in zip(kin, bound, strict=True)), (kin, bound)
+    assert record["ml"]["sd"][2] > 5 * record["crlb"]["com"][2]

@@ -10,12 +10,13 @@ Object: the paper's 0.1 kg, COM p = (10, -20, -60) mm in the sensor frame, top g
 - ``ours``: windows of 1 s at 1 kHz (1000 samples) per pose, the default plan (home,
   tilt +-theta about x and y: 5 poses), hand wrench known exactly (as the paper).
 
-Both methods (``two_pose``: the paper's equations; ``ml``) see the same windows in every
-trial, with the tilt check off (``min_tilt_sigmas=0``) so that every trial gives a
-number, as in the paper; ``refused`` is the share of trials the default check would
-refuse. Spreads are sample standard deviations of the error in mm, with a robust one
-(1.4826 x median absolute deviation) beside it because the two-pose z at small tilts
-is heavy-tailed (a ratio of noisy numbers).
+Both methods (``two_pose``: the paper's equations; ``ml``), and ``ml`` with each pose's
+orientation known (``kinematics``: the information the robot's joint angles add), see the
+same windows in every trial, with the tilt check off (``min_tilt_sigmas=0``) so that
+every trial gives a number, as in the paper; ``refused`` is the share of trials the
+default check would refuse. Spreads are sample standard deviations of the error in
+mm, with a robust one (1.4826 x median absolute deviation) beside it because the
+two-pose z at small tilts is heavy-tailed (a ratio of noisy numbers).
 
 Table I: noise sigma on every force (N) and torque (N m) axis per sample. The paper's
 table is labelled mm but is in metres (sigma_x = 0.0102 for noise 0.01 on a 0.98 N load
@@ -51,9 +52,12 @@ from numpy.typing import NDArray
 from .errors import EstimationError
 from .estimators import MIN_TILT_SIGMAS, Estimate, check_consistency, check_windows, crlb, ml
 from .estimators import two_pose as two_pose_estimate
+from .kinematics import DEFAULT_GRAVITY
+from .known_gravity import Observation, kinematic_ml
 from .planner import Plan
 from .synthetic import Load, object_windows
-from .wrench_model import SensorModel
+from .windows import Window
+from .wrench_model import SensorModel, gravity_wrench
 
 __all__ = ["PAPER_LOAD", "Cell", "main", "run_cell", "table_cells"]
 
@@ -86,6 +90,10 @@ PAPER_TABLE_II = {
 
 Method = Callable[..., Estimate]
 METHODS: dict[str, Method] = {"two_pose": two_pose_estimate, "ml": ml}
+KINEMATICS = "kinematics"
+"""``ml`` with each pose's orientation known (``known_gravity.kinematic_ml``) on the same
+windows: the information the robot's joint angles add."""
+ESTIMATORS = (*METHODS, KINEMATICS)
 
 
 @dataclass(frozen=True)
@@ -141,16 +149,31 @@ def _sd(x: NDArray[np.float64]) -> float:
     return float(np.std(x, ddof=1)) if x.size > 1 else math.nan
 
 
+def _orientations(plan: Plan) -> list[NDArray[np.float64]]:
+    """R_base_sensor per pose of ``plan``: home with gravity along the sensor's -z (the
+    paper's top grasp) as the base's, each tilt its rotation from home."""
+    return [rotation for _, rotation in plan.poses()]
+
+
+def _load_wrenches(rotations: Sequence[NDArray[np.float64]]) -> NDArray[np.float64]:
+    """The paper's load's wrench (n, 6) at each orientation, N and N m."""
+    gravities = np.array([r.T @ np.asarray(DEFAULT_GRAVITY) for r in rotations])
+    return gravity_wrench(PAPER_LOAD.mass, PAPER_LOAD.com, gravities)
+
+
 def run_cell(cell: Cell, trials: int, seed: int, keep_z: bool = False) -> dict:
     """Run ``trials`` explorations of ``cell``; return its record (lengths in metres).
 
     Record keys: the cell's fields, samples_per_pose, plan, n_poses, trials, and per
-    method {sd: [x, y, z], robust_sd: [...], sd_mass, failed}; crlb {mass, com [x, y, z]};
-    refused, flagged (shares of trials); with ``keep_z``, the z errors per method.
+    estimator (``ESTIMATORS``) {sd: [x, y, z], robust_sd: [...], sd_mass, failed};
+    crlb {mass, com [x, y, z]} (the wrenches' bound) and kinematics_bound (the kinematic
+    fit's); refused, flagged (shares of trials); with ``keep_z``, the z errors per
+    estimator.
     """
     rng = np.random.default_rng(np.random.SeedSequence([seed, *_cell_key(cell)]))
     plan = cell.plan()
-    errors = {name: np.full((trials, 4), np.nan) for name in METHODS}
+    rotations = _orientations(plan)
+    errors = {name: np.full((trials, 4), np.nan) for name in ESTIMATORS}
     refused = flagged = 0
     truth_idx = -1 if cell.setting == "paper" and cell.table == "II" else 0
     for t in range(trials):
@@ -164,6 +187,11 @@ def run_cell(cell: Cell, trials: int, seed: int, keep_z: bool = False) -> dict:
             except EstimationError:
                 continue
             errors[name][t] = np.concatenate([[est.mass], est.com]) - truth
+        with contextlib.suppress(EstimationError):
+            est = kinematic_ml(
+                [Observation(w, r) for w, r in zip(windows, rotations, strict=True)]
+            ).estimate
+            errors[KINEMATICS][t] = np.concatenate([[est.mass], est.com]) - truth
         try:
             check_windows(windows, MIN_TILT_SIGMAS)
         except EstimationError:
@@ -199,8 +227,14 @@ def run_cell(cell: Cell, trials: int, seed: int, keep_z: bool = False) -> dict:
         )
         sd = np.sqrt(np.diag(bound))
         record["crlb"] = {"mass": float(sd[0]), "com": sd[1:].tolist()}
+        noise_free = [  # the fit's covariance there is its bound at the truth
+            Observation(Window(f"p{i}", wrench, plan.window_cov(), 1), r)
+            for i, (wrench, r) in enumerate(zip(_load_wrenches(rotations), rotations, strict=True))
+        ]
+        sd = np.sqrt(np.diag(kinematic_ml(noise_free).estimate.cov))
+        record["kinematics_bound"] = {"mass": float(sd[0]), "com": sd[1:].tolist()}
     else:
-        record["crlb"] = None
+        record["crlb"] = record["kinematics_bound"] = None
     return record
 
 
@@ -248,6 +282,23 @@ def format_tables(records: Sequence[dict]) -> str:
                 f"{_mm(mlr['sd'][k]):>10} [{_mm(mlr['robust_sd'][k]):>9}] {_mm(bound):>9} "
                 f"{mlr['sd'][k] / bound:7.3f} {tp['sd'][k] / bound:7.3f} "
                 f"{r['refused']:7.1%} {r['flagged']:7.1%}"
+            )
+    lines += [
+        "",
+        "Table I, the information the joint angles add (hand known exactly): ml and the fit",
+        "with each pose's orientation known (kinematics), each over its own bound, and the",
+        "kinematic bound over the wrenches'",
+        f"{'setting':7} {'theta':>5} {'noise':>5} {'axis':>4} {'ml':>10} {'kinematics':>10} "
+        f"{'ml/CRLB':>7} {'kin/bnd':>7} {'bnd/CRLB':>8}",
+    ]
+    for r in (r for r in records if r["table"] == "I"):
+        for k, axis in enumerate("xyz"):
+            mlr, kin = r["ml"]["sd"][k], r[KINEMATICS]["sd"][k]
+            bound, kin_bound = r["crlb"]["com"][k], r["kinematics_bound"]["com"][k]
+            lines.append(
+                f"{r['setting']:7} {r['theta_name']:>5} {r['noise']:>5} {axis:>4} "
+                f"{_mm(mlr):>10} {_mm(kin):>10} {mlr / bound:7.3f} {kin / kin_bound:7.3f} "
+                f"{kin_bound / bound:8.3f}"
             )
     lines += [
         "",
@@ -327,7 +378,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     records = run_study(table_cells(), args.trials, args.seed, args.workers)
     paths = [] if args.no_figures else write_figures(records, args.out)
     for r in records:
-        for name in METHODS:
+        for name in ESTIMATORS:
             r[name].pop("z_errors", None)
     if args.json:
         for r in records:
