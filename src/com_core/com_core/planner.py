@@ -46,7 +46,6 @@ from .wrench_model import (
     as_vector,
     gravity_wrench,
     rotation_about,
-    skew,
 )
 
 __all__ = [
@@ -243,10 +242,9 @@ def _home_rotation(gravity_home: NDArray[np.float64]) -> NDArray[np.float64]:
     down = np.asarray(DEFAULT_GRAVITY) / np.linalg.norm(DEFAULT_GRAVITY)
     axis = np.cross(gravity_home, down)
     sin, cos = float(np.linalg.norm(axis)), float(gravity_home @ down)
-    if sin < 1e-12:
-        return np.eye(3) if cos > 0 else np.diag([1.0, -1.0, -1.0])
-    k = skew(axis / sin)
-    return np.eye(3) + sin * k + (1 - cos) * k @ k
+    if sin < 1e-12:  # parallel, or opposite: half a turn about x
+        return np.eye(3) if cos > 0 else rotation_about("x", math.pi)
+    return rotation_about(axis, math.atan2(sin, cos))
 
 
 def plan_observations(plan: Plan) -> list[Observation]:
