@@ -25,7 +25,7 @@ from com_core.contract import (
     EXPLORE_SERVICE,
     TRUTH_TOPIC,
 )
-from com_core.exploration import INFORMATION
+from com_core.exploration import INFORMATION, vector_value
 from com_core.processes import executable, ros_args, stop
 from com_core.rosenv import keep_dds_local
 
@@ -206,14 +206,12 @@ def print_summary(result, estimates, truths, statuses, wall: float) -> None:
             f"{values.get('information', '?')}"
             + ("" if estimates else " (flagged: not published on ~/estimate)")
         )
-        if "wrenches_sigma_com" in values:
-            alone = [float(v) * 1e3 for v in values["wrenches_sigma_com"].split(",")]
+        if alone := vector_value(values, "wrenches_sigma_com", 1e3):
             print(
                 f"          the wrenches alone on the same windows: COM +- "
                 f"({', '.join(f'{s:.2f}' for s in alone)}) mm"
             )
-        if "bias_drift" in values:
-            drift = [float(v) for v in values["bias_drift"].split(",")]
+        if drift := vector_value(values, "bias_drift"):
             print(
                 f"          sensor bias drift since the tare: "
                 f"{math.hypot(*drift[:3]):.3f} N, {math.hypot(*drift[3:]) * 1e3:.2f} mN m"

@@ -59,7 +59,7 @@ from com_core.contract import (
     WRENCH_TOPIC,
     status_of,
 )
-from com_core.exploration import WRENCHES, Exploration
+from com_core.exploration import WRENCHES, Exploration, vector_value
 from com_core.planner import Plan, dwell_for_target, predict, within_max_tilt
 from com_core.rosenv import keep_dds_local, stop_on_signals
 from com_core.tare_cache import (
@@ -580,11 +580,8 @@ def _summary(status, prediction, object_time: float, bag: Path) -> str:
     else:
         head = f"[{status_of(status.level)}] {status.message}"
         values = {kv.key: kv.value for kv in status.values}
-        if "wrenches_sigma_com" in values:
-            mm = ", ".join(
-                f"{float(v) * 1e3:.2f}" for v in values["wrenches_sigma_com"].split(",")
-            )
-            head += f" (wrenches alone: COM +- ({mm}) mm)"
+        if alone := vector_value(values, "wrenches_sigma_com", 1e3):
+            head += f" (wrenches alone: COM +- ({', '.join(f'{v:.2f}' for v in alone)}) mm)"
     return f"{head}; predicted {prediction}; object pass {object_time:.1f} s (sim); bag {bag}"
 
 

@@ -72,6 +72,7 @@ __all__ = [
     "done_stamp",
     "format_solution",
     "shorten",
+    "vector_value",
 ]
 
 _NO_STAMP = -(2**62)
@@ -674,6 +675,13 @@ class Exploration:
                 "fit absorbed it; re-tare"
             )
         return fit, observations
+
+
+def vector_value(values: Mapping[str, str], key: str, scale: float = 1.0) -> list[float] | None:
+    """A vector of ``Solution.diagnostic_values`` read back (its values comma-joined),
+    times ``scale``; None when ``values`` has no ``key``."""
+    text = values.get(key)
+    return [float(v) * scale for v in text.split(",")] if text else None
 
 
 def done_stamp(labels: Sequence[tuple[int, str]]) -> int | None:

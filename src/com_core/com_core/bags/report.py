@@ -39,6 +39,7 @@ from ..contract import (
     TARE_PREFIX,
     WRENCH_TOPIC,
 )
+from ..exploration import vector_value
 from .run import RunData, read_run
 
 __all__ = ["write_report"]
@@ -454,29 +455,25 @@ def _kinematic_lines(values: dict) -> list[str]:
     wrenches alone give on the same windows, the bias drift since the tare, the hand
     fitted, the mounting and the base tilt (none for the wrenches alone)."""
 
-    def vector(key: str, scale: float = 1.0) -> list[float] | None:
-        text = values.get(key)
-        return [float(v) * scale for v in text.split(",")] if text else None
-
     lines = []
-    alone = vector("wrenches_sigma_com", 1e3)
+    alone = vector_value(values, "wrenches_sigma_com", 1e3)
     if alone:
         lines.append(
             f"wrenches   alone: COM 1{_SIGMA} ({', '.join(f'{v:.3f}' for v in alone)}) mm"
         )
-    drift = vector("bias_drift")
+    drift = vector_value(values, "bias_drift")
     if drift:
         lines.append(
             f"bias drift {math.hypot(*drift[:3]):.3f} N, {math.hypot(*drift[3:]) * 1e3:.2f} mN m"
             " since the cached tare"
         )
-    if "hand_mass" in values and (com := vector("hand_com", 1e3)):
+    if "hand_mass" in values and (com := vector_value(values, "hand_com", 1e3)):
         lines.append(
             f"hand fit   {float(values['hand_mass']):.3f} kg, COM "
             f"({', '.join(f'{v:.1f}' for v in com)}) mm"
         )
     for key, name in (("mount_rpy", "mounting   rpy"), ("base_tilt", "base tilt ")):
-        if angles := vector(key):
+        if angles := vector_value(values, key):
             lines.append(f"{name} ({', '.join(f'{math.degrees(v):.2f}' for v in angles)}) deg")
     return lines
 
