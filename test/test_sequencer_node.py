@@ -202,15 +202,15 @@ def test_second_run_reuses_the_cached_tare_and_replays_to_the_nodes_estimate(
     np.testing.assert_allclose(offline["com"], online, atol=0.006e-3)  # 2 decimals in mm
 
 
-def set_parameter(client: Client, service: str, name: str, value: float) -> None:
-    """Set a double parameter of a node through its ``set_parameters`` service."""
-    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+def set_parameter(client: Client, service: str, name: str, value: bool | float) -> None:
+    """Set a parameter of a node through its ``set_parameters`` service (the type is
+    the value's)."""
     from rcl_interfaces.srv import SetParameters
+    from rclpy.parameter import Parameter
 
     setter = client.node.create_client(SetParameters, service)
     assert setter.wait_for_service(timeout_sec=10.0), service
-    value_msg = ParameterValue(type=ParameterType.PARAMETER_DOUBLE, double_value=value)
-    request = SetParameters.Request(parameters=[Parameter(name=name, value=value_msg)])
+    request = SetParameters.Request(parameters=[Parameter(name, value=value).to_parameter_msg()])
     future = setter.call_async(request)
     assert spin_until(client.node, future.done, 10.0) and future.result().results[0].successful
     client.node.destroy_client(setter)
@@ -317,9 +317,6 @@ def test_plan_changes_are_logged_and_the_prediction_is_the_estimators_method(
 ):
     """A tilt the user set is kept unless raise_tilt allows more; every change is logged
     before moving; the prediction is for the method the estimator runs (two_pose)."""
-    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
-    from rcl_interfaces.srv import SetParameters
-
     start_node("sim_node", "wrench_sim", params={"real_time_factor": 5.0, **NOISE})
     start_node(
         "estimator_node",
@@ -339,12 +336,7 @@ def test_plan_changes_are_logged_and_the_prediction_is_the_estimators_method(
     refused = client.wait(client.call())
     assert not refused.success and "cannot be met" in refused.message, refused.message
     assert "tilt >=" in refused.message  # what would meet it
-    setter = client.node.create_client(SetParameters, SET_PARAMETERS_SERVICE)
-    raise_tilt = Parameter(
-        name="raise_tilt", value=ParameterValue(type=ParameterType.PARAMETER_BOOL, bool_value=True)
-    )
-    future = setter.call_async(SetParameters.Request(parameters=[raise_tilt]))
-    assert spin_until(client.node, future.done, 10.0) and future.result().results[0].successful
+    set_parameter(client, SET_PARAMETERS_SERVICE, "raise_tilt", True)
     result = client.wait(client.call())
     assert result.success, result.message
     assert "predicted two_pose:" in result.message and "from 2 poses" in result.message
