@@ -12,10 +12,14 @@ from collections.abc import Iterable
 from typing import Protocol
 
 __all__ = [
+    "APPLIED_WRENCH_TOPIC",
+    "APPLY_WRENCH_TOPIC",
     "ARM_COMMAND_TOPIC",
     "ARM_JOINTS",
     "BEST_EFFORT_TOPICS",
     "CLOCK_TOPIC",
+    "COMPENSATED_TOPIC",
+    "COMPENSATION_STATUS_NAME",
     "DIAGNOSTICS_TOPIC",
     "DIAGNOSTIC_NAME",
     "DONE",
@@ -23,6 +27,7 @@ __all__ = [
     "ESTIMATE_TOPIC",
     "ESTIMATOR_PARAMETERS_SERVICE",
     "ESTIMATOR_RESET_SERVICE",
+    "ESTIMATOR_SAVE_PAYLOAD_SERVICE",
     "ESTIMATOR_SOLVE_SERVICE",
     "EXPLORE_SERVICE",
     "FINGER_CLOSED",
@@ -46,6 +51,7 @@ __all__ = [
     "TOPIC_TYPES",
     "TRUTH_MOVE_M",
     "TRUTH_TOPIC",
+    "VERIFY_PREFIX",
     "WARN",
     "WRENCH_TOPIC",
     "heard_stamps",
@@ -56,11 +62,21 @@ __all__ = [
 # --- topics (absolute names; remap with --ros-args -r) ---------------------------------
 WRENCH_TOPIC = "/ft_sensor/wrench"
 """geometry_msgs/WrenchStamped: the load's wrench on the sensor, frame ``ft_sensor``."""
+COMPENSATED_TOPIC = "/ft_sensor/wrench_compensated"
+"""geometry_msgs/WrenchStamped: each wrench of WRENCH_TOPIC (same stamp and frame) less the
+sensor's bias and the gravity of the hand and the payload at that sample's orientation:
+the contact wrench (docs/design.md, Compensated wrench)."""
 JOINT_STATES_TOPIC = "/joint_states"
 CLOCK_TOPIC = "/clock"
 TRUTH_TOPIC = "/wrench_sim/ground_truth"
 """geometry_msgs/InertiaStamped: the object's mass and COM in ``ft_sensor`` (latched)."""
 HAND_TRUTH_TOPIC = "/wrench_sim/hand_ground_truth"
+APPLY_WRENCH_TOPIC = "/wrench_sim/apply_wrench"
+"""geometry_msgs/WrenchStamped: a push on the held object from ``header.stamp`` (sim time)
+for the sim's ``push_duration``; frame ``world`` or the sensor's (``ft_sensor``)."""
+APPLIED_WRENCH_TOPIC = "/wrench_sim/applied_wrench"
+"""geometry_msgs/WrenchStamped: the push as the sensor reads it (frame ``ft_sensor``, about
+its origin) at each wrench stamp while it lasts, then one zero wrench."""
 OBJECT_TOPIC = "/wrench_sim/object"
 """std_msgs/String: ``shape=box mass=0.1000 grasp_mode=rigid state=held`` (latched)."""
 ARM_COMMAND_TOPIC = "/panda_arm_controller/joint_trajectory"
@@ -77,6 +93,8 @@ ROBOT_DESCRIPTION_TOPIC = "/robot_description"
 TOPIC_TYPES = {
     CLOCK_TOPIC: "rosgraph_msgs/msg/Clock",
     WRENCH_TOPIC: "geometry_msgs/msg/WrenchStamped",
+    COMPENSATED_TOPIC: "geometry_msgs/msg/WrenchStamped",
+    APPLIED_WRENCH_TOPIC: "geometry_msgs/msg/WrenchStamped",
     JOINT_STATES_TOPIC: "sensor_msgs/msg/JointState",
     TRUTH_TOPIC: "geometry_msgs/msg/InertiaStamped",
     HAND_TRUTH_TOPIC: "geometry_msgs/msg/InertiaStamped",
@@ -100,13 +118,14 @@ LATCHED_TOPICS = frozenset(
     }
 )
 """Published transient local (depth 1): a late joiner gets the latest message."""
-BEST_EFFORT_TOPICS = frozenset({CLOCK_TOPIC, WRENCH_TOPIC, JOINT_STATES_TOPIC})
+BEST_EFFORT_TOPICS = frozenset({CLOCK_TOPIC, WRENCH_TOPIC, COMPENSATED_TOPIC, JOINT_STATES_TOPIC})
 """The high-rate streams, best effort; every other topic is reliable."""
 
 # --- services -----------------------------------------------------------------------
 EXPLORE_SERVICE = "/exploration_sequencer/explore"
 ESTIMATOR_SOLVE_SERVICE = "/com_estimator/solve"
 ESTIMATOR_RESET_SERVICE = "/com_estimator/reset"
+ESTIMATOR_SAVE_PAYLOAD_SERVICE = "/com_estimator/save_payload"
 ESTIMATOR_PARAMETERS_SERVICE = "/com_estimator/get_parameters"
 SIM_PARAMETERS_SERVICE = "/wrench_sim/get_parameters"
 
@@ -115,6 +134,9 @@ TARE_PREFIX = "tare/"
 """``tare/<pose>``: a static window of the empty hand."""
 OBJECT_PREFIX = "object/"
 """``object/<pose>``: a static window with the object in the hand."""
+VERIFY_PREFIX = "verify/"
+"""``verify/<pose>``: a static window with the object in the hand at a pose no fit uses,
+where the compensated wrench is checked (``verification``)."""
 MOVING = "moving"
 """Ends a window; the arm moves (also the handshake label)."""
 DONE = "done"
@@ -125,6 +147,9 @@ DIAGNOSTIC_NAME = "com_estimator: exploration"
 """The status of each solution: level, reason, mass, com_x..z, sigmas, chi2, ..."""
 INPUT_STATUS_NAME = "com_estimator: input"
 """The 1 Hz status of the wrench input."""
+COMPENSATION_STATUS_NAME = "com_estimator: compensation"
+"""The 1 Hz status of COMPENSATED_TOPIC: its payload's source, the samples published and
+those left out (stale joint states), or why nothing is published."""
 LATEST_STAMP_KEY = "latest_stamp_ns"
 """Input status key: the stamp of the latest wrench the estimator heard, ns."""
 LATEST_LABEL_KEY = "latest_label_ns"
