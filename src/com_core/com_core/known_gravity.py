@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -91,6 +91,17 @@ class Observation:
 
 
 @dataclass(frozen=True)
+class _Pose:
+    """Where a wrench is predicted: R_base_sensor, bias epoch, time (s), load, group."""
+
+    rotation: NDArray[np.float64]
+    epoch: int = 0
+    time: float = 0.0
+    load: bool = True
+    group: int = 0
+
+
+@dataclass(frozen=True)
 class KinematicFit:
     """The fit of ``kinematic_ml``.
 
@@ -124,6 +135,19 @@ class KinematicFit:
     base_tilt: NDArray[np.float64] | None
     base_tilt_cov: NDArray[np.float64] | None
     cov: NDArray[np.float64]
+    _model: _Model = field(repr=False, compare=False)
+    _x: NDArray[np.float64] = field(repr=False, compare=False)
+
+    def predict(
+        self, rotation: ArrayLike, time: float, load: bool = True
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The wrench (6,; N, N m) the sensor reads in this run (bias epoch 0) at
+        R_base_sensor ``rotation`` (3, 3) of its URDF frame and ``time`` (s, the windows'
+        clock): the bias then, the hand's gravity wrench and, with ``load``, the
+        object's; with its covariance (6, 6) from the fit's (mounting and tilt
+        included). The wrench at a pose no window saw: a verification's prediction."""
+        pose = _Pose(np.asarray(rotation, dtype=np.float64), 0, time, load)
+        return self._model.predict(self._x, self.cov, pose)
 
     def drift(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(bias of this run minus that of the tare pass (6,), its covariance (6, 6)): the
@@ -213,30 +237,57 @@ class _Model:
             for e in range(self.epochs)
         ]
 
-    def gravities(self, x: NDArray[np.float64]) -> list[NDArray[np.float64]]:
-        """g_i (m/s^2, sensor frame) per observation at the unknowns ``x``."""
+    def gravities(
+        self, x: NDArray[np.float64], rotations: Sequence[NDArray[np.float64]] | None = None
+    ) -> list[NDArray[np.float64]]:
+        """g_i (m/s^2, sensor frame) at the unknowns ``x`` for each R_base_sensor of
+        ``rotations`` (default: the observations')."""
+        if rotations is None:
+            rotations = [o.rotation for o in self.obs]
         if self.mount.stop == self.mount.start:
-            return [o.rotation.T @ self.gravity for o in self.obs]
+            return [r.T @ self.gravity for r in rotations]
         mount_t = _rotation(x[self.mount][:3]).T
         base = _rotation(x[self.mount][3:] @ self.tilt_axes) @ self.gravity
-        return [mount_t @ o.rotation.T @ base for o in self.obs]
+        return [mount_t @ r.T @ base for r in rotations]
+
+    def design_rows(self, o: Observation | _Pose, g: NDArray[np.float64]) -> NDArray[np.float64]:
+        """(6, size): the derivative of the wrench at ``o`` (an observation, or a pose
+        of the fit's) at gravity ``g`` by bias, rate, hand and object (mount columns 0)."""
+        rows = np.zeros((6, self.size))
+        a = _design(g)
+        if self.epochs:
+            rows[:, self.bias[o.epoch]] = np.eye(6)
+        if self.rate:
+            rows[:, self.rate[o.epoch]] = (o.time - self.epoch_time[o.epoch]) * np.eye(6)
+        if self.has_hand:
+            rows[:, self.hand] = a
+        if o.load:
+            rows[:, self.moved[o.group]] = a
+        return rows
 
     def linear_design(self, gravities: list[NDArray[np.float64]]) -> NDArray[np.float64]:
-        """(6n, size): the wrenches' derivative by bias, rate, hand and object (mount
-        columns 0)."""
-        rows = np.zeros((6 * len(self.obs), self.size))
-        for i, (o, g) in enumerate(zip(self.obs, gravities, strict=True)):
-            r = slice(6 * i, 6 * i + 6)
-            a = _design(g)
-            if self.epochs:
-                rows[r, self.bias[o.epoch]] = np.eye(6)
-            if self.rate:
-                rows[r, self.rate[o.epoch]] = (o.time - self.epoch_time[o.epoch]) * np.eye(6)
-            if self.has_hand:
-                rows[r, self.hand] = a
-            if o.load:
-                rows[r, self.moved[o.group]] = a
-        return rows
+        """(6n, size): ``design_rows`` of every observation."""
+        if not self.obs:
+            return np.zeros((0, self.size))
+        return np.concatenate(
+            [self.design_rows(o, g) for o, g in zip(self.obs, gravities, strict=True)]
+        )
+
+    def predict(
+        self, x: NDArray[np.float64], cov: NDArray[np.float64], o: _Pose
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The wrench (6,) the unknowns ``x`` give at pose ``o``, and its covariance
+        (6, 6) from ``cov``; the mounting and the tilt enter by central differences."""
+
+        def wrench(at: NDArray[np.float64]) -> NDArray[np.float64]:
+            return self.design_rows(o, self.gravities(at, [o.rotation])[0]) @ at
+
+        jac = self.design_rows(o, self.gravities(x, [o.rotation])[0])
+        for k in range(self.mount.start, self.mount.stop):
+            step = np.zeros(self.size)
+            step[k] = 1e-6
+            jac[:, k] = (wrench(x + step) - wrench(x - step)) / 2e-6
+        return wrench(x), jac @ cov @ jac.T
 
     def residuals(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """Whitened residuals at the unknowns ``x``: 6 per window, then 6 per epoch for
@@ -359,6 +410,8 @@ def kinematic_ml(
         base_tilt=x[model.mount][3:] @ axes if fit_mount else None,
         base_tilt_cov=axes.T @ cov[model.mount, model.mount][3:, 3:] @ axes if fit_mount else None,
         cov=cov,
+        _model=model,
+        _x=x,
     )
 
 
