@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from com_core.exploration import (
     ERROR,
@@ -13,7 +14,7 @@ from com_core.exploration import (
     Exploration,
 )
 from com_core.planner import Plan
-from com_core.synthetic import Load, exploration_stream
+from com_core.synthetic import Load, Stream, exploration_stream
 
 LOAD, HAND = Load(0.1, (0.01, -0.02, 0.1)), Load(0.73, (0.0, 0.0, 0.04))
 PLAN = Plan(dwell=0.3, gravity_home=(0, 0, 1))
@@ -92,15 +93,16 @@ def test_late_samples_are_dropped_but_a_restarted_clock_is_not():
     assert ex.sample_count == 3  # the old timeline is gone
 
 
-def kinematic_stream(rng: np.random.Generator):
+def kinematic_stream(rng: np.random.Generator, verify: bool = False):
     """A synthetic exploration of the Panda's plan, its joint states, and its robot model:
-    the stream's gravity per pose is the forward kinematics' at the choreography's joints."""
+    the stream's gravity per pose is the forward kinematics' at the choreography's joints;
+    ``verify`` adds the choreography's verification window."""
     from pathlib import Path
 
     import pybullet_data
 
     from com_core.kinematics import RobotModel
-    from exploration_sequencer.choreography import pose_joints
+    from exploration_sequencer.choreography import VERIFY_POSE, pose_joints, verify_joints
     from wrench_sim.physics import HOME_JOINTS
 
     urdf = (Path(pybullet_data.getDataPath()) / "franka_panda" / "panda.urdf").read_text()
@@ -109,8 +111,13 @@ def kinematic_stream(rng: np.random.Generator):
     arm = [f"panda_joint{i}" for i in range(1, 8)]
     home_g = robot.gravity_in_sensor(dict(zip(arm, HOME_JOINTS, strict=True)) | fingers)
     plan = Plan(dwell=0.3, gravity_home=tuple(home_g / np.linalg.norm(home_g)))
-    stream = exploration_stream(plan, LOAD, HAND, rng)
     joints = dict(pose_joints(plan, HOME_JOINTS))
+    directions = {}
+    if verify:
+        joints[VERIFY_POSE] = verify_joints(HOME_JOINTS)
+        g = robot.gravity_in_sensor(dict(zip(arm, joints[VERIFY_POSE], strict=True)) | fingers)
+        directions[VERIFY_POSE] = g / np.linalg.norm(g)
+    stream = exploration_stream(plan, LOAD, HAND, rng, verify=directions)
     states = []
     for stamp, label in stream.labels:
         if "/" in label:  # 10 joint states over each window, at its pose
@@ -159,3 +166,48 @@ def test_an_exploration_without_labels_solves_to_no_windows():
     assert ex.spans() == {} and ex.segments() == []
     solution = ex.solve(until_ns=4)
     assert solution.status == ERROR and solution.reason.startswith("no windows")
+
+
+def kinematic_exploration(stream, states, robot) -> Exploration:
+    ex = Exploration(information="kinematics", robot=robot)
+    for stamp, _, q in states:
+        ex.add_joint_state(stamp, list(q), list(q.values()))
+    return fed(stream, ex)
+
+
+def test_a_verification_window_is_checked_against_the_fit_and_a_push_is_flagged():
+    """The choreography's verification pose (20 deg about the sensor's diagonal): its
+    compensated wrench is within the noise; with a push of 8 sigma of the window mean
+    along x it is a WARN that names it, and the estimate is withheld (not usable). The
+    wrenches alone leave the window unchecked and say why, without a WARN."""
+    stream, states, robot = kinematic_stream(np.random.default_rng(12), verify=True)
+    solution = kinematic_exploration(stream, states, robot).solve()
+    assert solution.status == OK and solution.usable, solution.reason
+    (check,) = solution.verifications
+    assert check.pose == "diagonal" and check.passed
+    assert check.allowed == pytest.approx(4.033, abs=1e-3)  # sqrt of chi2(3) at 1e-3
+    assert np.all(np.abs(check.wrench) < 4.5 * check.sigma)
+    assert np.all(check.sigma > np.sqrt(np.diag(check.noise)))  # the prediction's share
+    assert "verify_distance diagonal" in solution.as_dict()
+    assert [w.pose for w in solution.windows] == [
+        "home",
+        "tilt_x+",
+        "tilt_x-",
+        "tilt_y+",
+        "tilt_y-",
+    ]
+
+    labels = dict((label, stamp) for stamp, label in stream.labels)
+    start = labels["verify/diagonal"]
+    pushed_wrenches = stream.wrenches.copy()
+    inside = (stream.stamps >= start) & (stream.stamps < labels["done"])
+    pushed_wrenches[inside, 0] += 8 * np.sqrt(check.noise[0, 0])
+    pushed = Stream(stream.stamps, pushed_wrenches, stream.labels)
+    flagged = kinematic_exploration(pushed, states, robot).solve()
+    assert flagged.status == WARN and not flagged.usable
+    assert "verification at 'diagonal'" in flagged.reason
+    assert "does not hold beyond its poses" in flagged.reason
+
+    wrenches = fed(stream).solve()
+    assert wrenches.status == OK and not wrenches.verifications
+    assert "information 'kinematics'" in wrenches.unverified

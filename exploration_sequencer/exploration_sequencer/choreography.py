@@ -11,7 +11,9 @@ joints as:
     tilt_x+-  q_home, joint 7 + pi/2, joint 6 +- tilt
 
 so that each pose turns gravity in the sensor frame as ``Plan.poses`` says (a rotation
-by +-tilt about the sensor's axis; checked against the Panda's forward kinematics).
+by +-tilt about the sensor's axis; checked against the Panda's forward kinematics). The
+verification pose ``VERIFY_POSE`` is one no plan has: joint 7 turned by pi/4 and joint 6
+by ``VERIFY_TILT``, a tilt about the sensor's diagonal, between the y and x axes.
 
 Motion times give each joint at most ``speed`` rad/s on average with the quintic
 profile's peak (1.875x the mean) under the joint's limit, with a floor, so tilts stay
@@ -26,9 +28,19 @@ from collections.abc import Sequence
 
 from com_core.planner import HOME, Plan
 
-__all__ = ["PANDA_VELOCITY_LIMITS", "TILT_JOINT", "WRIST_TURN", "motion_time", "pose_joints"]
+__all__ = [
+    "PANDA_VELOCITY_LIMITS",
+    "TILT_JOINT",
+    "VERIFY_POSE",
+    "VERIFY_TILT",
+    "WRIST_TURN",
+    "motion_time",
+    "pose_joints",
+    "verify_joints",
+]
 
 WRIST_TURN = math.pi / 2
+VERIFY_POSE, VERIFY_TILT = "diagonal", math.radians(20.0)
 TILT_JOINT, _TURN_JOINT = 5, 6  # indices of panda_joint6 and panda_joint7
 
 
@@ -54,6 +66,15 @@ def pose_joints(plan: Plan, home: Sequence[float]) -> list[tuple[str, list[float
             q[TILT_JOINT] += sign * plan.tilt
         out.append((name, q))
     return out
+
+
+def verify_joints(home: Sequence[float], tilt: float = VERIFY_TILT) -> list[float]:
+    """7 joint positions (rad) of the verification pose: ``home`` tilted by ``tilt`` (rad)
+    about the sensor's diagonal (joint 7 a half wrist turn, joint 6 ``tilt``)."""
+    q = list(home)
+    q[_TURN_JOINT] += WRIST_TURN / 2
+    q[TILT_JOINT] += tilt
+    return q
 
 
 PANDA_VELOCITY_LIMITS = (2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61)

@@ -463,7 +463,7 @@ class SequencerNode(Node):
             exploration.add_samples(*decode_wrench_batch(raws))
         for stamp, label in self._labels:
             exploration.add_label(stamp, label)
-        tares, _, refused = exploration.reduced_windows(until_ns=end)
+        tares, _, _, refused = exploration.reduced_windows(until_ns=end)
         for note in refused:
             self.get_logger().warning(f"not usable: {note}")
         self.get_logger().info(f"{TARE_PREFIX}: {len(tares)} windows from {len(raws)} wrenches")

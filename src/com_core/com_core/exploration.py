@@ -8,9 +8,11 @@ topics:
 - a label (std_msgs/Header: ``frame_id`` the label, ``stamp`` the time from which it
   applies) opens a window at its stamp that ends at the next label's stamp; samples
   are assigned to windows by their own header stamps;
-- labels ``tare/<pose>`` and ``object/<pose>`` name static windows; any other label
-  (``moving``, ``done``, ...) closes the current window; ``done`` asks for a solution
-  from the labels up to it;
+- labels ``tare/<pose>`` and ``object/<pose>`` name static windows; ``verify/<pose>``
+  names a static window with the object in the hand that no fit uses: the wrench the fit
+  predicts there is checked against it (``Verification``); any other label (``moving``,
+  ``done``, ...) closes the current window; ``done`` asks for a solution from the labels
+  up to it;
 - samples are kept in arrival order; one whose stamp equals the latest kept stamp is
   dropped and counted as a duplicate stamp, one stamped before it as out of time order,
   as are non-finite samples and samples in another frame than the expected one; a jump
@@ -22,9 +24,10 @@ topics:
   never merge; labels longer than ``MAX_LABEL_LENGTH`` characters are refused.
 
 Statuses: ERROR (no estimate: no windows, too few poses, ill-conditioned, no tare, no
-load), WARN (an estimate, but: the object moved in the grasp, or input was dropped), OK.
-``Solution.usable`` tells the estimates to hand on (OK, or WARN for dropped input only)
-from those kept for diagnosis (an inconsistent fit).
+load), WARN (an estimate, but: the object moved in the grasp, the wrench at a
+verification pose is off the prediction, or input was dropped), OK. ``Solution.usable``
+tells the estimates to hand on (OK, or WARN for dropped input only) from those kept for
+diagnosis (an inconsistent fit, a failed verification).
 """
 
 from __future__ import annotations
@@ -36,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .contract import DONE, ERROR, OBJECT_PREFIX, OK, TARE_PREFIX, WARN
+from .contract import DONE, ERROR, OBJECT_PREFIX, OK, TARE_PREFIX, VERIFY_PREFIX, WARN
 from .errors import EstimationError, MissingTareError, NonPositiveMassError, WindowError
 from .estimators import (
     DEFAULT_ALPHA,
@@ -56,7 +59,7 @@ from .known_gravity import (
     locate_move,
     mount_rpy,
 )
-from .stats import chi2_sf
+from .stats import chi2_isf, chi2_sf
 from .windows import Window, reduce_window, subtract_tare
 from .wrench_model import STANDARD_GRAVITY, SensorModel
 
@@ -69,6 +72,7 @@ __all__ = [
     "WARN",
     "Exploration",
     "Solution",
+    "Verification",
     "done_stamp",
     "format_solution",
     "shorten",
@@ -98,6 +102,67 @@ it, but a sensor drifting that fast is warming up or was overloaded)."""
 
 
 @dataclass(frozen=True)
+class Verification:
+    """The compensated wrench at a pose no fit used (a ``verify/<pose>`` window): the
+    window's mean less the wrench the kinematic fit predicts there (the bias, the hand and
+    the object; ``KinematicFit.predict``), which is zero if the estimate holds beyond the
+    poses it was fitted on.
+
+    wrench : (6,) the mean compensated wrench, N and N m, sensor frame. cov : (6, 6) its
+    covariance: the window mean's noise (``noise``) plus the prediction's. distance :
+    the force's and the torque's Mahalanobis distance from zero (3 dof each), against
+    ``allowed``, the distance at the consistency test's alpha.
+    """
+
+    pose: str
+    wrench: NDArray[np.float64]
+    cov: NDArray[np.float64]
+    noise: NDArray[np.float64]
+    distance: tuple[float, float]
+    allowed: float
+    n: int
+
+    @property
+    def passed(self) -> bool:
+        return max(self.distance) <= self.allowed
+
+    @property
+    def sigma(self) -> NDArray[np.float64]:
+        """(6,) the compensated wrench's sigma per axis, N and N m."""
+        return np.sqrt(np.diag(self.cov))
+
+    def summary(self) -> str:
+        f, t = self.wrench[:3], self.wrench[3:]
+        return (
+            f"verification at {self.pose!r}: compensated |f| {np.linalg.norm(f):.3g} N, "
+            f"|tau| {np.linalg.norm(t):.3g} N m; {self.distance[0]:.2f} and "
+            f"{self.distance[1]:.2f} sigma (the noise allows {self.allowed:.2f})"
+        )
+
+
+def verify(
+    window: Window, predicted: NDArray[np.float64], cov: NDArray[np.float64], alpha: float
+) -> Verification:
+    """The ``Verification`` of ``window`` against the wrench (6,) a fit ``predicted`` at
+    its pose, with the prediction's covariance ``cov`` (6, 6)."""
+    residual = window.mean - predicted
+    total = window.cov + cov
+    distance = tuple(
+        math.sqrt(float(residual[k] @ np.linalg.solve(total[k, k], residual[k])))
+        for k in (slice(0, 3), slice(3, 6))
+    )
+    return Verification(
+        window.pose,
+        residual,
+        total,
+        window.cov,
+        (distance[0], distance[1]),
+        math.sqrt(chi2_isf(alpha, 3)),
+        window.n,
+    )
+
+
+@dataclass(frozen=True)
 class Solution:
     """Outcome of one exploration.
 
@@ -116,16 +181,20 @@ class Solution:
     information: str = "wrenches"
     fit: KinematicFit | None = None
     wrenches_sigma_com: NDArray[np.float64] | None = None
+    verifications: tuple[Verification, ...] = ()
+    unverified: str = ""
 
     @property
     def usable(self) -> bool:
         """An estimate the estimator stands behind: the fit is consistent with one rigid
-        load (status OK, or WARN for dropped input only). An inconsistent fit (the object
-        moved in the grasp) still carries its numbers, for diagnosis, but is not usable."""
+        load and holds at every verification pose (status OK, or WARN for dropped input
+        only). An inconsistent fit (the object moved in the grasp) or a failed
+        verification still carries its numbers, for diagnosis, but is not usable."""
         return (
             self.estimate is not None
             and self.consistency is not None
             and self.consistency.consistent
+            and all(v.passed for v in self.verifications)
         )
 
     def diagnostic_values(self) -> list[tuple[str, str]]:
@@ -170,6 +239,13 @@ class Solution:
         if self.wrenches_sigma_com is not None:
             out["wrenches_sigma_com"] = self.wrenches_sigma_com.tolist()
         out |= _fit_dict(self.fit) if self.fit is not None else {}
+        for v in self.verifications:
+            out[f"verify_wrench {v.pose}"] = v.wrench.tolist()
+            out[f"verify_sigma {v.pose}"] = v.sigma.tolist()
+            out[f"verify_noise {v.pose}"] = np.sqrt(np.diag(v.noise)).tolist()
+            out[f"verify_distance {v.pose}"] = [*v.distance, v.allowed]
+        if self.unverified:
+            out["unverified"] = self.unverified
         if self.consistency is not None:
             c = self.consistency
             out |= {
@@ -363,7 +439,7 @@ class Exploration:
             self.dropped[what] = self.dropped.get(what, 0) + n
 
     def spans(self, until_ns: int | None = None) -> dict[str, list[tuple[int, int]]]:
-        """[start, stop) stamps (ns) of every tare/object window, per label.
+        """[start, stop) stamps (ns) of every tare, object and verify window, per label.
 
         Windows run from a label's stamp to the next label's; ``until_ns`` ends the
         last one (default: the ``done`` label, else after the last sample).
@@ -377,12 +453,12 @@ class Exploration:
         bounds = [s for s, _ in labels[1:]] + [end if end is not None else 2**62]
         spans: dict[str, list[tuple[int, int]]] = {}
         for (start, label), stop in zip(labels, bounds, strict=True):
-            if label.startswith((TARE_PREFIX, OBJECT_PREFIX)):
+            if label.startswith((TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX)):
                 spans.setdefault(label, []).append((start, stop))
         return spans
 
     def segments(self, until_ns: int | None = None) -> list[tuple[str, NDArray[np.float64]]]:
-        """(label, samples (n, 6)) of every tare/object window (``spans``), merged per label."""
+        """(label, samples (n, 6)) of every window of ``spans``, merged per label."""
         stamps, wrenches = self.samples()
         return [
             (label, np.concatenate([wrenches[(stamps >= a) & (stamps < b)] for a, b in parts]))
@@ -424,14 +500,23 @@ class Exploration:
             raise WindowError(f"window {label!r}: the joints moved {moved * 1e3:.1f} mrad")
         return self.robot.sensor_rotation(dict(zip(names, q.mean(axis=0), strict=True)))
 
+    def window_time(self, label: str, until_ns: int | None = None) -> float:
+        """The mean stamp (s) of the samples of window ``label``."""
+        stamps = self.samples()[0]
+        inside = np.zeros(len(stamps), dtype=bool)
+        for a, b in self.spans(until_ns)[label]:
+            inside |= (stamps >= a) & (stamps < b)
+        return float(np.mean(stamps[inside])) * 1e-9
+
     def reduced_windows(
         self, until_ns: int | None = None
-    ) -> tuple[dict[str, Window], list[Window], list[str]]:
-        """Every tare and object window of ``segments`` reduced to its mean: (tare windows
-        by pose, object windows, notes on the windows refused: empty, motion, NaN,
+    ) -> tuple[dict[str, Window], list[Window], list[Window], list[str]]:
+        """Every window of ``segments`` reduced to its mean: (tare windows by pose, object
+        windows, verify windows, notes on the windows refused: empty, motion, NaN,
         saturation)."""
         tares: dict[str, Window] = {}
         objects: list[Window] = []
+        verifies: list[Window] = []
         notes: list[str] = []
         for label, samples in self.segments(until_ns):
             kind, pose = label.split("/", 1)
@@ -443,11 +528,13 @@ class Exploration:
             except (WindowError, ValueError) as exc:
                 notes.append(f"{kind} {exc}")
                 continue
-            if kind == "tare":
+            if kind + "/" == TARE_PREFIX:
                 tares[pose] = window
-            else:
+            elif kind + "/" == OBJECT_PREFIX:
                 objects.append(window)
-        return tares, objects, notes
+            else:
+                verifies.append(window)
+        return tares, objects, verifies, notes
 
     def solve(self, until_ns: int | None = None) -> Solution:
         """Windows, per-pose tare, estimate and consistency test, with a status."""
@@ -455,7 +542,7 @@ class Exploration:
         notes += [f"dropped {n} labels {what}" for what, n in self.dropped_labels.items()]
         segments = self.segments(until_ns)
         counts = {label: len(samples) for label, samples in segments}
-        fresh_tares, objects, refused = self.reduced_windows(until_ns)
+        fresh_tares, objects, verifies, refused = self.reduced_windows(until_ns)
         tares = dict(self.tares) | fresh_tares
         notes += refused
         try:
@@ -498,12 +585,17 @@ class Exploration:
                 used = [o.window for o in observations if o.load]
                 consistency = self._kinematic_consistency(fit, observations, information, windows)
                 wrenches_sigma = self._wrenches_sigma(windows)
+            verifications, unverified = self._verifications(verifies, fit, until_ns, notes)
         except EstimationError as exc:
             reason = str(exc) + ("; " + "; ".join(notes) if notes else "")
             return Solution(ERROR, reason, self.method, notes=tuple(notes), window_samples=counts)
         status, reason = OK, _summary(estimate)
+        failed = [v.summary() for v in verifications if not v.passed]
         if not consistency.consistent:
             status, reason = WARN, consistency.message
+        elif failed:
+            status = WARN
+            reason = "; ".join(failed) + ": the estimate does not hold beyond its poses"
         elif notes:
             status, reason = WARN, "; ".join(notes)
         return Solution(
@@ -518,7 +610,40 @@ class Exploration:
             information=information,
             fit=fit,
             wrenches_sigma_com=wrenches_sigma,
+            verifications=verifications,
+            unverified=unverified,
         )
+
+    def _verifications(
+        self,
+        windows: list[Window],
+        fit: KinematicFit | None,
+        until_ns: int | None,
+        notes: list[str],
+    ) -> tuple[tuple[Verification, ...], str]:
+        """The ``Verification`` of every verify window by the kinematic ``fit`` (at the
+        window's orientation and time), and why the windows are not checked when they
+        cannot be (the wrenches alone: no orientation at a pose no window saw, no bias
+        nor hand model); a window without its orientation is noted (a WARN)."""
+        if not windows:
+            return (), ""
+        if fit is None or fit.hand is None:
+            return (), (
+                "the wrench at a pose no fit used is predicted with information "
+                "'kinematics' and the empty hand's windows only"
+            )
+        assert self.robot is not None
+        out = []
+        for window in windows:
+            label = VERIFY_PREFIX + window.pose
+            try:
+                rotation = self.window_rotation(label, until_ns)
+            except WindowError as exc:
+                notes.append(f"verification left out: {exc}")
+                continue
+            predicted, cov = fit.predict(rotation, self.window_time(label, until_ns))
+            out.append(verify(window, predicted, cov, self.alpha))
+        return tuple(out), ""
 
     def _information(self, notes: list[str]) -> str:
         """The information the fit can use: ``information``; 'wrenches' for a method other
@@ -613,8 +738,6 @@ class Exploration:
         robot = self.robot
         observations: list[Observation] = []
 
-        stamps = self.samples()[0]
-
         def add(
             window: Window,
             label: str,
@@ -625,10 +748,7 @@ class Exploration:
             try:
                 if cached is None:
                     rotation = self.window_rotation(label, until_ns)
-                    inside = np.zeros(len(stamps), dtype=bool)
-                    for a, b in self.spans(until_ns)[label]:
-                        inside |= (stamps >= a) & (stamps < b)
-                    time = float(np.mean(stamps[inside])) * 1e-9
+                    time = self.window_time(label, until_ns)
                 else:
                     rotation, time = robot.sensor_rotation(cached[0]), cached[1]
             except (WindowError, KinematicsError) as exc:
@@ -694,7 +814,7 @@ def done_stamp(labels: Sequence[tuple[int, str]]) -> int | None:
     """
     seen_window = False
     for stamp, label in labels:
-        if label.startswith((TARE_PREFIX, OBJECT_PREFIX)):
+        if label.startswith((TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX)):
             seen_window = True
         elif label == DONE and seen_window:
             return stamp

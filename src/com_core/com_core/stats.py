@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["chi2_sf"]
+__all__ = ["chi2_isf", "chi2_sf"]
 
 _EPS = 1e-15
 _TINY = 1e-300
@@ -51,3 +51,17 @@ def chi2_sf(x: float, dof: int) -> float:
         if abs(delta - 1.0) < _EPS or i > 10_000:
             break
     return math.exp(log_prefactor) * h
+
+
+def chi2_isf(p: float, dof: int) -> float:
+    """x with P(X > x) = p for X ~ chi-square with ``dof`` degrees of freedom (0 < p < 1):
+    ``chi2_sf`` inverted by bisection, to a relative 1e-12."""
+    if not 0.0 < p < 1.0:
+        raise ValueError(f"p must be in (0, 1), got {p}")
+    low, high = 0.0, max(1.0, 2.0 * dof)
+    while chi2_sf(high, dof) > p:
+        low, high = high, 2.0 * high
+    while high - low > 1e-12 * high:
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if chi2_sf(mid, dof) > p else (low, mid)
+    return 0.5 * (low + high)

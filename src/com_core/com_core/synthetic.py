@@ -7,12 +7,13 @@ the same physics as the estimator assumes (``wrench_model``).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
-from .contract import DONE, MOVING, OBJECT_PREFIX, TARE_PREFIX
+from .contract import DONE, MOVING, OBJECT_PREFIX, TARE_PREFIX, VERIFY_PREFIX
 from .planner import Plan
 from .windows import Window
 from .wrench_model import STANDARD_GRAVITY, as_vector, gravity_wrench
@@ -74,8 +75,11 @@ def _exploration_truth(
     rng: np.random.Generator,
     shift_sigma: float,
     g: float,
+    verify: Mapping[str, ArrayLike] | None = None,
 ) -> list[tuple[str, NDArray[np.float64], int]]:
-    """(label, true wrench (6,), samples) per window: tare pass, then object pass."""
+    """(label, true wrench (6,), samples) per window: tare pass, then object pass, then
+    a ``verify/<pose>`` window of the object pass's length at each gravity direction
+    (sensor frame, unit) of ``verify``, the COM as at the last pose."""
     g_dirs = g * plan.gravity_directions()
     poses = [name for name, _ in plan.poses()]
     coms = as_vector(load.com, 3, "com") + _shifts(len(poses), shift_sigma, rng)
@@ -90,6 +94,10 @@ def _exploration_truth(
     for pose, g_s, com in zip(poses, g_dirs, coms, strict=True):
         w = gravity_wrench(hand.mass, hand_com, g_s) + gravity_wrench(load.mass, com, g_s)
         out.append((OBJECT_PREFIX + pose, w, n_obj))
+    for pose, direction in (verify or {}).items():
+        g_s = g * as_vector(direction, 3, "verify direction")
+        w = gravity_wrench(hand.mass, hand_com, g_s) + gravity_wrench(load.mass, coms[-1], g_s)
+        out.append((VERIFY_PREFIX + pose, w, n_obj))
     return out
 
 
@@ -133,14 +141,16 @@ def exploration_stream(
     move_time: float = 0.2,
     start_ns: int = 1_000_000_000,
     g: float = STANDARD_GRAVITY,
+    verify: Mapping[str, ArrayLike] | None = None,
 ) -> Stream:
     """The exploration of ``exploration_samples`` as one stamped stream.
 
     Between windows the wrench ramps linearly from one pose's to the next over
     ``move_time`` s, labelled ``moving``; ``done`` follows the last window and 50 ms of
-    samples follow ``done``, so a consumer sees the stream pass it.
+    samples follow ``done``, so a consumer sees the stream pass it. ``verify`` adds
+    verification windows after the object pass (see ``_exploration_truth``).
     """
-    truth = _exploration_truth(plan, load, hand, rng, shift_sigma, g)
+    truth = _exploration_truth(plan, load, hand, rng, shift_sigma, g, verify)
     dt = 1e9 / plan.sensor.rate_hz
     n_move = max(2, round(move_time * plan.sensor.rate_hz))
     pieces, labels, t = [], [], 0
