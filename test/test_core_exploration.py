@@ -12,6 +12,7 @@ from com_core.exploration import (
     OK,
     WARN,
     Exploration,
+    verification_lines,
 )
 from com_core.planner import Plan
 from com_core.synthetic import Load, Stream, exploration_stream
@@ -188,7 +189,8 @@ def test_a_verification_window_is_checked_against_the_fit_and_a_push_is_flagged(
     assert check.allowed == pytest.approx(4.033, abs=1e-3)  # sqrt of chi2(3) at 1e-3
     assert np.all(np.abs(check.wrench) < 4.5 * check.sigma)
     assert np.all(check.sigma > np.sqrt(np.diag(check.noise)))  # the prediction's share
-    assert "verify_distance diagonal" in solution.as_dict()
+    (line,) = verification_lines(dict(solution.diagnostic_values()))
+    assert line.startswith("verification 'diagonal': f (") and "(4.03 allowed)" in line
     assert [w.pose for w in solution.windows] == [
         "home",
         "tilt_x+",

@@ -2,7 +2,8 @@
 
 Drives ``wrench_sim.physics.PandaWorld`` directly: grasp the object from its stand, hold the
 arm still at several orientations and compare the sensed wrench with
-``com_core.wrench_model.gravity_wrench`` of hand (+ object) from the ground truth.
+``com_core.wrench_model.gravity_wrench`` of hand (+ object) from the ground truth, and the
+change a push on the held object makes with the push as the sensor reads it.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from wrench_sim.objects import SHAPES, holdable_com_range, object_spec
 from wrench_sim.physics import (
     HOME_JOINTS,
     PICK_JOINTS,
+    TIME_STEP,
     PandaWorld,
     SimConfig,
 )
@@ -422,5 +424,152 @@ def test_the_urdf_the_sim_loads_gives_its_sensor_orientation(grasp_mode):
             if grasp_mode == "rigid":  # the friction-mode sensor carries the finger error
                 f = world.wrench[:3]  # the direction the hand's weight is sensed in
                 assert_allclose(f / np.linalg.norm(f), g_s / STANDARD_GRAVITY, atol=1e-4)
+    finally:
+        world.close()
+
+
+# A push on the held object: ~2 N at its COM and a ~0.05 N m couple, in no axis's direction.
+PUSH_FORCE = (1.2, -1.0, 1.3)  # N
+PUSH_TORQUE = (0.03, 0.02, -0.035)  # N m
+PUSH_POSES = ("home", "j6+0.5", "j5-0.8")
+PUSH_SETTLE = 0.1  # s; the held arm gives way to a push (or its end) and recovers within it
+# The reading's change minus the push as the sensor reads it, from PUSH_SETTLE after the start
+# to the end, rigid mode: measured <= 1.2e-5 N and 1.8e-6 N m over PUSH_POSES, both frames;
+# after the end + PUSH_SETTLE the reading is back to within 4e-10 N of the one before.
+PUSH_FORCE_TOL = 5e-5  # N
+PUSH_TORQUE_TOL = 5e-6  # N m
+
+
+@pytest.fixture(scope="module")
+def held_world():
+    world = PandaWorld(SimConfig(object_shape="box", object_com_offset=COM_OFFSET))
+    grasp(world)
+    yield world
+    world.close()
+
+
+def push_in_sensor(world: PandaWorld, force, torque, frame: str) -> np.ndarray:
+    """What a push (N, N m; frame 'world' or 'ft_sensor') adds to the load on the sensor (6,),
+    from the ground truth: the push in ft_sensor (F_s, T_s) about the sensor origin, so
+    f = F_s and tau = T_s + p x F_s with p the object's COM (m, ft_sensor)."""
+    force, torque = np.asarray(force, dtype=float), np.asarray(torque, dtype=float)
+    if frame == "world":
+        R = world.sensor_pose()[1]
+        force, torque = R.T @ force, R.T @ torque
+    p = world.object_ground_truth()[1]
+    return np.concatenate([force, torque + np.cross(p, force)])
+
+
+def assert_wrench_close(error: np.ndarray, message: str = "") -> None:
+    assert np.abs(error[..., :3]).max() < PUSH_FORCE_TOL, (message, error)
+    assert np.abs(error[..., 3:]).max() < PUSH_TORQUE_TOL, (message, error)
+
+
+def still_wrench(world: PandaWorld, steps: int = 20) -> np.ndarray:
+    """Mean reading (6,) over ``steps`` steps."""
+    readings = []
+    for _ in range(steps):
+        world.step()
+        readings.append(world.wrench)
+    return np.mean(readings, axis=0)
+
+
+@pytest.mark.parametrize("frame", ["world", "ft_sensor"])
+def test_a_push_changes_the_reading_by_the_push_as_the_sensor_reads_it(held_world, frame):
+    """Held still at three orientations, the reading changes by the push as the sensor reads
+    it while the push lasts (once the arm has recovered from its onset) and returns to the
+    gravity wrench after it; the push starts at its start time, not before."""
+    world = held_world
+    for name in PUSH_POSES:
+        world.move_arm(POSES[name], 4.0)
+        world.run(0.2)
+        before = still_wrench(world)
+        expected = push_in_sensor(world, PUSH_FORCE, PUSH_TORQUE, frame)
+        # a push (as the sensor reads it) much larger than the tolerance on every axis
+        assert np.abs(expected[:3]).min() > 0.1 and np.abs(expected[3:]).min() > 0.01, expected
+        now = world.time
+        start, end = world.apply_wrench(PUSH_FORCE, PUSH_TORQUE, frame, now + 0.05, 0.5)
+        assert (start, end) == pytest.approx((now + 0.05, now + 0.55), abs=1e-9)
+        assert world.push_scheduled and not world.push_active
+        while world.time < end + 2.0 * PUSH_SETTLE - 1e-9:
+            world.step()
+            t, change, applied = world.time, world.wrench - before, world.applied_wrench()
+            pushed = start < t <= end + 1e-9
+            assert world.push_active == pushed, (name, t)
+            if not pushed:
+                assert not applied.any(), (name, t)
+                if t <= start or t > end + PUSH_SETTLE:
+                    assert_wrench_close(change, f"{name}, t = {t:.3f} s, no push")
+                continue
+            # the same formula, from the world's pose and ground truth after this step (a
+            # sensor-frame push was turned to the world with the pose before it, < 1e-6 rad off)
+            now_expected = push_in_sensor(world, PUSH_FORCE, PUSH_TORQUE, frame)
+            assert_allclose(applied, now_expected, atol=1e-6, err_msg=name)
+            if t > start + PUSH_SETTLE:
+                assert_wrench_close(change - expected, f"{name}, t = {t:.3f} s, pushed")
+        assert not world.push_scheduled
+        # back to gravity only, against the analytic gravity wrench too
+        assert_wrench_close(still_wrench(world) - before, f"{name}, after")
+        errors = hold_and_compare(world, POSES[name])
+        assert np.abs(errors[:, :3]).max() < FORCE_TOL, name
+        assert np.abs(errors[:, 3:]).max() < TORQUE_TOL, name
+    assert sum("push started" in event for event in world.events) >= len(PUSH_POSES)
+    assert sum("push ended" in event for event in world.events) >= len(PUSH_POSES)
+
+
+def test_pushes_add_up(held_world):
+    """A world push and a sensor-frame push at once: the reading changes by both."""
+    world = held_world
+    world.move_arm(POSES["j6+0.5"], 4.0)
+    world.run(0.2)
+    before = still_wrench(world)
+    second = ((0.0, 0.8, -0.5), (-0.02, 0.0, 0.01))
+    world.apply_wrench(PUSH_FORCE, PUSH_TORQUE, "world", duration=0.3)
+    world.apply_wrench(*second, "ft_sensor", duration=0.3)
+    world.run(2.0 * PUSH_SETTLE)
+    expected = push_in_sensor(world, PUSH_FORCE, PUSH_TORQUE, "world")
+    expected += push_in_sensor(world, *second, "ft_sensor")
+    assert_allclose(world.applied_wrench(), expected, atol=1e-9)
+    assert_wrench_close(still_wrench(world) - before - expected)
+    world.run(0.3)
+    assert not world.push_scheduled
+
+
+@pytest.mark.parametrize(
+    ("force", "frame", "duration", "message"),
+    [
+        (PUSH_FORCE, "panda_link0", 1.0, "frame must be one of"),
+        ((float("nan"), 0.0, 0.0), "world", 1.0, "must be finite"),
+        ((0.0, float("inf"), 0.0), "ft_sensor", 1.0, "must be finite"),
+        (PUSH_FORCE, "world", 0.0, "duration must be > 0"),
+        (PUSH_FORCE, "world", float("nan"), "duration must be > 0"),
+    ],
+)
+def test_a_bad_push_is_refused(held_world, force, frame, duration, message):
+    with pytest.raises(ValueError, match=message):
+        held_world.apply_wrench(force, PUSH_TORQUE, frame, duration=duration)
+    assert not held_world.push_scheduled
+
+
+def test_a_push_needs_a_held_object():
+    """Refused with nothing held; a push acting when the object is released ends then, and
+    one that would start after it is dropped, both recorded in the events."""
+    world = PandaWorld(SimConfig(object_shape="box"))
+    try:
+        with pytest.raises(ValueError, match="no object is held"):
+            world.apply_wrench(PUSH_FORCE, PUSH_TORQUE)
+        grasp(world)
+        world.apply_wrench(PUSH_FORCE, PUSH_TORQUE, "world", duration=2.0)
+        world.apply_wrench(PUSH_FORCE, PUSH_TORQUE, "world", world.time + 1.5)
+        world.run(0.2)
+        assert world.push_active
+        world.command_gripper(0.04)
+        world.run(1.0)
+        assert not world.object_held
+        assert not world.push_active and world.push_scheduled  # the later one still waits
+        world.run(0.5 + TIME_STEP)
+        assert not world.push_scheduled
+        assert any("push ended early, the object was released" in e for e in world.events)
+        assert any("push dropped, no object held at its start" in e for e in world.events)
     finally:
         world.close()

@@ -56,10 +56,11 @@ from com_core.contract import (
     POSE_TOPIC,
     SIM_PARAMETERS_SERVICE,
     TARE_PREFIX,
+    VERIFY_PREFIX,
     WRENCH_TOPIC,
     status_of,
 )
-from com_core.exploration import WRENCHES, Exploration, vector_value
+from com_core.exploration import WRENCHES, Exploration, vector_value, verification_lines
 from com_core.planner import Plan, dwell_for_target, predict, within_max_tilt
 from com_core.rosenv import keep_dds_local, stop_on_signals
 from com_core.tare_cache import (
@@ -75,7 +76,13 @@ from com_core.tare_cache import (
 from com_core.windows import Window
 from com_core.wrench_model import STANDARD_GRAVITY, SensorModel
 from exploration_sequencer.arm import Arm
-from exploration_sequencer.choreography import TILT_JOINT, motion_time, pose_joints
+from exploration_sequencer.choreography import (
+    TILT_JOINT,
+    VERIFY_POSE,
+    motion_time,
+    pose_joints,
+    verify_joints,
+)
 from exploration_sequencer.io_node import IoNode, RunError, TimeoutRunError
 
 PARAMETERS: dict[str, tuple[object, str]] = {
@@ -109,6 +116,11 @@ PARAMETERS: dict[str, tuple[object, str]] = {
         "s of the empty-hand windows at home before the grasp (with a cached tare) and, "
         "with kinematic information, after the release: they give the run's sensor bias "
         "and its drift (with the wrenches alone, the first checks the cache's drift)",
+    ),
+    "verify_dwell": (
+        2.0,
+        "s of the window at the verification pose (20 deg about the sensor's diagonal, no "
+        "fit uses it) after the object pass, with kinematic information; 0: none",
     ),
     "hand_id": ("panda_hand", "names the hand: a cached tare serves this hand only"),
     "min_load": (0.005, "kg; the grasp must hold at least this before the object pass"),
@@ -175,7 +187,15 @@ class SequencerNode(Node):
             ):
                 bad = "must be > 0"
             elif (
-                prm.name in ("settle", "target_com_sigma", "sigma_f", "sigma_tau", "min_load")
+                prm.name
+                in (
+                    "settle",
+                    "target_com_sigma",
+                    "sigma_f",
+                    "sigma_tau",
+                    "min_load",
+                    "verify_dwell",
+                )
                 and v < 0
             ):
                 bad = "must be >= 0"
@@ -318,8 +338,13 @@ class SequencerNode(Node):
         self._pass(OBJECT_PREFIX, poses, plan.dwell)
         end = self._labels[-1][0]  # the last window's end: the same windows if "moving" is lost
         object_time = (end - start) * 1e-9
-        log.info("phase 4/4: return and release")
         bracket = information != WRENCHES  # an empty-hand window after the pass brackets
+        if bracket and self.p("verify_dwell") > 0:  # the fit predicts the wrench there
+            log.info("verification pose: a tilt no fit uses")
+            verify = [(VERIFY_POSE, verify_joints(home))]
+            self._pass(VERIFY_PREFIX, verify, self.p("verify_dwell"))
+            end = self._labels[-1][0]
+        log.info("phase 4/4: return and release")
         if bracket:  # the bias's drift (kinematic information): done after it
             self.arm.put_back(home, pick)
             after = f"{poses[0][0]}{BIAS_AFTER_SUFFIX}"
@@ -574,7 +599,8 @@ class SequencerNode(Node):
 
 def _summary(status, prediction, object_time: float, bag: Path) -> str:
     """One line: the estimator's status and message, for a kinematic fit the COM sigma
-    the wrenches alone give on the same windows, the prediction, the pass, the bag."""
+    the wrenches alone give on the same windows and the verification, the prediction,
+    the pass, the bag."""
     if status is None:
         head = "[ERROR] the estimator did not answer"
     else:
@@ -582,6 +608,7 @@ def _summary(status, prediction, object_time: float, bag: Path) -> str:
         values = {kv.key: kv.value for kv in status.values}
         if alone := vector_value(values, "wrenches_sigma_com", 1e3):
             head += f" (wrenches alone: COM +- ({', '.join(f'{v:.2f}' for v in alone)}) mm)"
+        head += "".join(f"; {line}" for line in verification_lines(values))
     return f"{head}; predicted {prediction}; object pass {object_time:.1f} s (sim); bag {bag}"
 
 

@@ -34,6 +34,20 @@ Exactness
   coupled by a gear constraint (the URDF's mimic), and the static error is ~0.11 kg times the
   gravity component along the finger axis (1.05 N, 0.10 N m with gravity along it; <= 0.06 N,
   0.011 N m with gravity across it), measured by ``test/test_sim_physics.py``.
+
+Pushes
+------
+``apply_wrench`` pushes the held object: a force (N) at its COM and a pure couple (N m), given
+in ``world`` (a fixed direction) or in ``ft_sensor`` (turning with the hand), for a duration
+from a start time. Each step it is converted to the world frame and applied with pybullet's
+``applyExternalForce``/``applyExternalTorque`` in ``WORLD_FRAME`` (pybullet clears external
+forces after every step; its ``LINK_FRAME`` torque on a base has been swapped with the world
+frame in some versions, so it is not used). ``applied_wrench`` is the push as the sensor reads
+it, about the sensor origin in ``ft_sensor``: f = R^T F, tau = R^T (T + (c - o) x F) for a push
+(F, T) in the world, R = R_world_sensor, c the object's COM, o the sensor origin. The held arm
+gives way to a push and recovers within ~0.1 s (its joints are position controlled); from then
+on the reading changes by ``applied_wrench`` to 1e-5 N and 2e-6 N m in rigid mode (measured by
+``test/test_sim_physics.py``).
 """
 
 from __future__ import annotations
@@ -42,6 +56,7 @@ import functools
 import os
 import re
 import tempfile
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -61,8 +76,11 @@ __all__ = [
     "GRASP_MODES",
     "HOME_JOINTS",
     "PICK_JOINTS",
+    "PUSH_FRAMES",
+    "SENSOR_FRAME",
     "STEP_NS",
     "TIME_STEP",
+    "WORLD_FRAME",
     "PandaWorld",
     "SimConfig",
 ]
@@ -78,6 +96,10 @@ y (the finger axis) and joint 7 turns about hand z."""
 PICK_JOINTS = (0.0, 0.1591, 0.0, -2.3988, 0.0, 2.5578, 0.7854)
 """rad; hand at (0.5, 0, 0.25) m, pointing down: the object on the stand is between the
 fingers, its top 0.075 m below the flange; closing the fingers grasps it."""
+WORLD_FRAME = "world"
+SENSOR_FRAME = "ft_sensor"
+PUSH_FRAMES = (WORLD_FRAME, SENSOR_FRAME)
+"""The frames a push (``PandaWorld.apply_wrench``) may be given in."""
 
 _ARM = list(range(7))
 _HAND = 8  # joint panda_hand_joint and link panda_hand
@@ -98,6 +120,26 @@ _SETTLE_SPEED = 2e-3  # rad/s; arm at rest below this joint speed...
 _SETTLE_STEPS = 20  # ...for this many steps
 _NEW_TILT_ANGLE = 0.02  # rad; hand rotation since the last shift that makes a new tilt
 _WARM_UP_STEPS = 200
+
+
+@dataclass
+class _Push:
+    """A push on the held object: force (N) at its COM and couple (N m), in the world or in
+    ``ft_sensor``, acting on the physics steps ``start_step <= k < end_step`` (step k runs from
+    k to k + 1 ms)."""
+
+    force: NDArray[np.float64]
+    torque: NDArray[np.float64]
+    frame: str
+    start_step: int
+    end_step: int
+    started: bool = False
+
+    def describe(self) -> str:
+        """The push's force and couple with their frame, for the event log."""
+        force = ", ".join(f"{v:.3f}" for v in self.force)
+        torque = ", ".join(f"{v:.4f}" for v in self.torque)
+        return f"({force}) N at the object's COM, couple ({torque}) N m, {self.frame} frame"
 
 
 @dataclass(frozen=True)
@@ -254,6 +296,8 @@ class PandaWorld:
         self._finger_target = FINGER_OPEN
         self._finger_opening = FINGER_OPEN  # rigid mode: the virtual fingers
         self._held = False
+        self._pushes: list[_Push] = []
+        self._applied: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
         self._still_steps = 0
         self._R_at_shift: NDArray[np.float64] | None = None
         for joint, q in zip(_ARM, home, strict=True):
@@ -354,6 +398,8 @@ class PandaWorld:
             self._follow_trajectory()
         if self._finger_opening != self._finger_target and self._rigid:
             self._move_virtual_fingers()
+        if self._pushes:
+            self._apply_pushes()
         self._physics_step()
         self._steps += 1
         if self._steps % _BOOKKEEPING_STEPS == 0:
@@ -560,6 +606,124 @@ class PandaWorld:
     def object_held(self) -> bool:
         """The object is in the hand (rigid: attached; friction: touched by both fingers)."""
         return self._held
+
+    # ----------------------------------------------------------------- pushes
+    def apply_wrench(
+        self,
+        force: Sequence[float],
+        torque: Sequence[float],
+        frame: str = WORLD_FRAME,
+        start_time: float = 0.0,
+        duration: float = 1.0,
+    ) -> tuple[float, float]:
+        """Push the held object from ``start_time`` for ``duration`` s of simulated time.
+
+        Pushes add up: one given while another acts or waits acts on top of it.
+
+        Parameters
+        ----------
+        force : N, shape (3,); applied at the object's COM.
+        torque : N m, shape (3,); a pure couple on the object.
+        frame : 'world' (the push keeps its direction in the world) or 'ft_sensor' (the push
+            turns with the hand; the URDF's sensor frame ``panda_hand``).
+        start_time : s, simulated; now if earlier than now (0 = now), else the first 1 ms step
+            starting at or after it.
+        duration : s, > 0; rounded to whole 1 ms steps (at least one).
+
+        Returns
+        -------
+        (start, end) in s, simulated: the push acts on the steps between them, so the readings
+        stamped in (start, end] carry it. A push whose start comes after the object was
+        released is dropped, and one acting when the object is released ends then (both
+        recorded in ``events``).
+
+        Raises
+        ------
+        ValueError if the frame is neither, a value is not finite, ``duration`` is not > 0, or
+        no object is held.
+        """
+        if frame not in PUSH_FRAMES:
+            raise ValueError(f"frame must be one of {list(PUSH_FRAMES)}, got {frame!r}")
+        force_array = np.array(force, dtype=np.float64).reshape(3)
+        torque_array = np.array(torque, dtype=np.float64).reshape(3)
+        if not (np.all(np.isfinite(force_array)) and np.all(np.isfinite(torque_array))):
+            raise ValueError("force and torque must be finite")
+        if not math.isfinite(start_time):
+            raise ValueError(f"start_time must be finite, got {start_time}")
+        if not (math.isfinite(duration) and duration > 0.0):
+            raise ValueError(f"duration must be > 0 s, got {duration}")
+        if not self._held:
+            raise ValueError("no object is held")
+        start_step = max(self._steps, math.ceil(start_time / TIME_STEP - 1e-6))
+        end_step = start_step + max(1, round(duration / TIME_STEP))
+        self._pushes.append(
+            _Push(force_array, torque_array, frame, start_step, end_step)
+        )
+        return start_step * TIME_STEP, end_step * TIME_STEP
+
+    @property
+    def push_active(self) -> bool:
+        """A push acted on the object during the last step."""
+        return self._applied is not None
+
+    @property
+    def push_scheduled(self) -> bool:
+        """A push is acting or waiting for its start time."""
+        return bool(self._pushes)
+
+    def applied_wrench(self) -> NDArray[np.float64]:
+        """The pushes of the last step as the sensor reads them (6,); N, N m; ``ft_sensor``.
+
+        For a world push (F, T): f = R^T F, tau = R^T (T + (c - o) x F), R = R_world_sensor,
+        c the object's COM and o the sensor origin (world, m): the wrench the push adds to the
+        load on the sensor once the arm holds still. Zero when no push acted.
+        """
+        if self._applied is None:
+            return np.zeros(6)
+        force, torque = self._applied
+        origin, R = self.sensor_pose()
+        com = np.array(self._client.getBasePositionAndOrientation(self.object_body)[0])
+        return np.concatenate([R.T @ force, R.T @ (torque + np.cross(com - origin, force))])
+
+    def _apply_pushes(self) -> None:
+        """Apply the sum of the pushes acting on the coming step, converted to the world."""
+        step = self._steps
+        force, torque = np.zeros(3), np.zeros(3)
+        active = False
+        R: NDArray[np.float64] | None = None
+        for push in list(self._pushes):
+            if step < push.start_step:
+                continue
+            if step >= push.end_step or not self._held:
+                self._pushes.remove(push)
+                if not push.started:
+                    self._event(f"push dropped, no object held at its start: {push.describe()}")
+                elif self._held:
+                    self._event(f"push ended: {push.describe()}")
+                else:
+                    self._event(f"push ended early, the object was released: {push.describe()}")
+                continue
+            if not push.started:
+                push.started = True
+                end = push.end_step * TIME_STEP
+                self._event(f"push started until t = {end:.3f} s: {push.describe()}")
+            if push.frame == SENSOR_FRAME:
+                if R is None:
+                    R = self.sensor_pose()[1]
+                force += R @ push.force
+                torque += R @ push.torque
+            else:
+                force += push.force
+                torque += push.torque
+            active = True
+        if not active:
+            self._applied = None
+            return
+        c = self._client
+        com = c.getBasePositionAndOrientation(self.object_body)[0]
+        c.applyExternalForce(self.object_body, -1, force.tolist(), com, pybullet.WORLD_FRAME)
+        c.applyExternalTorque(self.object_body, -1, torque.tolist(), pybullet.WORLD_FRAME)
+        self._applied = (force, torque)
 
     # ----------------------------------------------------------------- bookkeeping
     def _bookkeeping(self) -> None:

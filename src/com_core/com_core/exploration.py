@@ -77,6 +77,7 @@ __all__ = [
     "format_solution",
     "shorten",
     "vector_value",
+    "verification_lines",
 ]
 
 _NO_STAMP = -(2**62)
@@ -802,6 +803,32 @@ def vector_value(values: Mapping[str, str], key: str, scale: float = 1.0) -> lis
     times ``scale``; None when ``values`` has no ``key``."""
     text = values.get(key)
     return [float(v) * scale for v in text.split(",")] if text else None
+
+
+def verification_lines(values: Mapping[str, str]) -> list[str]:
+    """One line per verification pose of ``Solution.diagnostic_values`` read back: the
+    mean compensated force (N) and torque (mN m) with their sigmas, and their distances
+    from zero against what the noise allows."""
+    lines = []
+    for key in values:
+        if not key.startswith("verify_wrench "):
+            continue
+        pose = key.split(" ", 1)[1]
+        w = vector_value(values, key) or []
+        s = vector_value(values, f"verify_sigma {pose}") or []
+        d = vector_value(values, f"verify_distance {pose}") or [math.nan] * 3
+        if len(w) != 6 or len(s) != 6 or len(d) != 3:
+            continue
+
+        def vec(v: Sequence[float], scale: float = 1.0, digits: int = 3) -> str:
+            return "(" + ", ".join(f"{x * scale:.{digits}f}" for x in v) + ")"
+
+        lines.append(
+            f"verification {pose!r}: f {vec(w[:3])} +- {vec(s[:3])} N, tau "
+            f"{vec(w[3:], 1e3, 2)} +- {vec(s[3:], 1e3, 2)} mN m; {d[0]:.2f} and {d[1]:.2f} "
+            f"sigma ({d[2]:.2f} allowed)"
+        )
+    return lines
 
 
 def done_stamp(labels: Sequence[tuple[int, str]]) -> int | None:
