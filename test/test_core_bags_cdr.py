@@ -12,9 +12,11 @@ from rosbags.typesys import Stores, get_typestore
 
 from com_core.bags.cdr import (
     decode_header,
+    decode_wrench,
     decode_wrench_batch,
     encode_header,
     encode_wrench_stamped,
+    with_wrench,
 )
 
 TS = get_typestore(Stores.ROS2_JAZZY)
@@ -60,6 +62,11 @@ def test_wrench_stamped_layout_padding_and_round_trip(frame_id):
         msg = TS.deserialize_cdr(raw, "geometry_msgs/msg/WrenchStamped")
         assert msg.header.frame_id == frame_id
         assert (msg.wrench.force.z, msg.wrench.torque.z) == (WRENCH[2], WRENCH[5])
+        # one message at a time, and its wrench replaced under the same header
+        one_stamp, one_frame, one = decode_wrench(raw)
+        assert (one_stamp, one_frame, one.tobytes()) == (stamp, frame_id, wrenches[0].tobytes())
+        other = np.arange(6.0) - 2.5
+        assert with_wrench(raw, other) == rosbags_wrench(stamp, frame_id, other)
 
 
 @pytest.mark.parametrize("frame_id", ["", "tare/home", "object/tilt_x-", "done", "x" * 128])

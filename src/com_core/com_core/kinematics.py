@@ -71,6 +71,11 @@ class RobotModel:
         self.joint_names = tuple(
             self.model.names[j] for j in range(1, self.model.njoints) if self.model.nqs[j] > 0
         )
+        # (index in q, 1 or 2 coordinates) per joint of joint_names
+        self._slots = [
+            (self.model.idx_qs[jid], self.model.nqs[jid])
+            for jid in map(self.model.getJointId, self.joint_names)
+        ]
 
     def missing_joints(self, names: Iterable[str]) -> list[str]:
         """The model's joints that ``names`` (e.g. a JointState's) lacks, in model order."""
@@ -83,18 +88,25 @@ class RobotModel:
         missing = self.missing_joints(joints)
         if missing:
             raise KinematicsError(f"no position for joint(s) {', '.join(missing)}")
+        return self._configuration([joints[name] for name in self.joint_names])
+
+    def _configuration(self, positions: Sequence[float]) -> NDArray[np.float64]:
         q = self._pin.neutral(self.model)
-        for name in self.joint_names:
-            jid = self.model.getJointId(name)
-            at, nq = self.model.idx_qs[jid], self.model.nqs[jid]
-            value = float(joints[name])
+        for (at, nq), value in zip(self._slots, positions, strict=True):
             q[at : at + nq] = [np.cos(value), np.sin(value)] if nq == 2 else [value]
         return q
 
     def sensor_rotation(self, joints: Mapping[str, float]) -> NDArray[np.float64]:
         """R_base_sensor (3, 3): the sensor frame's axes in the base frame."""
+        return self._rotation_at(self.configuration(joints))
+
+    def sensor_rotation_of(self, positions: Sequence[float]) -> NDArray[np.float64]:
+        """R_base_sensor (3, 3) at joint ``positions`` in ``joint_names`` order."""
+        return self._rotation_at(self._configuration(positions))
+
+    def _rotation_at(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
         pin, model, data = self._pin, self.model, self.data
-        pin.framesForwardKinematics(model, data, self.configuration(joints))
+        pin.framesForwardKinematics(model, data, q)
         return data.oMf[self._base_id].rotation.T @ data.oMf[self._sensor_id].rotation
 
     def gravity_in_sensor(self, joints: Mapping[str, float]) -> NDArray[np.float64]:

@@ -21,10 +21,12 @@ from numpy.typing import NDArray
 
 __all__ = [
     "decode_header",
+    "decode_wrench",
     "decode_wrench_batch",
     "decode_wrenches",
     "encode_header",
     "encode_wrench_stamped",
+    "with_wrench",
 ]
 
 _ENCAPSULATION = b"\x00\x01\x00\x00"  # CDR little endian
@@ -106,6 +108,31 @@ def decode_wrenches(
             except ValueError:
                 continue
         return (*decode_wrench_batch(good), len(raws) - len(good))
+
+
+def _wrench_offset(raw: bytes) -> tuple[int, str]:
+    """(offset of the 6 float64 of a serialized WrenchStamped, its frame_id)."""
+    end, frame_id = _frame_end(raw)
+    offset = 4 + ((end - 4 + 7) & ~7)
+    if offset + 48 > len(raw):
+        raise ValueError(f"not a WrenchStamped: {len(raw)} bytes")
+    return offset, frame_id
+
+
+def decode_wrench(raw: bytes) -> tuple[int, str, NDArray[np.float64]]:
+    """(stamp ns, frame_id, wrench (6,)) of one serialized WrenchStamped; ValueError if
+    malformed. The one-message path of a node that answers each sample as it comes."""
+    offset, frame_id = _wrench_offset(raw)
+    sec, nanosec = struct.unpack_from("<iI", raw, 4)
+    wrench = np.frombuffer(raw, dtype="<f8", count=6, offset=offset).astype(np.float64)
+    return sec * 1_000_000_000 + nanosec, frame_id, wrench
+
+
+def with_wrench(raw: bytes, wrench: NDArray[np.float64]) -> bytes:
+    """The serialized WrenchStamped ``raw`` with its wrench replaced by ``wrench`` (6,):
+    the same header (stamp, frame_id), to the byte."""
+    offset, _ = _wrench_offset(raw)
+    return raw[:offset] + np.asarray(wrench, dtype="<f8").tobytes() + raw[offset + 48 :]
 
 
 def encode_header(stamp_ns: int, frame_id: str) -> bytes:
