@@ -12,10 +12,21 @@ Publishes
     status, reason, sigmas, chi-square of each solution; ``com_estimator: input`` at 1 Hz
     with the wrench rate and the stamps of the latest wrench and label, so a sequencer
     knows the estimator hears the sensor and its labels).
+    /ft_sensor/wrench_compensated (geometry_msgs/WrenchStamped; best effort): each wrench
+    less the bias, the hand and the payload at its orientation (``com_core.compensation``),
+    same stamp and frame, once there is a payload: the latest usable estimate with a
+    kinematic fit, or the ``payload_file`` loaded at start; ``com_estimator:
+    compensation`` on /diagnostics at 1 Hz says from what, how many samples, how many
+    left out (joint states older than ``max_joint_state_age``), or why nothing is
+    published.
 Services
     ~/solve (std_srvs/Trigger): estimate now from what has arrived; success only on OK.
     ~/reset (std_srvs/Trigger): forget the current exploration.
+    ~/save_payload (std_srvs/Trigger): write the payload files (``com_core.payload``) to
+    the directory ``payload_save_dir`` (set it first); the answer names them, or why not.
 The estimation is ``com_core.exploration``; this node only moves messages in and out.
+The compensation runs here, not in a node of its own: this node holds the fit (bias,
+hand, payload) the moment it is made, and already decodes every wrench.
 """
 
 from __future__ import annotations
@@ -39,13 +50,17 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Header, String
 from std_srvs.srv import Trigger
 
-from com_core.bags.cdr import decode_header, decode_wrenches
+from com_core.bags.cdr import decode_header, decode_wrench, decode_wrenches, with_wrench
+from com_core.compensation import MAX_JOINT_STATE_AGE, Compensator
 from com_core.contract import (
+    COMPENSATED_TOPIC,
+    COMPENSATION_STATUS_NAME,
     DIAGNOSTIC_NAME,
     DIAGNOSTICS_TOPIC,
     DONE,
     ESTIMATE_TOPIC,
     ESTIMATOR_RESET_SERVICE,
+    ESTIMATOR_SAVE_PAYLOAD_SERVICE,
     ESTIMATOR_SOLVE_SERVICE,
     INPUT_STATUS_NAME,
     JOINT_STATES_TOPIC,
@@ -73,13 +88,32 @@ from com_core.exploration import (
     format_solution,
     shorten,
 )
+from com_core.kinematics import RobotModel
+from com_core.payload import (
+    Payload,
+    PayloadError,
+    payload_from_solution,
+    read_payload,
+    write_payload_files,
+)
 from com_core.rosenv import keep_dds_local, stop_on_signals
 
 MAX_MESSAGE_LENGTH = 1000  # characters of a diagnostic message
 
 PARAMETERS = SETTINGS | {
     "solve_timeout": (1.0, "s (wall) to wait after 'done' for samples up to its stamp"),
+    "payload_file": (
+        "",
+        "payload.yaml to compensate with from the start ('': none); read at start",
+    ),
+    "payload_save_dir": ("", "directory ~/save_payload writes the payload files to"),
+    "hand_id": ("panda_hand", "names the hand; a payload file of another hand is refused"),
+    "max_joint_state_age": (
+        MAX_JOINT_STATE_AGE,
+        "s; a wrench this much past the latest joint state is not compensated",
+    ),
 }
+_READ_AT_START = ("payload_file",)
 
 
 class EstimatorNode(Node):
@@ -92,6 +126,11 @@ class EstimatorNode(Node):
         self.add_on_set_parameters_callback(self.validate_parameters)
         self._raw: list[bytes] = []
         self._urdf = ""  # the latest /robot_description
+        self._robot: RobotModel | None = None  # its model, for the compensation
+        self._payload: Payload | None = None
+        self._payload_source = ""  # what the payload is: an estimate, a file
+        self._compensator: Compensator | None = None
+        self._compensation_problem = ""  # why a payload file was refused
         self._exploration = self._new_exploration()
         self._done_stamp: int | None = None
         self._done_wall = 0.0
@@ -99,6 +138,11 @@ class EstimatorNode(Node):
         self._estimate_pub = self.create_publisher(InertiaStamped, ESTIMATE_TOPIC, latched)
         self._diag_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10)
         wrench_qos = QoSProfile(depth=5000, reliability=ReliabilityPolicy.BEST_EFFORT)
+        self._compensated_pub = self.create_publisher(
+            WrenchStamped,
+            COMPENSATED_TOPIC,
+            QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT),
+        )
         self.create_subscription(
             WrenchStamped, WRENCH_TOPIC, self.wrench_callback, wrench_qos, raw=True
         )
@@ -111,6 +155,7 @@ class EstimatorNode(Node):
         )
         self.create_service(Trigger, ESTIMATOR_SOLVE_SERVICE, self.solve_callback)
         self.create_service(Trigger, ESTIMATOR_RESET_SERVICE, self.reset_callback)
+        self.create_service(Trigger, ESTIMATOR_SAVE_PAYLOAD_SERVICE, self.save_payload_callback)
         steady = Clock(clock_type=ClockType.STEADY_TIME)  # keeps running if /clock stops
         self.create_timer(0.02, self.drain_callback, clock=steady)
         self._received = 0  # wrench messages since the last input status
@@ -120,6 +165,7 @@ class EstimatorNode(Node):
         self.get_logger().info(
             f"estimating with method={self._param('method')}; waiting for {POSE_TOPIC} labels"
         )
+        self._load_payload_file()
 
     # --- parameters -----------------------------------------------------------------
 
@@ -129,8 +175,10 @@ class EstimatorNode(Node):
     def validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
         """Refuse a value ``setting_problem`` refuses (they apply from the next exploration)."""
         for p in params:
-            if p.name == "solve_timeout":
-                problem = None if p.value > 0.0 else f"solve_timeout={p.value!r} refused: > 0 s"
+            if p.name in ("solve_timeout", "max_joint_state_age"):
+                problem = None if p.value > 0.0 else f"{p.name}={p.value!r} refused: > 0 s"
+            elif p.name in _READ_AT_START:
+                problem = f"{p.name} is read at start; set it when starting the node"
             elif p.name in SETTINGS:
                 problem = setting_problem(p.name, p.value)
             else:  # rclpy's own (use_sim_time, ...)
@@ -159,29 +207,138 @@ class EstimatorNode(Node):
             self.get_logger().error(f"solve failed: {traceback.format_exc()}")
             solution = Solution(ERROR, f"internal error: {exc!r}", self._param("method"))
         self._publish(solution, until_ns)
+        if solution.usable and solution.fit is not None and self._exploration.robot is not None:
+            try:
+                payload = payload_from_solution(
+                    solution,
+                    self._exploration.robot,
+                    frame=self._param("expected_frame"),
+                    hand_id=self._param("hand_id"),
+                )
+            except PayloadError as exc:  # a fit without the hand's windows: no payload
+                self.get_logger().warning(f"no payload to compensate with: {exc}")
+            else:
+                self._payload, self._payload_source = payload, f"estimate of {payload.time}"
+                self._start_compensating()
         return solution
+
+    # --- compensation -----------------------------------------------------------------
+
+    def _load_payload_file(self) -> None:
+        """Read ``payload_file`` (at start): a payload of another frame or hand, or a file
+        that does not parse, is an ERROR that names the field; the node runs on."""
+        path = self._param("payload_file")
+        if not path:
+            return
+        try:
+            payload = read_payload(
+                path, frame=self._param("expected_frame"), hand_id=self._param("hand_id")
+            )
+            if payload.sensor_frame != self._param("sensor_frame"):
+                raise PayloadError(
+                    f"field 'sensor_frame' is {payload.sensor_frame!r}, this estimator's "
+                    f"sensor_frame {self._param('sensor_frame')!r}"
+                )
+        except (PayloadError, OSError) as exc:
+            self._compensation_problem = f"payload_file {path} refused: {exc}"
+            self.get_logger().error(self._compensation_problem)
+            return
+        self._payload, self._payload_source = payload, f"payload file {path}"
+        self.get_logger().info(f"payload file {path}: {payload.mass * 1e3:.2f} g")
+        self._start_compensating()
+
+    def _start_compensating(self) -> None:
+        """Compensate from now on with the current payload and robot model (both needed)."""
+        if self._payload is None or self._robot is None:
+            return
+        self._compensator = Compensator.of(
+            self._payload, self._robot, self._payload_source, self._param("max_joint_state_age")
+        )
+        self._compensation_problem = ""
+        self.get_logger().info(
+            f"publishing {COMPENSATED_TOPIC}: {WRENCH_TOPIC} less the {self._payload_source}"
+        )
+
+    def _publish_compensated(self, raw: bytes, compensator: Compensator) -> None:
+        """The compensated wrench of one message (its stamp and frame), if its frame is the
+        payload's and its joints are known; else nothing (a bad message is counted where it
+        is drained, a stale one by the compensator)."""
+        try:
+            stamp, frame, wrench = decode_wrench(raw)
+        except ValueError:
+            return
+        if frame != compensator.payload.frame:
+            return
+        contact = compensator.compensate(stamp, wrench)
+        if contact is not None:
+            self._compensated_pub.publish(with_wrench(raw, contact))
+
+    def _compensation_status(self) -> DiagnosticStatus:
+        """``com_estimator: compensation``: OK while every sample since the last status
+        was compensated; WARN with the reason when samples were left out (stale joint
+        states) or nothing is published (no payload, no robot model, a refused file)."""
+        c = self._compensator
+        values = []
+        if c is None:
+            level = DiagnosticStatus.WARN
+            why = self._compensation_problem or (
+                "no payload: no usable estimate with a kinematic fit yet and no payload_file"
+                if self._payload is None
+                else "no robot model (waiting for /robot_description)"
+            )
+            text = f"{COMPENSATED_TOPIC} not published: {why}"
+        else:
+            done, stale = c.compensated, c.stale
+            c.compensated = c.stale = 0
+            level = DiagnosticStatus.WARN if stale else DiagnosticStatus.OK
+            text = f"{done} samples compensated with the {c.source}"
+            if stale:
+                text += (
+                    f"; {stale} left out: joint states older than "
+                    f"{c.track.max_age:g} s at their stamps"
+                )
+            values = [
+                KeyValue(key="compensated", value=str(done)),
+                KeyValue(key="stale", value=str(stale)),
+                KeyValue(key="payload_mass", value=repr(c.payload.mass)),
+            ]
+        return DiagnosticStatus(
+            level=level,
+            name=COMPENSATION_STATUS_NAME,
+            message=text,
+            hardware_id=self._param("expected_frame"),
+            values=values,
+        )
 
     # --- input --------------------------------------------------------------------
 
     def wrench_callback(self, raw: bytes) -> None:
         self._raw.append(raw)
+        if self._compensator is not None:
+            self._publish_compensated(raw, self._compensator)
 
     def joint_state_callback(self, msg: JointState) -> None:
-        """Joint positions for the gravity of each window (information 'kinematics')."""
+        """Joint positions for the gravity of each window (information 'kinematics') and
+        for the orientation of each sample to compensate."""
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        if self._compensator is not None:
+            self._compensator.track.add(stamp, msg.name, msg.position, msg.velocity)
         if self._exploration.information != WRENCHES:
-            stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
             self._exploration.add_joint_state(stamp, msg.name, msg.position)
 
     def robot_description_callback(self, msg: String) -> None:
-        """The URDF (latched): the robot model of this and the next explorations."""
+        """The URDF (latched): the robot model of this and the next explorations, and of
+        the compensation."""
         self._urdf = msg.data
+        robot, problem = robot_from(self._settings(), self._urdf)
+        if problem:
+            self.get_logger().error(f"robot model: {problem}")
+        else:
+            self.get_logger().info(f"robot model {robot.model.name!r}: {robot.sensor_frame}")
         if self._exploration.information != WRENCHES:
-            robot, problem = robot_from(self._settings(), self._urdf)
             self._exploration.robot, self._exploration.robot_problem = robot, problem
-            if problem:
-                self.get_logger().error(f"robot model: {problem}")
-            else:
-                self.get_logger().info(f"robot model {robot.model.name!r}: {robot.sensor_frame}")
+        self._robot = robot
+        self._start_compensating()
 
     def pose_callback(self, raw: bytes) -> None:
         self._drain()
@@ -246,7 +403,7 @@ class EstimatorNode(Node):
             hardware_id=self._param("expected_frame"),
             values=values,
         )
-        msg = DiagnosticArray(status=[status])
+        msg = DiagnosticArray(status=[status, self._compensation_status()])
         msg.header.stamp = self.get_clock().now().to_msg()
         self._diag_pub.publish(msg)
 
@@ -281,6 +438,29 @@ class EstimatorNode(Node):
         self._exploration, self._done_stamp = self._new_exploration(), None
         response.success, response.message = True, f"cleared {n} samples"
         self.get_logger().info(response.message)
+        return response
+
+    def save_payload_callback(self, request: Trigger.Request, response: Trigger.Response):
+        """Write the payload files to ``payload_save_dir``; failure with the reason."""
+        directory = self._param("payload_save_dir")
+        if self._payload is None:
+            response.success = False
+            response.message = "no payload: no usable estimate with a kinematic fit yet"
+        elif not directory:
+            response.success = False
+            response.message = "payload_save_dir is not set"
+        else:
+            try:
+                paths = write_payload_files(directory, self._payload)
+            except OSError as exc:
+                response.success, response.message = False, f"not written: {exc}"
+            else:
+                response.success = True
+                response.message = ", ".join(str(p) for p in paths)
+        if response.success:  # one call site per severity (rclpy requires it)
+            self.get_logger().info(f"save_payload: {response.message}")
+        else:
+            self.get_logger().error(f"save_payload: {response.message}")
         return response
 
     # --- output -------------------------------------------------------------------
