@@ -1,9 +1,11 @@
-"""The sim node as a process: topics, a commanded tilt, and bad commands that change nothing.
+"""The sim node as a process: topics, a commanded tilt, pushes, and bad commands that change
+nothing.
 
 Starts install/wrench_sim/lib/wrench_sim/sim_node (no launch file), subscribes to its topics,
 grasps the object and tilts the wrist through the ros2_control-style command topics, and
 compares the mean static wrench with the analytic gravity wrench of hand + object from the
-ground-truth topics and the orientation from the published joint states.
+ground-truth topics and the orientation from the published joint states; pushes the held
+object and compares the wrench's change with what the sim says it applied.
 """
 
 from __future__ import annotations
@@ -17,8 +19,11 @@ import pybullet
 import pybullet_data
 import pytest
 from conftest import log_tail, spin_until
+from numpy.testing import assert_allclose
 
 from com_core.contract import (
+    APPLIED_WRENCH_TOPIC,
+    APPLY_WRENCH_TOPIC,
     ARM_COMMAND_TOPIC,
     ARM_JOINTS,
     CLOCK_TOPIC,
@@ -103,6 +108,7 @@ class Client:
         node.create_subscription(WrenchStamped, WRENCH_TOPIC, self._wrench_callback, SENSOR_QOS)
         self.arm = node.create_publisher(JointTrajectory, ARM_COMMAND_TOPIC, 10)
         self.gripper = node.create_publisher(Float64MultiArray, HAND_COMMAND_TOPIC, 10)
+        self.push = node.create_publisher(WrenchStamped, APPLY_WRENCH_TOPIC, 10)
 
     def _joint_state_callback(self, msg: JointState) -> None:
         self.joint_state = msg
@@ -150,6 +156,23 @@ class Client:
     def wait_sim(self, seconds: float, timeout: float = 20.0) -> None:
         end = self.sim_time + seconds
         assert self.spin_until(lambda: self.sim_time >= end, timeout)
+
+    def grasp(self) -> None:
+        """Pick the object from its stand and lift it to the home pose."""
+        self.move(list(PICK_JOINTS), 3.0)
+        self.gripper.publish(Float64MultiArray(data=[0.0]))
+        assert self.spin_until(lambda: "state=held" in self.objects[-1], 20.0), self.objects
+        self.move(list(HOME_JOINTS), 3.0)
+
+    def send_push(self, frame: str, force, torque, start_ns: int = 0) -> None:
+        """Publish a push (N, N m) in ``frame`` from ``start_ns`` (sim time; 0 = now)."""
+        assert self.spin_until(lambda: self.push.get_subscription_count() > 0, 10.0)
+        msg = WrenchStamped()
+        msg.header.frame_id = frame
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(start_ns, 1_000_000_000)
+        msg.wrench.force.x, msg.wrench.force.y, msg.wrench.force.z = (float(v) for v in force)
+        msg.wrench.torque.x, msg.wrench.torque.y, msg.wrench.torque.z = (float(v) for v in torque)
+        self.push.publish(msg)
 
 
 @pytest.fixture
@@ -291,5 +314,106 @@ def test_saturation_clips_and_is_logged_once_per_episode(start_node, rclpy_conte
         assert np.all(np.abs(forces) <= 5.0)
         assert np.any(np.abs(forces) == 5.0)
         assert process.log_path.read_text().count("F/T sensor saturated") == 1
+    finally:
+        client.node.destroy_node()
+
+
+PUSH_DURATION = 0.6  # s
+PUSH_PARAMS = {
+    "object": "box",
+    "object_mass": 0.1,
+    "object_com_offset": [0.01, -0.005, 0.02],
+    "rate": RATE,
+    "real_time_factor": 4.0,
+    "sensor_mount_rpy": [0.3, -0.2, 0.5],
+    "push_duration": PUSH_DURATION,
+}
+WORLD_PUSH = ((1.2, -1.0, 1.3), (0.03, 0.02, -0.035))  # N, N m
+SENSOR_PUSH = ((0.5, 1.0, -1.5), (-0.02, 0.04, 0.01))
+PUSH_SETTLE = 0.1  # s; the held arm gives way at a push's start and recovers within it
+# Zero noise, rigid grasp: the wrench's change minus the applied wrench from PUSH_SETTLE on,
+# measured <= 1.2e-5 N, 1.8e-6 N m by test_sim_physics; the same bound here.
+PUSH_FORCE_TOL = 5e-5  # N
+PUSH_TORQUE_TOL = 5e-6  # N m
+
+
+def test_a_push_changes_the_wrench_by_what_the_sim_reports_it_applied(start_node, rclpy_context):
+    """A push in world and one in ft_sensor (here a sensor mounted off its URDF frame): from
+    0.1 s after its start the wrench minus the one before equals the applied wrench, which
+    comes with the wrench samples' stamps while the push lasts and ends with a zero. Pushes
+    in another frame, with NaN, or with nothing held are refused with an ERROR."""
+    process = start_node("sim_node", "wrench_sim", PUSH_PARAMS)
+    client = Client(rclpy_context)
+    applied: list[tuple[int, np.ndarray]] = []
+
+    def on_applied(msg: WrenchStamped) -> None:
+        assert msg.header.frame_id == "ft_sensor"
+        f, t = msg.wrench.force, msg.wrench.torque
+        applied.append((stamp_ns(msg.header.stamp), np.array([f.x, f.y, f.z, t.x, t.y, t.z])))
+
+    client.node.create_subscription(WrenchStamped, APPLIED_WRENCH_TOPIC, on_applied, 1000)
+    try:
+        ready = client.spin_until(lambda: client.truth and client.joint_state, timeout=40.0)
+        assert ready, f"sim did not come up:\n{log_tail(process.log_path)}"
+        client.send_push("ft_sensor", *SENSOR_PUSH)  # nothing held yet
+        client.grasp()
+        client.send_push("tool0", *WORLD_PUSH)
+        client.send_push("world", (float("nan"), 0.0, 0.0), (0.0, 0.0, 0.0))
+        client.wait_sim(0.3)
+        assert not applied
+
+        def zeros() -> int:
+            return sum(not w.any() for _, w in applied)
+
+        client.send_push("world", *WORLD_PUSH)  # stamp 0: now
+        assert client.spin_until(lambda: zeros() == 1, 20.0), log_tail(process.log_path)
+        start_ns = round((client.sim_time + 0.3) * 1e9)
+        client.send_push("ft_sensor", *SENSOR_PUSH, start_ns=start_ns)
+        assert client.spin_until(lambda: zeros() == 2, 20.0), log_tail(process.log_path)
+        client.wait_sim(0.3)
+
+        wrenches = dict(client.wrenches)
+        period = round(1e9 / RATE)
+        ends = [k for k, (_, w) in enumerate(applied) if not w.any()]
+        pushes = [applied[: ends[0] + 1], applied[ends[0] + 1 : ends[1] + 1]]
+        assert len(applied) == ends[1] + 1
+        for push in pushes:
+            stamps = [s for s, _ in push]
+            # one per wrench sample, with its stamp, for the whole duration, then one zero
+            assert set(stamps) <= set(wrenches)
+            assert np.all(np.diff(stamps) == period), stamps
+            assert len(push) == round(PUSH_DURATION * RATE) + 1
+            first = stamps[0]
+            before = np.mean([w for s, w in wrenches.items() if first - 0.2e9 < s < first], axis=0)
+            settled = [(s, w) for s, w in push[:-1] if s > first + PUSH_SETTLE * 1e9]
+            error = np.array([wrenches[s] - before - w for s, w in settled])
+            assert np.abs(error[:, :3]).max() < PUSH_FORCE_TOL, error
+            assert np.abs(error[:, 3:]).max() < PUSH_TORQUE_TOL, error
+            # once the arm has recovered from the push's end, the wrench is back where it was
+            after = [
+                w for s, w in wrenches.items() if stamps[-1] + 0.1e9 < s <= stamps[-1] + 0.25e9
+            ]
+            assert len(after) > 0.1 * RATE
+            back = np.array(after) - before
+            assert np.abs(back[:, :3]).max() < PUSH_FORCE_TOL, back
+            assert np.abs(back[:, 3:]).max() < PUSH_TORQUE_TOL, back
+        # the later push starts at its stamp; in ft_sensor (the mounted frame) its force reads
+        # as given, its torque about the sensor origin adds p x F (p: the object's COM)
+        assert pushes[1][0][0] == start_ns + period
+        force, torque = np.array(SENSOR_PUSH[0]), np.array(SENSOR_PUSH[1])
+        com = client.truth[-1].inertia.com
+        p = np.array([com.x, com.y, com.z])
+        for _, w in pushes[1][:-1]:
+            assert_allclose(w[:3], force, atol=1e-9)
+            # (the COM moves < 5 um in ft_sensor under the push: the grasp's compliance)
+            assert_allclose(w[3:], torque + np.cross(p, force), atol=1e-5)
+        log = process.log_path.read_text()
+        assert log.count("rejected push") == 3, log_tail(process.log_path)
+        assert "rejected push: no object is held" in log
+        assert "rejected push: frame must be one of ['world', 'ft_sensor'], got 'tool0'" in log
+        assert "rejected push: force and torque must be finite" in log
+        assert log.count("push accepted") == 2, log
+        assert log.count("push started") == 2 and log.count("ended") == 2, log
+        assert process.poll() is None
     finally:
         client.node.destroy_node()

@@ -8,6 +8,7 @@ from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
+from com_core.contract import APPLY_WRENCH_TOPIC
 from wrench_sim.objects import SHAPES, com_offset_problem
 from wrench_sim.physics import GRASP_MODES, HOME_JOINTS, PICK_JOINTS
 
@@ -47,6 +48,9 @@ PARAMETERS = [  # name, default, description, read-only, lower bound of a float
     ("clock_rate", 250.0, f"/clock publish rate, Hz (sim); must divide 1000; {_START}", True,
      1.0),
     ("real_time_factor", 0.0, "sim s per wall s; 0 = as fast as possible", False, 0.0),
+    ("push_duration", 1.0, f"how long each push on {APPLY_WRENCH_TOPIC} acts on the held "
+     "object, s of sim time, > 0 (whole 1 ms steps, at least one); for pushes received from "
+     "then on", False, 0.0),
 ]  # fmt: skip
 SENSOR_PARAMETERS = tuple(
     entry[0]
@@ -83,6 +87,8 @@ def check_parameter(parameter: Parameter, shape: str | None = None) -> str | Non
         0.0 < value <= 1000.0 and abs(1000.0 / value % 1) < 1e-9
     ):
         return f"{name} must divide the 1000 Hz physics rate (1000, 500, 250, 200, 100, ... Hz)"
+    if name == "push_duration" and not value > 0.0:
+        return "push_duration must be > 0 s"
     if isinstance(value, float) and not math.isfinite(value):
         return f"{name} must be finite"
     return None

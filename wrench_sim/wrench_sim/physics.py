@@ -46,17 +46,17 @@ frame in some versions, so it is not used). ``applied_wrench`` is the push as th
 it, about the sensor origin in ``ft_sensor``: f = R^T F, tau = R^T (T + (c - o) x F) for a push
 (F, T) in the world, R = R_world_sensor, c the object's COM, o the sensor origin. The held arm
 gives way to a push and recovers within ~0.1 s (its joints are position controlled); from then
-on the reading changes by ``applied_wrench`` to 1e-5 N and 2e-6 N m in rigid mode (measured by
-``test/test_sim_physics.py``).
+on the reading changes by ``applied_wrench`` to 1.2e-5 N and 1.8e-6 N m in rigid mode, and
+within 0.1 s of the push's end it is back to 4e-10 N (measured by ``test/test_sim_physics.py``).
 """
 
 from __future__ import annotations
 
 import functools
+import math
 import os
 import re
 import tempfile
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -134,12 +134,6 @@ class _Push:
     start_step: int
     end_step: int
     started: bool = False
-
-    def describe(self) -> str:
-        """The push's force and couple with their frame, for the event log."""
-        force = ", ".join(f"{v:.3f}" for v in self.force)
-        torque = ", ".join(f"{v:.4f}" for v in self.torque)
-        return f"({force}) N at the object's COM, couple ({torque}) N m, {self.frame} frame"
 
 
 @dataclass(frozen=True)
@@ -297,7 +291,8 @@ class PandaWorld:
         self._finger_opening = FINGER_OPEN  # rigid mode: the virtual fingers
         self._held = False
         self._pushes: list[_Push] = []
-        self._applied: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+        # the last step's pushes: world force and torque, then ft_sensor force and torque
+        self._applied: tuple[NDArray[np.float64], ...] | None = None
         self._still_steps = 0
         self._R_at_shift: NDArray[np.float64] | None = None
         for joint, q in zip(_ARM, home, strict=True):
@@ -633,9 +628,9 @@ class PandaWorld:
         Returns
         -------
         (start, end) in s, simulated: the push acts on the steps between them, so the readings
-        stamped in (start, end] carry it. A push whose start comes after the object was
-        released is dropped, and one acting when the object is released ends then (both
-        recorded in ``events``).
+        stamped in (start, end] carry it. Its start and end are recorded in ``events``; a push
+        acting when the object is released ends then, and one whose start comes after the
+        release is dropped.
 
         Raises
         ------
@@ -656,9 +651,7 @@ class PandaWorld:
             raise ValueError("no object is held")
         start_step = max(self._steps, math.ceil(start_time / TIME_STEP - 1e-6))
         end_step = start_step + max(1, round(duration / TIME_STEP))
-        self._pushes.append(
-            _Push(force_array, torque_array, frame, start_step, end_step)
-        )
+        self._pushes.append(_Push(force_array, torque_array, frame, start_step, end_step))
         return start_step * TIME_STEP, end_step * TIME_STEP
 
     @property
@@ -674,56 +667,60 @@ class PandaWorld:
     def applied_wrench(self) -> NDArray[np.float64]:
         """The pushes of the last step as the sensor reads them (6,); N, N m; ``ft_sensor``.
 
-        For a world push (F, T): f = R^T F, tau = R^T (T + (c - o) x F), R = R_world_sensor,
-        c the object's COM and o the sensor origin (world, m): the wrench the push adds to the
-        load on the sensor once the arm holds still. Zero when no push acted.
+        The wrench the pushes add to the load on the sensor once the arm holds still, about the
+        sensor origin: f = F_s, tau = T_s + p x F_s, with (F_s, T_s) the pushes in ``ft_sensor``
+        at the current pose (a world push (F, T): F_s = R^T F, T_s = R^T T, R = R_world_sensor)
+        and p the object's COM in ``ft_sensor``. Zero when no push acted.
         """
         if self._applied is None:
             return np.zeros(6)
-        force, torque = self._applied
+        force_world, torque_world, force, torque = self._applied
         origin, R = self.sensor_pose()
         com = np.array(self._client.getBasePositionAndOrientation(self.object_body)[0])
-        return np.concatenate([R.T @ force, R.T @ (torque + np.cross(com - origin, force))])
+        force = force + R.T @ force_world
+        torque = torque + R.T @ torque_world
+        return np.concatenate([force, torque + np.cross(R.T @ (com - origin), force)])
 
     def _apply_pushes(self) -> None:
         """Apply the sum of the pushes acting on the coming step, converted to the world."""
         step = self._steps
-        force, torque = np.zeros(3), np.zeros(3)
+        # world pushes, then sensor-frame pushes, summed per frame
+        sums = {WORLD_FRAME: (np.zeros(3), np.zeros(3)), SENSOR_FRAME: (np.zeros(3), np.zeros(3))}
         active = False
-        R: NDArray[np.float64] | None = None
         for push in list(self._pushes):
             if step < push.start_step:
                 continue
             if step >= push.end_step or not self._held:
                 self._pushes.remove(push)
+                name = f"push from t = {push.start_step * TIME_STEP:.3f} s"
                 if not push.started:
-                    self._event(f"push dropped, no object held at its start: {push.describe()}")
+                    self._event(f"{name} dropped: no object held at its start")
                 elif self._held:
-                    self._event(f"push ended: {push.describe()}")
+                    self._event(f"{name} ended")
                 else:
-                    self._event(f"push ended early, the object was released: {push.describe()}")
+                    self._event(f"{name} ended early: the object was released")
                 continue
             if not push.started:
                 push.started = True
-                end = push.end_step * TIME_STEP
-                self._event(f"push started until t = {end:.3f} s: {push.describe()}")
-            if push.frame == SENSOR_FRAME:
-                if R is None:
-                    R = self.sensor_pose()[1]
-                force += R @ push.force
-                torque += R @ push.torque
-            else:
-                force += push.force
-                torque += push.torque
+                self._event(f"push started, until t = {push.end_step * TIME_STEP:.3f} s")
+            force, torque = sums[push.frame]
+            force += push.force
+            torque += push.torque
             active = True
         if not active:
             self._applied = None
             return
+        force_world, torque_world = sums[WORLD_FRAME]
+        force_sensor, torque_sensor = sums[SENSOR_FRAME]
+        force, torque = force_world, torque_world
+        if force_sensor.any() or torque_sensor.any():
+            R = self.sensor_pose()[1]
+            force, torque = force + R @ force_sensor, torque + R @ torque_sensor
         c = self._client
         com = c.getBasePositionAndOrientation(self.object_body)[0]
         c.applyExternalForce(self.object_body, -1, force.tolist(), com, pybullet.WORLD_FRAME)
         c.applyExternalTorque(self.object_body, -1, torque.tolist(), pybullet.WORLD_FRAME)
-        self._applied = (force, torque)
+        self._applied = (force_world, torque_world, force_sensor, torque_sensor)
 
     # ----------------------------------------------------------------- bookkeeping
     def _bookkeeping(self) -> None:

@@ -5,6 +5,31 @@ The node does not spin on a timer: ``run`` steps the physics at 1 kHz as fast as
 fine enough to sequence, a quarter of the load of every step at 5x real time) and the wrench
 every ``1000 / rate`` steps, and services its subscriptions every 50 steps with
 ``spin_once(timeout_sec=0)``.
+
+Publishes (names in ``com_core.contract``; stamps in sim time):
+
+- CLOCK_TOPIC (rosgraph_msgs/Clock): sim time, ``clock_rate`` Hz.
+- WRENCH_TOPIC (geometry_msgs/WrenchStamped): the sensor reading, frame ``ft_sensor`` (the
+  mounted sensor's, ``sensor_mount_rpy``), ``rate`` Hz.
+- APPLIED_WRENCH_TOPIC (geometry_msgs/WrenchStamped): while a push acts, the push as the
+  sensor reads it (``PandaWorld.applied_wrench``, about the sensor origin, frame
+  ``ft_sensor`` as the readings), one per wrench sample with the same stamp; then one zero
+  wrench, at the first wrench sample after the last push ended.
+- JOINT_STATES_TOPIC (sensor_msgs/JointState): arm and finger joints, 100 Hz.
+- TRUTH_TOPIC, HAND_TRUTH_TOPIC (geometry_msgs/InertiaStamped, latched): the object's and the
+  hand's mass and COM in ``ft_sensor``, republished when they change.
+- OBJECT_TOPIC (std_msgs/String, latched): shape, mass, grasp mode and held state.
+- ROBOT_DESCRIPTION_TOPIC (std_msgs/String, latched): the URDF the sim loaded.
+
+Subscribes:
+
+- ARM_COMMAND_TOPIC (trajectory_msgs/JointTrajectory): a move from ``header.stamp``.
+- HAND_COMMAND_TOPIC (std_msgs/Float64MultiArray): the opening per finger, m.
+- APPLY_WRENCH_TOPIC (geometry_msgs/WrenchStamped): a push on the held object, force (N) at
+  its COM and a pure couple (N m), ``header.frame_id`` ``world`` or ``ft_sensor`` (the
+  mounted sensor's axes; the push then turns with the hand), from ``header.stamp`` (sim
+  time; zero or past: now) for ``push_duration`` s. Pushes add up. Refused with an ERROR log
+  for another frame, a non-finite value or no object held; the start and end are logged.
 """
 
 from __future__ import annotations
@@ -28,6 +53,8 @@ from std_msgs.msg import Float64MultiArray, String
 from trajectory_msgs.msg import JointTrajectory
 
 from com_core.contract import (
+    APPLIED_WRENCH_TOPIC,
+    APPLY_WRENCH_TOPIC,
     ARM_COMMAND_TOPIC,
     CLOCK_TOPIC,
     HAND_COMMAND_TOPIC,
@@ -42,10 +69,9 @@ from com_core.contract import (
 from com_core.rosenv import keep_dds_local
 from com_core.wrench_model import SensorModel, rotation_about
 from wrench_sim.parameters import SENSOR_PARAMETERS, check_parameter, declare_parameters
-from wrench_sim.physics import TIME_STEP, PandaWorld, SimConfig
+from wrench_sim.physics import SENSOR_FRAME, TIME_STEP, PandaWorld, SimConfig
 from wrench_sim.sensor import WrenchSensor, random_streams
 
-SENSOR_FRAME = "ft_sensor"
 _SPIN_EVERY = 50  # steps between spin_once calls (50 ms of sim time; one costs ~0.2 ms)
 _JOINT_STATE_EVERY = 10  # steps: 100 Hz
 _REPORT_EVERY = 50  # steps between checks of events, saturation and ground truth
@@ -94,6 +120,7 @@ class SimNode(Node):
 
         self.clock_publisher = self.create_publisher(Clock, CLOCK_TOPIC, 10)
         self.wrench_publisher = self.create_publisher(WrenchStamped, WRENCH_TOPIC, 1000)
+        self.applied_publisher = self.create_publisher(WrenchStamped, APPLIED_WRENCH_TOPIC, 1000)
         self.joint_state_publisher = self.create_publisher(JointState, JOINT_STATES_TOPIC, 100)
         self.truth_publisher = self.create_publisher(InertiaStamped, TRUTH_TOPIC, _LATCHED)
         self.hand_truth_publisher = self.create_publisher(
@@ -104,11 +131,16 @@ class SimNode(Node):
         description.publish(String(data=self.world.urdf_text))  # the URDF loaded, as is
         self.create_subscription(JointTrajectory, ARM_COMMAND_TOPIC, self.trajectory_callback, 10)
         self.create_subscription(Float64MultiArray, HAND_COMMAND_TOPIC, self.gripper_callback, 10)
+        self.create_subscription(WrenchStamped, APPLY_WRENCH_TOPIC, self.push_callback, 10)
         self.executor_ = SingleThreadedExecutor(context=self.context)
         self.executor_.add_node(self)
 
         self._wrench = WrenchStamped()
         self._wrench.header.frame_id = SENSOR_FRAME
+        self._applied = WrenchStamped()
+        self._applied.header.frame_id = SENSOR_FRAME
+        self._push_scheduled = False  # a push was accepted and its zero not yet published
+        self._push_published = False  # the last applied wrench published was not zero
         self._clock_msg = Clock()
         self._joint_state = JointState()
         self._saturated = False  # in a saturation episode
@@ -187,6 +219,31 @@ class SimNode(Node):
             return
         self.get_logger().info(f"gripper to {msg.data[0]:.4f} m per finger")
 
+    def push_callback(self, msg: WrenchStamped) -> None:
+        """Push the held object from the header stamp (sim time; zero or past: now) for
+        ``push_duration`` s; a push in another frame, with a non-finite value or with no
+        object held is logged and ignored."""
+        frame = msg.header.frame_id
+        f, t = msg.wrench.force, msg.wrench.torque
+        force = np.array([f.x, f.y, f.z])
+        torque = np.array([t.x, t.y, t.z])
+        if frame == SENSOR_FRAME:  # the mounted sensor's axes, to the URDF's sensor frame
+            force, torque = self._mount @ force, self._mount @ torque
+        try:
+            start = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+            duration = self.get_parameter("push_duration").value
+            start, end = self.world.apply_wrench(force, torque, frame, start, duration)
+        except Exception as error:  # a bad command must never stop the sim
+            self.get_logger().error(f"rejected push: {error}")
+            return
+        self._push_scheduled = True
+        values = ", ".join(f"{v:.3f}" for v in (f.x, f.y, f.z))
+        couple = ", ".join(f"{v:.4f}" for v in (t.x, t.y, t.z))
+        self.get_logger().info(
+            f"push accepted: ({values}) N at the object's COM, couple ({couple}) N m, frame "
+            f"{frame}, from t = {start:.3f} s until t = {end:.3f} s (sim)"
+        )
+
     # ------------------------------------------------------------------ loop
     def run(self, duration: float | None = None, publish: bool = True) -> None:
         """Step and publish until shutdown, or for ``duration`` s of sim time.
@@ -210,6 +267,8 @@ class SimNode(Node):
                     self._publish_clock(now)
                 if reading is not None:
                     self._publish_wrench(now, reading)
+                    if self._push_scheduled:
+                        self._publish_applied(now)
             if publish and steps % _JOINT_STATE_EVERY == 0:
                 self._publish_joint_state(now)
             if steps % _REPORT_EVERY == 0:
@@ -245,6 +304,28 @@ class SimNode(Node):
         force.x, force.y, force.z = fx, fy, fz
         torque.x, torque.y, torque.z = tx, ty, tz
         self.wrench_publisher.publish(msg)
+
+    def _publish_applied(self, now: int) -> None:
+        """The pushes of the last step as the sensor reads them, in the mounted sensor's
+        frame, with the wrench sample's stamp; one zero when the last push has ended."""
+        world = self.world
+        if world.push_active:
+            wrench = self._mounted(world.applied_wrench())
+            self._push_published = True
+        elif self._push_published:
+            wrench = np.zeros(6)
+            self._push_published = False
+        else:  # waiting for its start (or dropped before it)
+            self._push_scheduled = world.push_scheduled
+            return
+        self._push_scheduled = world.push_scheduled or self._push_published
+        msg = self._applied
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(now, 1_000_000_000)
+        fx, fy, fz, tx, ty, tz = wrench.tolist()
+        force, torque = msg.wrench.force, msg.wrench.torque
+        force.x, force.y, force.z = fx, fy, fz
+        torque.x, torque.y, torque.z = tx, ty, tz
+        self.applied_publisher.publish(msg)
 
     def _publish_joint_state(self, now: int) -> None:
         msg = self._joint_state
