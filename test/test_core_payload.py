@@ -156,18 +156,26 @@ def test_gravity_in_sensor_by_hand():
 
 
 def control_toolbox_filter(
-    parameters: dict, reading: np.ndarray, R_base_sensor: np.ndarray, frame_to_sensor: np.ndarray
+    parameters: dict,
+    reading: np.ndarray,
+    R_base_sensor: np.ndarray,
+    frame_to_sensor: np.ndarray,
+    release: str,
 ) -> np.ndarray:
     """control_toolbox's GravityCompensation on one reading in the wrenches' frame: tf2
     turns it into sensor_frame (``frame_to_sensor``, the mounting), then fc_s = f_s -
-    T_sw g_w and tau_c = tau_s - p_s x (T_sw g_w), with g_w = mass gravity_field and
-    T_sw = R_base_sensor^T, and back into the wrenches' frame."""
-    tool = parameters["tool"]
-    g_w = tool["mass"] * np.array(tool["gravity_field"])
+    T_sw g_w and tau_c = tau_s - p_s x (T_sw g_w), with T_sw = R_base_sensor^T, and back
+    into the wrenches' frame. ``release`` '4.x' reads p_s = tool.CoG and g_w = tool.mass
+    tool.gravity_field; 'documented' reads CoG.pos and CoG.force."""
+    if release == "4.x":
+        tool = parameters["tool"]
+        cog, g_w = np.array(tool["CoG"]), tool["mass"] * np.array(tool["gravity_field"])
+    else:
+        cog, g_w = np.array(parameters["CoG"]["pos"]), np.array(parameters["CoG"]["force"])
     T_sw = R_base_sensor.T
     f_s, tau_s = frame_to_sensor @ reading[:3], frame_to_sensor @ reading[3:]
     fc_s = f_s - T_sw @ g_w
-    tau_c = tau_s - np.cross(np.array(tool["CoG"]), T_sw @ g_w)
+    tau_c = tau_s - np.cross(cog, T_sw @ g_w)
     return np.concatenate([frame_to_sensor.T @ fc_s, frame_to_sensor.T @ tau_c])
 
 
@@ -186,8 +194,9 @@ def test_control_toolbox_filter_removes_the_payload_wrench_but_the_bias(mount, t
     contact = np.random.default_rng(5).normal(size=(20, 6))
     readings = payload_wrench(payload, rotations) + contact
     for R, reading, c in zip(rotations, readings, contact, strict=True):
-        filtered = control_toolbox_filter(parameters, reading, R, rotation(mount))
-        np.testing.assert_allclose(filtered, c + BIAS, atol=1e-12)
+        for release in ("4.x", "documented"):
+            filtered = control_toolbox_filter(parameters, reading, R, rotation(mount), release)
+            np.testing.assert_allclose(filtered, c + BIAS, atol=1e-12)
 
 
 # --- payload.yaml ---------------------------------------------------------------------

@@ -354,15 +354,19 @@ def payload_from_solution(
 
 
 def _filter_parameters(payload: Payload) -> dict:
-    """The filter's parameters for hand plus object: ``tool.CoG`` (m, sensor_frame, the
-    URDF's), ``tool.mass`` (kg) and ``tool.gravity_field`` (m/s^2 along world_frame, the
-    base's). The filter subtracts T_sw (mass gravity_field) and CoG x (T_sw mass
-    gravity_field) from a wrench it has turned into sensor_frame."""
+    """The filter's parameters for hand plus object, in both of its releases' names:
+    ``CoG.pos`` (m, sensor_frame, the URDF's) and ``CoG.force`` (N along world_frame,
+    the base's: mass times gravity, tilt included), as its documentation and the releases
+    before 4.x read them, and ``tool.CoG``, ``tool.mass`` (kg) and ``tool.gravity_field``
+    (m/s^2), as 4.x (Jazzy) reads them. The filter subtracts T_sw force and
+    CoG x (T_sw force) from a wrench it has turned into sensor_frame."""
+    cog = (payload._mount_rotation @ payload.total_com).tolist()
     return {
         "world_frame": payload.base_frame,
         "sensor_frame": payload.sensor_frame,
+        "CoG": {"pos": cog, "force": (payload.total_mass * payload._base_gravity).tolist()},
         "tool": {
-            "CoG": (payload._mount_rotation @ payload.total_com).tolist(),
+            "CoG": cog,
             "mass": payload.total_mass,
             "gravity_field": payload._base_gravity.tolist(),
         },
@@ -371,11 +375,12 @@ def _filter_parameters(payload: Payload) -> dict:
 
 _FILTER_NOTE = """\
 control_toolbox's GravityCompensation filter ({plugin}):
-the hand and the object as one mass at one CoG. tool.CoG: m in sensor_frame; tool.mass:
-kg; tool.gravity_field: m/s^2 along world_frame (the base's gravity, tilt included).
+the hand and the object as one mass at one CoG. CoG.pos: m in sensor_frame; CoG.force:
+N along world_frame (mass times the base's gravity, tilt included), the names of its
+documentation and of releases before 4.x; 4.x (Jazzy) reads tool.CoG (= CoG.pos),
+tool.mass (kg) and tool.gravity_field (m/s^2; tool.mass gravity_field = CoG.force).
 With T_sw the rotation from world_frame to sensor_frame it computes
-f - T_sw (mass gravity_field) and tau - CoG x (T_sw mass gravity_field); its
-documentation calls CoG 'CoG.pos' and mass gravity_field 'CoG.force'.
+f - T_sw CoG.force and tau - CoG.pos x (T_sw CoG.force).
 It has no bias term: the sensor's bias stays in the filtered wrench.
 It turns each wrench from its frame_id into sensor_frame by tf2: with a non-zero mount,
 that transform must carry the mounting (payload.yaml's mount_rpy).
