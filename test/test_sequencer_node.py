@@ -426,3 +426,110 @@ def test_a_sensor_mounted_off_its_urdf_frame_is_flagged_by_kinematics(
         [truth.com.x, truth.com.y, truth.com.z],
         atol=4.5 * max(mounted["sigma_com"]),
     )
+
+
+def test_the_compensated_stream_shows_a_push_without_gravity_and_payload_files_load(
+    start_node, client, tmp_path
+):
+    """A run that ends holding the object: its payload files sit beside the bag, and the
+    estimator then publishes the compensated wrench. At a pose no window saw (joints 6
+    and 7 turned) the sim pushes the held object with a known wrench: the compensated
+    stream shows that push within its noise, and zero before it, while the raw stream
+    shows gravity plus the push.
+
+    Tolerances: 4.5 sigma of the difference of two means of the compensated stream over
+    0.4 s (0.1 N and 5 mN m per sample: 7 mN and 0.35 mN m) plus the estimate's own error
+    at a new pose (the verification's sigma, about 7 mN and 0.4 mN m): 0.045 N, 2.5 mN m.
+    """
+    import yaml
+    from builtin_interfaces.msg import Duration
+    from geometry_msgs.msg import WrenchStamped
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+    from sensor_msgs.msg import JointState
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+    from com_core.bags.cdr import decode_wrench
+    from com_core.contract import (
+        APPLIED_WRENCH_TOPIC,
+        APPLY_WRENCH_TOPIC,
+        ARM_COMMAND_TOPIC,
+        ARM_JOINTS,
+        COMPENSATED_TOPIC,
+    )
+
+    start_system(start_node, tmp_path, {"seed": 5}, sequencer={"release": False})
+    result = client.wait(client.call())
+    assert result.success and result.message.startswith("[OK]"), result.message
+    bag = Path(result.message.rsplit(" bag ", 1)[1])
+    payload = yaml.safe_load((bag / "payload.yaml").read_text())
+    assert {"mass", "com", "frame", "information"} <= payload.keys()
+    assert {"pos", "force"} <= payload["control_toolbox"]["gravity_compensation"]["CoG"].keys()
+    assert (bag / "payload.urdf").is_file() and (bag / "gravity_compensation.yaml").is_file()
+
+    # real time from here: this test's subscriber takes every sample of three streams
+    set_parameter(client, SIM_PARAMETERS_SERVICE.replace("get_", "set_"), "real_time_factor", 1.0)
+    node = client.node
+    streams: dict[str, list] = {"raw": [], "compensated": [], "applied": []}
+    best_effort = QoSProfile(depth=5000, reliability=ReliabilityPolicy.BEST_EFFORT)
+    for name, topic, qos in (
+        ("raw", WRENCH_TOPIC, best_effort),
+        ("compensated", COMPENSATED_TOPIC, best_effort),
+        ("applied", APPLIED_WRENCH_TOPIC, 1000),
+    ):
+        node.create_subscription(
+            WrenchStamped,
+            topic,
+            lambda raw, n=name: streams[n].append(decode_wrench(raw)),
+            qos,
+            raw=True,
+        )
+    joints: dict[str, float] = {}
+    node.create_subscription(
+        JointState,
+        JOINT_STATES_TOPIC,
+        lambda m: joints.update(zip(m.name, m.position, strict=True)),
+        10,
+    )
+    assert spin_until(node, lambda: len(streams["compensated"]) > 200, 20.0), "no compensation"
+    goal = [joints[j] for j in ARM_JOINTS]
+    goal[5] += 0.35  # joint 6: a tilt
+    goal[6] += 0.6  # joint 7: a turn about the flange
+    arm = node.create_publisher(JointTrajectory, ARM_COMMAND_TOPIC, 10)
+    spin_until(node, lambda: arm.get_subscription_count() > 0, 5.0)
+    point = JointTrajectoryPoint(positions=goal, time_from_start=Duration(sec=2))
+    arm.publish(JointTrajectory(joint_names=list(ARM_JOINTS), points=[point]))
+    assert spin_until(
+        node,
+        lambda: max(abs(joints[j] - g) for j, g in zip(ARM_JOINTS, goal, strict=True)) < 1e-3,
+        30.0,
+    ), "the arm did not reach the pose"
+    settled = len(streams["compensated"])
+    spin_until(node, lambda: len(streams["compensated"]) > settled + 1000, 20.0)  # 1 s
+
+    push = WrenchStamped()
+    push.header.frame_id = "world"
+    push.wrench.force.x, push.wrench.force.y, push.wrench.force.z = 0.8, -0.5, 0.3
+    push.wrench.torque.z = 0.02
+    pusher = node.create_publisher(WrenchStamped, APPLY_WRENCH_TOPIC, 10)
+    spin_until(node, lambda: pusher.get_subscription_count() > 0, 5.0)
+    pusher.publish(push)
+    ended = lambda: any(not np.any(w) for _, _, w in streams["applied"])  # noqa: E731
+    assert spin_until(node, ended, 30.0), "the push never ended"
+    spin_until(node, lambda: False, 0.3)  # the last compensated samples of the push
+
+    applied = {s: w for s, _, w in streams["applied"] if np.any(w)}
+    start, stop = min(applied), max(applied)
+    compensated = {s: w for s, _, w in streams["compensated"]}
+    raw = {s: w for s, _, w in streams["raw"]}
+    during = [s for s in compensated if start + 0.5e9 <= s <= stop]  # the arm recovered
+    before = [s for s in compensated if start - 1.0e9 <= s < start - 0.5e9]
+    assert len(during) > 300 and len(before) > 300, (len(during), len(before))
+    mean = lambda stamps, d: np.mean([d[s] for s in stamps], axis=0)  # noqa: E731
+    pushed = mean(during, applied) if all(s in applied for s in during) else None
+    assert pushed is not None, "compensated samples without an applied wrench"
+    contact = mean(during, compensated) - mean(before, compensated)
+    np.testing.assert_allclose(contact[:3], pushed[:3], atol=0.045)
+    np.testing.assert_allclose(contact[3:], pushed[3:], atol=2.5e-3)
+    np.testing.assert_allclose(mean(before, compensated)[:3], 0.0, atol=0.045)
+    gravity = mean(during, raw) - mean(during, compensated)
+    assert np.linalg.norm(gravity[:3]) > 5.0  # the hand and the object, some 1.1 kg

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
-from rcl_interfaces.srv import GetParameters
+from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.experimental import EventsExecutor
@@ -47,6 +47,8 @@ from com_core.contract import (
     DONE,
     ESTIMATOR_PARAMETERS_SERVICE,
     ESTIMATOR_RESET_SERVICE,
+    ESTIMATOR_SAVE_PAYLOAD_SERVICE,
+    ESTIMATOR_SET_PARAMETERS_SERVICE,
     EXPLORE_SERVICE,
     FINGER_CLOSED,
     FINGER_OPEN,
@@ -122,6 +124,11 @@ PARAMETERS: dict[str, tuple[object, str]] = {
         "s of the window at the verification pose (20 deg about the sensor's diagonal, no "
         "fit uses it) after the object pass, with kinematic information; 0: none",
     ),
+    "release": (
+        True,
+        "put the object back on its stand after the run (false: the run ends holding it at "
+        "home, for the compensated wrench; no empty-hand window after it)",
+    ),
     "hand_id": ("panda_hand", "names the hand: a cached tare serves this hand only"),
     "min_load": (0.005, "kg; the grasp must hold at least this before the object pass"),
     "grasp_check_dwell": (0.2, "s of samples at home after lifting that check the grasp"),
@@ -163,6 +170,12 @@ class SequencerNode(Node):
         )
         self._estimator_params = self.create_client(
             GetParameters, ESTIMATOR_PARAMETERS_SERVICE, callback_group=group
+        )
+        self._estimator_set_params = self.create_client(
+            SetParameters, ESTIMATOR_SET_PARAMETERS_SERVICE, callback_group=group
+        )
+        self._estimator_save = self.create_client(
+            Trigger, ESTIMATOR_SAVE_PAYLOAD_SERVICE, callback_group=group
         )
         self.get_logger().info("ready: call ~/explore to run an exploration")
 
@@ -344,17 +357,25 @@ class SequencerNode(Node):
             verify = [(VERIFY_POSE, verify_joints(home))]
             self._pass(VERIFY_PREFIX, verify, self.p("verify_dwell"))
             end = self._labels[-1][0]
-        log.info("phase 4/4: return and release")
-        if bracket:  # the bias's drift (kinematic information): done after it
+        release = self.p("release")
+        log.info("phase 4/4: return and release" if release else "phase 4/4: return, holding")
+        if bracket and release:  # the bias's drift (kinematic information): done after it
             self.arm.put_back(home, pick)
             after = f"{poses[0][0]}{BIAS_AFTER_SUFFIX}"
             self._pass(TARE_PREFIX, [(after, home)], self.p("bias_dwell"))
             end = self._labels[-1][0]
         self._label(end, DONE)
         self._label(max(end, self.io.now_ns()), MOVING)  # the latched label is no "done"
-        if not bracket:
+        if not release:
+            self.arm.move(home, "home")
+        elif not bracket:
             self.arm.put_back(home, pick)
         status = self._estimator_answer(end)
+        if (
+            status is not None
+            and {kv.key: kv.value for kv in status.values}.get("usable") == "True"
+        ):
+            self._save_payload(bag)
         counts = self._stop_recording()
         summary = _summary(status, prediction, object_time, bag)
         log.info(f"run {run_id}: {summary} ({sum(counts.values())} messages recorded)")
@@ -582,6 +603,22 @@ class SequencerNode(Node):
             self.get_logger().error(f"no estimate: {exc}")
             return None
         return answered()
+
+    def _save_payload(self, bag: Path) -> None:
+        """The estimator's payload files beside the bag (its ~/save_payload, to the bag's
+        directory); a failure is logged, the run goes on."""
+        directory = Parameter("payload_save_dir", Parameter.Type.STRING, str(bag))
+        request = SetParameters.Request(parameters=[directory.to_parameter_msg()])
+        try:
+            self._call(self._estimator_set_params, request, "setting payload_save_dir")
+            answer = self._call(self._estimator_save, Trigger.Request(), "saving the payload")
+        except RunError as exc:
+            self.get_logger().error(f"payload files not written: {exc}")
+            return
+        if answer.success:
+            self.get_logger().info(f"payload files: {answer.message}")
+        else:
+            self.get_logger().error(f"payload files not written: {answer.message}")
 
     def _stop_recording(self) -> dict[str, int]:
         if self.io.recorder.recording:

@@ -28,6 +28,7 @@ __all__ = [
     "ESTIMATOR_PARAMETERS_SERVICE",
     "ESTIMATOR_RESET_SERVICE",
     "ESTIMATOR_SAVE_PAYLOAD_SERVICE",
+    "ESTIMATOR_SET_PARAMETERS_SERVICE",
     "ESTIMATOR_SOLVE_SERVICE",
     "EXPLORE_SERVICE",
     "FINGER_CLOSED",
@@ -127,6 +128,7 @@ ESTIMATOR_SOLVE_SERVICE = "/com_estimator/solve"
 ESTIMATOR_RESET_SERVICE = "/com_estimator/reset"
 ESTIMATOR_SAVE_PAYLOAD_SERVICE = "/com_estimator/save_payload"
 ESTIMATOR_PARAMETERS_SERVICE = "/com_estimator/get_parameters"
+ESTIMATOR_SET_PARAMETERS_SERVICE = "/com_estimator/set_parameters"
 SIM_PARAMETERS_SERVICE = "/wrench_sim/get_parameters"
 
 # --- pose labels (frame_id of a POSE_TOPIC message) -----------------------------------

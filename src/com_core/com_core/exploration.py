@@ -222,6 +222,7 @@ class Solution:
         """JSON-ready summary: mass (kg), com (m, sensor frame), their sigmas, status."""
         out: dict = {
             "status": self.status,
+            "usable": self.usable,
             "reason": self.reason,
             "method": self.method,
             "information": self.information,
