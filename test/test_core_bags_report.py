@@ -262,3 +262,17 @@ def test_report_of_a_kinematic_run_shows_its_own_numbers():
     for start in ("wrenches   alone: COM", "bias drift", "hand fit   1.010 kg", "mounting   rpy"):
         assert start in text, text
     assert "base tilt " in text and all(len(line) <= 64 for line in lines), text
+
+
+def test_the_numbers_show_the_verification_wrapped_to_the_table():
+    from com_core.bags.report import _kinematic_lines
+
+    values = {
+        "verify_wrench diagonal": "0.003,0.001,-0.007,3e-05,-0.00016,0.00015",
+        "verify_sigma diagonal": "0.003,0.003,0.003,0.00014,0.00015,0.00014",
+        "verify_distance diagonal": "2.68,1.53,4.03",
+    }
+    lines = _kinematic_lines(values)
+    assert lines[0].startswith("verification 'diagonal': f (0.003, 0.001, -0.007)")
+    assert "2.68 and 1.53 sigma (4.03 allowed)" in " ".join(lines)
+    assert all(len(line) <= 64 for line in lines)

@@ -25,7 +25,8 @@ from com_core.contract import (
     EXPLORE_SERVICE,
     TRUTH_TOPIC,
 )
-from com_core.exploration import INFORMATION, vector_value
+from com_core.exploration import INFORMATION, vector_value, verification_lines
+from com_core.payload import PAYLOAD_FILE
 from com_core.processes import executable, ros_args, stop
 from com_core.rosenv import keep_dds_local
 
@@ -216,6 +217,8 @@ def print_summary(result, estimates, truths, statuses, wall: float) -> None:
                 f"          sensor bias drift since the tare: "
                 f"{math.hypot(*drift[:3]):.3f} N, {math.hypot(*drift[3:]) * 1e3:.2f} mN m"
             )
+        for line in verification_lines(values):
+            print(f"          {line}")
         held = [t for t in truths if t.header.stamp.sec * 10**9 + t.header.stamp.nanosec <= stamp]
         if held:
             t = held[-1].inertia
@@ -235,6 +238,8 @@ def print_summary(result, estimates, truths, statuses, wall: float) -> None:
         bag = Path(result.message.rsplit(" bag ", 1)[1].strip())
         print(f"bag:      {bag}")
         print(f"report:   {bag / 'report.png'}")
+        if (bag / PAYLOAD_FILE).is_file():
+            print(f"payload:  {bag / PAYLOAD_FILE} (and the control_toolbox and URDF files)")
 
 
 if __name__ == "__main__":

@@ -37,9 +37,10 @@ from ..contract import (
     OBJECT_PREFIX,
     POSE_TOPIC,
     TARE_PREFIX,
+    VERIFY_PREFIX,
     WRENCH_TOPIC,
 )
-from ..exploration import vector_value
+from ..exploration import vector_value, verification_lines
 from .run import RunData, read_run
 
 __all__ = ["write_report"]
@@ -51,7 +52,7 @@ _STATUS_COLOURS = {
     "STALE": "#616161",
     "UNKNOWN": "#616161",
 }
-_TARE_COLOUR, _OBJECT_COLOUR = "#6baed6", "#fd8d3c"
+_TARE_COLOUR, _OBJECT_COLOUR, _VERIFY_COLOUR = "#6baed6", "#fd8d3c", "#74c476"
 _AXIS_COLOURS = ("#d62728", "#2ca02c", "#1f77b4")  # x, y, z
 _SIGMA = "\u03c3"
 _MAX_TRACE_POINTS = 4000  # per trace; min/max envelope beyond (about 2 points per pixel)
@@ -125,7 +126,7 @@ def _windows(run: RunData) -> list[tuple[float, float, str]]:
     end = run.stamps[-1] if run.stamps.size else (run.labels[-1][0] if run.labels else 0)
     out = []
     for k, (start, label) in enumerate(run.labels):
-        if label.startswith((TARE_PREFIX, OBJECT_PREFIX)):
+        if label.startswith((TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX)):
             stop = run.labels[k + 1][0] if k + 1 < len(run.labels) else max(end, start)
             out.append((start * 1e-9, stop * 1e-9, label))
     return out
@@ -176,7 +177,8 @@ def _draw_traces(fig, run: RunData, rect: tuple[float, float, float, float]) -> 
     px_per_s = width * fig.get_figwidth() * fig.dpi / (t1 - t0 + 2 * pad)
     for start, stop, label in windows:
         tare = label.startswith(TARE_PREFIX)
-        colour = _TARE_COLOUR if tare else _OBJECT_COLOUR
+        verify = label.startswith(VERIFY_PREFIX)
+        colour = _TARE_COLOUR if tare else _VERIFY_COLOUR if verify else _OBJECT_COLOUR
         for ax in (ax_f, ax_t):
             ax.axvspan(start, stop, color=colour, alpha=0.18, lw=0)
         bad = not tare and suspect not in (None, "", "None") and label == OBJECT_PREFIX + suspect
@@ -209,22 +211,23 @@ def _draw_traces(fig, run: RunData, rect: tuple[float, float, float, float]) -> 
     ax_strip.set_yticks([])
     ax_strip.tick_params(labelbottom=False, bottom=False)
     ax_strip.set_title(
-        "Wrench on the sensor (ft_sensor frame) and the labelled static windows",
+        "Wrench on the sensor (ft_sensor frame) and the static windows",
         loc="left",
         fontsize=12,
         fontweight="bold",
         pad=24,
     )
     handles = [
-        Patch(color=_TARE_COLOUR, label="tare window (empty hand)"),
-        Patch(color=_OBJECT_COLOUR, label="object window"),
+        Patch(color=_TARE_COLOUR, label="empty hand"),
+        Patch(color=_OBJECT_COLOUR, label="object"),
+        Patch(color=_VERIFY_COLOUR, label="verification (no fit)"),
         Line2D([], [], color="black", ls="--", label="done"),
     ]
     ax_strip.legend(
         handles=handles,
         loc="lower right",
         bbox_to_anchor=(1.0, 1.0),
-        ncol=3,
+        ncol=4,
         fontsize=9,
         frameon=False,
         borderaxespad=0.1,
@@ -453,7 +456,8 @@ def _summary_lines(run: RunData, rows: list[_Row]) -> list[str]:
 def _kinematic_lines(values: dict) -> list[str]:
     """The kinematic fit's own numbers from the diagnostic values: the COM sigma the
     wrenches alone give on the same windows, the bias drift since the tare, the hand
-    fitted, the mounting and the base tilt (none for the wrenches alone)."""
+    fitted, the mounting, the base tilt and the verification (none for the wrenches
+    alone)."""
 
     lines = []
     alone = vector_value(values, "wrenches_sigma_com", 1e3)
@@ -475,6 +479,8 @@ def _kinematic_lines(values: dict) -> list[str]:
     for key, name in (("mount_rpy", "mounting   rpy"), ("base_tilt", "base tilt ")):
         if angles := vector_value(values, key):
             lines.append(f"{name} ({', '.join(f'{math.degrees(v):.2f}' for v in angles)}) deg")
+    for line in verification_lines(values):
+        lines += textwrap.wrap(line, 64, subsequent_indent=" " * 11)
     return lines
 
 
