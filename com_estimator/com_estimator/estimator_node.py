@@ -248,12 +248,20 @@ class EstimatorNode(Node):
         self._start_compensating()
 
     def _start_compensating(self) -> None:
-        """Compensate from now on with the current payload and robot model (both needed)."""
+        """Compensate from now on with the current payload and robot model (both needed);
+        a model of the same joints keeps the joint states and the counts since the last
+        status (a new estimate or the URDF again leaves no sample out, loses no count)."""
         if self._payload is None or self._robot is None:
             return
+        previous = self._compensator
         self._compensator = Compensator.of(
             self._payload, self._robot, self._payload_source, self._param("max_joint_state_age")
         )
+        if previous is not None and tuple(previous.track.names) == self._robot.joint_names:
+            previous.track.max_age = self._compensator.track.max_age
+            self._compensator.track = previous.track
+            self._compensator.compensated = previous.compensated
+            self._compensator.stale = previous.stale
         self._compensation_problem = ""
         self.get_logger().info(
             f"publishing {COMPENSATED_TOPIC}: {WRENCH_TOPIC} less the {self._payload_source}"
