@@ -355,6 +355,7 @@ def test_the_demo_prints_its_summary_and_exits_cleanly(ros_env, tmp_path):
             str(tmp_path),
             "--seed",
             "2",
+            "--hold",
         ],
         env=ros_env,
         capture_output=True,
@@ -367,6 +368,12 @@ def test_the_demo_prints_its_summary_and_exits_cleanly(ros_env, tmp_path):
     # the default model, named, and what the wrenches alone give on the same windows
     assert "mm in ft_sensor, information kinematics+mount" in out, out
     assert "the wrenches alone on the same windows: COM +-" in out, out
+    assert "verification 'diagonal': f (" in out and "payload:  " in out, out
+    # held after the run: the compensated wrench is zero within 5 sigma of its mean
+    held = re.search(r"holding: .* over (\d+) samples: f \(([-+\d., ]+)\) \+- \(([\d., ]+)\)", out)
+    assert held and int(held.group(1)) > 500, out
+    mean, sd = (np.array([float(v) for v in held.group(k).split(",")]) for k in (2, 3))
+    assert np.all(np.abs(mean) < 5 * sd + 0.005), out  # + the estimate's own error
     logs = "".join(p.read_text() for p in (tmp_path / "logs").glob("*.log"))
     for text in UNCLEAN_EXIT:
         assert text not in out + logs, out + logs

@@ -18,7 +18,11 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
+from com_core.bags.cdr import decode_wrench
 from com_core.contract import (
+    COMPENSATED_TOPIC,
     DIAGNOSTIC_NAME,
     DIAGNOSTICS_TOPIC,
     ESTIMATE_TOPIC,
@@ -66,6 +70,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="what the estimator fits (default: its own, kinematics+mount): the wrenches, or "
         "also each window's orientation from the URDF (with the hand and the bias)",
     )
+    p.add_argument(
+        "--hold",
+        action="store_true",
+        help="end holding the object (the sequencer's release:=false) and show 1 s of the "
+        "compensated wrench",
+    )
     p.add_argument("--real-time-factor", type=float, default=5.0, help="0: as fast as possible")
     p.add_argument("--bag-dir", type=Path, default=Path("bags"))
     p.add_argument("--timeout", type=float, default=300.0, help="s for the whole exploration")
@@ -104,6 +114,7 @@ def main(argv: list[str] | None = None) -> int:
         "sigma_tau": args.sigma_tau,
         "mass_guess": args.mass,
         "raise_tilt": args.raise_tilt,
+        "release": not args.hold,
         "bag_dir": str(args.bag_dir.resolve()),
         "tare_cache": tare_cache,
     }
@@ -141,9 +152,9 @@ def main(argv: list[str] | None = None) -> int:
 def run_exploration(args: argparse.Namespace, started: float) -> int:
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
-    from geometry_msgs.msg import InertiaStamped
+    from geometry_msgs.msg import InertiaStamped, WrenchStamped
     from rclpy.executors import SingleThreadedExecutor
-    from rclpy.qos import DurabilityPolicy, QoSProfile
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from std_srvs.srv import Trigger
 
     rclpy.init()
@@ -164,6 +175,16 @@ def run_exploration(args: argparse.Namespace, started: float) -> int:
         ),
         10,
     )
+    compensated: list = []
+    if args.hold:
+        best_effort = QoSProfile(depth=5000, reliability=ReliabilityPolicy.BEST_EFFORT)
+        node.create_subscription(
+            WrenchStamped,
+            COMPENSATED_TOPIC,
+            lambda raw: compensated.append(decode_wrench(raw)[2]),
+            best_effort,
+            raw=True,
+        )
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
@@ -181,7 +202,22 @@ def run_exploration(args: argparse.Namespace, started: float) -> int:
         while time.monotonic() < end and not (statuses and estimates):
             executor.spin_once(timeout_sec=0.1)
         result = future.result()
+        if args.hold and result.success:
+            compensated.clear()
+            end = time.monotonic() + 1.0
+            while time.monotonic() < end:
+                executor.spin_once(timeout_sec=0.05)
         print_summary(result, estimates, truths, statuses, time.monotonic() - started)
+        if compensated:
+            w = np.array(compensated)
+            mean, sd = w.mean(axis=0), w.std(axis=0) / np.sqrt(len(w))
+            print(
+                f"holding:  {COMPENSATED_TOPIC} over {len(w)} samples: f "
+                f"({', '.join(f'{v:+.4f}' for v in mean[:3])}) +- "
+                f"({', '.join(f'{v:.4f}' for v in sd[:3])}) N, tau "
+                f"({', '.join(f'{v * 1e3:+.2f}' for v in mean[3:])}) +- "
+                f"({', '.join(f'{v * 1e3:.2f}' for v in sd[3:])}) mN m (contact: none)"
+            )
         return 0 if result.success else 1
     finally:
         executor.shutdown()
