@@ -34,9 +34,10 @@ study: setup
 test: setup lint
 	$(IN_ENV) python -m pytest test $(ARGS)
 
-# The core and unit tests: no node processes, no rclpy context (the `system` marker).
+# The core and unit tests: no node processes, no rclpy context (the `system` marker), no
+# Monte Carlo statistics over hundreds of fits (the `slow` marker).
 test-fast: setup lint
-	$(IN_ENV) python -m pytest test -m "not system" $(ARGS)
+	$(IN_ENV) python -m pytest test -m "not system and not slow" $(ARGS)
 
 lint: $(VENV_STAMP)
 	$(VENV)/bin/ruff check .

@@ -104,6 +104,7 @@ def test_ml_beats_the_papers_two_pose_on_the_same_windows():
     assert np.all(sd_ml < 0.7 * sd_2p)
 
 
+@pytest.mark.slow
 def test_chi_square_has_its_nominal_false_alarm_rate_on_clean_data():
     rng = np.random.default_rng(5)
     load = Load(0.1, (0.01, -0.02, 0.08))

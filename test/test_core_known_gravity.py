@@ -101,6 +101,7 @@ def test_hand_bias_and_object_are_exact_without_noise():
     assert fit.estimate.chi2 < 1e-12 and fit.estimate.dof == 6 * 11 - (12 + 4 + 4)
 
 
+@pytest.mark.slow
 def test_the_spread_is_the_crlb():
     """2000 runs: the relative standard error of a spread is 1.6 %, so 5 % is > 3 of them.
     The bias of this run is fitted, so a drift since the tare is absorbed (mean error
@@ -165,6 +166,7 @@ def test_a_load_against_gravity_is_refused():
         kinematic_ml(flipped)
 
 
+@pytest.mark.slow
 def test_a_sensor_mounted_off_its_urdf_frame_and_a_tilted_base_are_fitted():
     """3 deg of roll between the URDF's sensor frame and the sensor, and a base tilted
     1 deg: ``kinematics`` misfits them by far; ``kinematics+mount`` finds both and stays
@@ -236,6 +238,7 @@ def test_an_object_that_moved_at_one_window_is_located():
     assert k == 2 and chi2 < kinematic_ml(noisy_moved).estimate.chi2 / 10
 
 
+@pytest.mark.slow
 def test_the_wrench_at_an_unseen_pose_is_predicted_with_its_covariance():
     """A 20 deg tilt about the sensor's diagonal that no window saw, with the sensor
     mounted off its URDF frame, a tilted base and a bias free to drift (a rate prior):

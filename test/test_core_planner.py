@@ -30,6 +30,7 @@ def spread(runs: int, make_windows, estimator=ml) -> np.ndarray:
 RUNS = 900
 
 
+@pytest.mark.slow
 def test_prediction_is_within_10_percent_of_raw_sample_runs():
     """Raw samples through the whole core: sensor model, windows, per-pose tare, ML."""
     plan = Plan(dwell=0.1, sensor=SENSOR, com_guess=LOAD.com, gravity_home=(0, 0, 1))
@@ -49,6 +50,7 @@ def test_prediction_is_within_10_percent_of_raw_sample_runs():
     np.testing.assert_allclose(measured, [pred.sigma_mass, *pred.sigma_com], rtol=0.10)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("tilt", "target"), [(0.05, 3e-3), (math.pi / 6, 0.3e-3)])
 def test_dwell_for_a_target_meets_it_within_10_percent(tilt, target):
     plan = Plan(tilt=tilt, sensor=SENSOR, com_guess=LOAD.com, tare_dwell=5.0)

@@ -12,6 +12,7 @@ import pytest
 from com_core.study import Cell, run_cell
 
 
+@pytest.mark.slow
 def test_study_cells_are_deterministic_and_reproduce_table_ii_reading():
     cell = Cell("II", "paper", math.pi / 6, 0.0, 10.0)
     a, b = run_cell(cell, 400, seed=1), run_cell(cell, 400, seed=1)
@@ -20,6 +21,7 @@ def test_study_cells_are_deterministic_and_reproduce_table_ii_reading():
     assert a["two_pose"]["sd"][2] == pytest.approx(expected, rel=4 / math.sqrt(800))
 
 
+@pytest.mark.slow
 def test_study_cli_json_and_figures(tmp_path):
     out = subprocess.run(
         [
@@ -47,6 +49,7 @@ def test_study_cli_json_and_figures(tmp_path):
     assert len(list(tmp_path.glob("fig*_z_theta_*.png"))) == 3
 
 
+@pytest.mark.slow
 def test_the_orientations_make_the_papers_one_sample_data_efficient():
     """The paper's setting (one sample per pose, home and a 0.05 rad tilt, noise 0.1):
     the wrench-only ML is far from its bound there (the directions are barely resolved),
