@@ -47,3 +47,42 @@ def test_every_topic_is_absolute_and_has_a_ros2_message_type():
         assert topic.startswith("/") and not topic.endswith("/"), topic
         package, kind, name = msgtype.split("/")
         assert kind == "msg" and package.endswith("_msgs") and name[0].isupper(), msgtype
+
+
+def test_no_python_file_outside_the_contract_spells_out_a_name_of_it():
+    """Every topic and service name of the contract is used through its constant: no
+    string literal in the packages, the bench or the tests equals one (names inside
+    messages and docstrings are text, not endpoints)."""
+    import io
+    import tokenize
+    from pathlib import Path
+
+    import com_core.contract as contract
+
+    names = {
+        value
+        for key, value in vars(contract).items()
+        if key.endswith(("_TOPIC", "_SERVICE")) and isinstance(value, str)
+    }
+    root = Path(__file__).resolve().parents[1]
+    files = [
+        path
+        for folder in (
+            "src",
+            "com_estimator",
+            "exploration_sequencer",
+            "wrench_sim",
+            "bench",
+            "test",
+        )
+        for path in (root / folder).rglob("*.py")
+        if path.name != "contract.py"
+    ]
+    assert len(files) > 30
+    found = []
+    for path in files:
+        tokens = tokenize.generate_tokens(io.StringIO(path.read_text()).readline)
+        for token in tokens:
+            if token.type == tokenize.STRING and token.string.strip("'\"") in names:
+                found.append(f"{path.relative_to(root)}:{token.start[0]} {token.string}")
+    assert not found, found

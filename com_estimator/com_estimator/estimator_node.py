@@ -288,7 +288,7 @@ class EstimatorNode(Node):
         c = self._compensator
         values = []
         if c is None:
-            level = DiagnosticStatus.WARN
+            level = level_of(WARN)
             why = self._compensation_problem or (
                 "no payload: no usable estimate with a kinematic fit yet and no payload_file"
                 if self._payload is None
@@ -298,7 +298,7 @@ class EstimatorNode(Node):
         else:
             done, stale = c.compensated, c.stale
             c.compensated = c.stale = 0
-            level = DiagnosticStatus.WARN if stale else DiagnosticStatus.OK
+            level = level_of(WARN if stale else OK)
             text = f"{done} samples compensated with the {c.source}"
             if stale:
                 text += (
@@ -396,7 +396,7 @@ class EstimatorNode(Node):
         knows the estimator hears its labels."""
         self._drain()
         rate, self._received = self._received, 0
-        level = DiagnosticStatus.OK if rate else DiagnosticStatus.WARN
+        level = level_of(OK if rate else WARN)
         text = f"receiving {rate} wrenches/s" if rate else f"no wrenches on {WRENCH_TOPIC}"
         values = [
             KeyValue(key="rate_hz", value=str(rate)),

@@ -192,7 +192,7 @@ def run_exploration(args: argparse.Namespace, started: float) -> int:
         if not client.wait_for_service(timeout_sec=60.0):
             print("demo: the sequencer did not come up", file=sys.stderr)
             return 1
-        print("calling /exploration_sequencer/explore", flush=True)
+        print(f"calling {EXPLORE_SERVICE}", flush=True)
         future = client.call_async(Trigger.Request())
         executor.spin_until_future_complete(future, timeout_sec=args.timeout)
         if not future.done():
