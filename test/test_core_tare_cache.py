@@ -2,15 +2,21 @@
 
 from __future__ import annotations
 
+import math
+import time
+
 import numpy as np
 from conftest import WORKSPACE
 
 from com_core.planner import Plan
 from com_core.tare_cache import (
     BAG_TARE_FILE,
+    TareCache,
     drift,
+    drift_accepted,
     latest_hand_model,
     load_tares,
+    reusable,
     save_tares,
     tare_signature,
     use_tares,
@@ -81,3 +87,18 @@ def test_drift_is_chi_square_in_the_noise_and_large_beyond_it():
     chi2, p = drift(cached, same)
     assert abs(chi2 - 3.0) < 1e-9 and p > 0.5  # 6 axes x (1e-3)^2 / 2e-6
     assert drift(cached, moved)[1] < 1e-6
+
+
+def test_an_entry_is_reusable_while_young_with_every_pose_and_a_drift_in_the_noise():
+    cached = windows(9.9)["home"]
+    entry = TareCache("panda_hand|home", time.time() - 10.0, {"home": cached})
+    assert reusable(entry, 60.0, ["home"])
+    assert not reusable(entry, 5.0, ["home"])  # older than max_age
+    assert not reusable(entry, 60.0, ["home", "tilt_y+"])  # a pose without a window
+    assert not reusable(None, 60.0, ["home"])
+    same = window_from_mean("home", cached.mean + 1e-3, cached.cov, 5000)
+    moved = window_from_mean("home", cached.mean + [0, 0, 0.05, 0, 0, 0], cached.cov, 5000)
+    assert drift_accepted(cached, same)[0]
+    ok, chi2, p = drift_accepted(cached, moved)
+    assert not ok and chi2 > 100 and p < 1e-3
+    assert drift_accepted(cached, None) == (False, math.inf, 0.0)  # no fresh window
