@@ -97,7 +97,9 @@ def test_an_entry_is_reusable_while_young_with_every_pose_and_a_drift_in_the_noi
     assert not reusable(entry, 60.0, ["home", "tilt_y+"])  # a pose without a window
     assert not reusable(None, 60.0, ["home"])
     same = window_from_mean("home", cached.mean + 1e-3, cached.cov, 5000)
-    moved = window_from_mean("home", cached.mean + [0, 0, 0.05, 0, 0, 0], cached.cov, 5000)
+    moved = window_from_mean(
+        "home", cached.mean + np.array([0, 0, 0.05, 0, 0, 0]), cached.cov, 5000
+    )
     assert drift_accepted(cached, same)[0]
     ok, chi2, p = drift_accepted(cached, moved)
     assert not ok and chi2 > 100 and p < 1e-3
