@@ -297,13 +297,7 @@ class SimNode(Node):
         self.clock_publisher.publish(self._clock_msg)
 
     def _publish_wrench(self, now: int, reading: np.ndarray) -> None:
-        msg = self._wrench
-        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(now, 1_000_000_000)
-        fx, fy, fz, tx, ty, tz = reading.tolist()
-        force, torque = msg.wrench.force, msg.wrench.torque
-        force.x, force.y, force.z = fx, fy, fz
-        torque.x, torque.y, torque.z = tx, ty, tz
-        self.wrench_publisher.publish(msg)
+        self.wrench_publisher.publish(_filled(self._wrench, now, reading))
 
     def _publish_applied(self, now: int) -> None:
         """The pushes of the last step as the sensor reads them, in the mounted sensor's
@@ -319,13 +313,7 @@ class SimNode(Node):
             self._push_scheduled = world.push_scheduled
             return
         self._push_scheduled = world.push_scheduled or self._push_published
-        msg = self._applied
-        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(now, 1_000_000_000)
-        fx, fy, fz, tx, ty, tz = wrench.tolist()
-        force, torque = msg.wrench.force, msg.wrench.torque
-        force.x, force.y, force.z = fx, fy, fz
-        torque.x, torque.y, torque.z = tx, ty, tz
-        self.applied_publisher.publish(msg)
+        self.applied_publisher.publish(_filled(self._applied, now, wrench))
 
     def _publish_joint_state(self, now: int) -> None:
         msg = self._joint_state
@@ -386,6 +374,16 @@ class SimNode(Node):
         """Release pybullet and the executor."""
         self.executor_.shutdown(timeout_sec=0.0)
         self.world.close()
+
+
+def _filled(msg: WrenchStamped, now: int, wrench: np.ndarray) -> WrenchStamped:
+    """``msg`` (reused: no allocation per sample) stamped ``now`` (ns) with ``wrench`` (6,)."""
+    msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(now, 1_000_000_000)
+    fx, fy, fz, tx, ty, tz = wrench.tolist()
+    force, torque = msg.wrench.force, msg.wrench.torque
+    force.x, force.y, force.z = fx, fy, fz
+    torque.x, torque.y, torque.z = tx, ty, tz
+    return msg
 
 
 def _inertia(stamp, mass: float, com: np.ndarray) -> InertiaStamped:
