@@ -395,6 +395,20 @@ def save_payload(listener: Listener):
     return listener.call(Trigger, ESTIMATOR_SAVE_PAYLOAD_SERVICE, Trigger.Request())
 
 
+def compensating(start_node, listener: Listener, tmp_path: Path):
+    """The estimator started with a payload file of ``panda_payload``, the test's arm
+    publishing the robot model, and the first compensation status in: (arm, the payload
+    file's path, the node's process)."""
+    payload = panda_payload()
+    path = write_payload_files(tmp_path / "payload", payload)[0]
+    arm = Arm(listener.node, payload)
+    node = start_node("estimator_node", PACKAGE, params={"payload_file": str(path)})
+    listener.wait_for_node()
+    arm.wait_for_estimator()
+    wait_for_compensation_status(listener, f"0 samples compensated with the payload file {path}")
+    return arm, path, node
+
+
 def test_a_payload_file_compensates_from_the_first_sample_to_the_contact_wrench(
     start_node, listener, tmp_path
 ):
@@ -405,13 +419,7 @@ def test_a_payload_file_compensates_from_the_first_sample_to_the_contact_wrench(
     compensated with the payload file. Tolerance 1e-9 N (N m): the node computes the same
     forward kinematics and payload wrench from the same doubles as the test, so only the
     rounding of a subtraction from ~10 N readings (~1e-15 N) is left."""
-    payload = panda_payload()
-    path = write_payload_files(tmp_path / "payload", payload)[0]
-    arm = Arm(listener.node, payload)
-    start_node("estimator_node", PACKAGE, params={"payload_file": str(path)})
-    listener.wait_for_node()
-    arm.wait_for_estimator()
-    wait_for_compensation_status(listener, f"0 samples compensated with the payload file {path}")
+    arm, path, _ = compensating(start_node, listener, tmp_path)
     seen = len(listener.compensation)
     arm.run((100, True, True))
     arm.run_to_end(listener)
@@ -541,13 +549,7 @@ def test_samples_past_the_joint_states_are_left_out_and_counted_until_they_retur
     left out; when the joint states return, every wrench is compensated again (an OK status
     with only those). Every compensated one is the contact wrench to 1e-9 N (N m), the
     rounding of the subtraction (see the payload file test)."""
-    payload = panda_payload()
-    path = write_payload_files(tmp_path / "payload", payload)[0]
-    arm = Arm(listener.node, payload)
-    start_node("estimator_node", PACKAGE, params={"payload_file": str(path)})
-    listener.wait_for_node()
-    arm.wait_for_estimator()
-    wait_for_compensation_status(listener, f"0 samples compensated with the payload file {path}")
+    arm, path, _ = compensating(start_node, listener, tmp_path)
     seen = len(listener.compensation)
     arm.run((50, True, True), (30, False, True), (250, True, True))
     arm.run_to_end(listener, timeout=20.0)
@@ -620,13 +622,7 @@ def test_the_robot_model_received_again_keeps_the_joint_states_and_the_counts(
     had, so the 3 wrenches after it, before the next joint state (15 to 35 ms past the
     latest, within max_joint_state_age), are compensated too, and the statuses count every
     sample, none left out. The node logs the model and the compensation's start twice."""
-    payload = panda_payload()
-    path = write_payload_files(tmp_path / "payload", payload)[0]
-    arm = Arm(listener.node, payload)
-    node = start_node("estimator_node", PACKAGE, params={"payload_file": str(path)})
-    listener.wait_for_node()
-    arm.wait_for_estimator()
-    wait_for_compensation_status(listener, f"0 samples compensated with the payload file {path}")
+    arm, _, node = compensating(start_node, listener, tmp_path)
     seen = len(listener.compensation)
     arm.run((50, True, True), (3, False, True, True), (47, True, True))
     arm.run_to_end(listener)
