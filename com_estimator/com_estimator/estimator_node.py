@@ -254,14 +254,11 @@ class EstimatorNode(Node):
         if self._payload is None or self._robot is None:
             return
         previous = self._compensator
-        self._compensator = Compensator.of(
+        self._compensator = Compensator(
             self._payload, self._robot, self._payload_source, self._param("max_joint_state_age")
         )
-        if previous is not None and tuple(previous.track.names) == self._robot.joint_names:
-            previous.track.max_age = self._compensator.track.max_age
-            self._compensator.track = previous.track
-            self._compensator.compensated = previous.compensated
-            self._compensator.stale = previous.stale
+        if previous is not None:
+            self._compensator.take_over(previous)
         self._compensation_problem = ""
         self.get_logger().info(
             f"publishing {COMPENSATED_TOPIC}: {WRENCH_TOPIC} less the {self._payload_source}"
@@ -302,8 +299,7 @@ class EstimatorNode(Node):
             text = f"{done} samples compensated with the {c.source}"
             if stale:
                 text += (
-                    f"; {stale} left out: joint states older than "
-                    f"{c.track.max_age:g} s at their stamps"
+                    f"; {stale} left out: joint states older than {c.max_age:g} s at their stamps"
                 )
             values = [
                 KeyValue(key="compensated", value=str(done)),
@@ -330,7 +326,7 @@ class EstimatorNode(Node):
         for the orientation of each sample to compensate."""
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
         if self._compensator is not None:
-            self._compensator.track.add(stamp, msg.name, msg.position, msg.velocity)
+            self._compensator.add_joint_state(stamp, msg.name, msg.position, msg.velocity)
         if self._exploration.information != WRENCHES:
             self._exploration.add_joint_state(stamp, msg.name, msg.position)
 

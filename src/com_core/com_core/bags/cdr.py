@@ -119,20 +119,20 @@ def _wrench_offset(raw: bytes) -> tuple[int, str]:
     return offset, frame_id
 
 
-def decode_wrench(raw: bytes) -> tuple[int, str, NDArray[np.float64]]:
-    """(stamp ns, frame_id, wrench (6,)) of one serialized WrenchStamped; ValueError if
-    malformed. The one-message path of a node that answers each sample as it comes."""
+def decode_wrench(raw: bytes) -> tuple[int, str, tuple[float, ...]]:
+    """(stamp ns, frame_id, wrench: 6 floats) of one serialized WrenchStamped; ValueError
+    if malformed. The one-message path of a node that answers each sample as it comes
+    (plain floats: a few microseconds, no array)."""
     offset, frame_id = _wrench_offset(raw)
     sec, nanosec = struct.unpack_from("<iI", raw, 4)
-    wrench = np.frombuffer(raw, dtype="<f8", count=6, offset=offset).astype(np.float64)
-    return sec * 1_000_000_000 + nanosec, frame_id, wrench
+    return sec * 1_000_000_000 + nanosec, frame_id, struct.unpack_from("<6d", raw, offset)
 
 
-def with_wrench(raw: bytes, wrench: NDArray[np.float64]) -> bytes:
-    """The serialized WrenchStamped ``raw`` with its wrench replaced by ``wrench`` (6,):
-    the same header (stamp, frame_id), to the byte."""
+def with_wrench(raw: bytes, wrench: Sequence[float]) -> bytes:
+    """The serialized WrenchStamped ``raw`` with its wrench replaced by ``wrench`` (6
+    floats): the same header (stamp, frame_id), to the byte."""
     offset, _ = _wrench_offset(raw)
-    return raw[:offset] + np.asarray(wrench, dtype="<f8").tobytes() + raw[offset + 48 :]
+    return raw[:offset] + struct.pack("<6d", *wrench) + raw[offset + 48 :]
 
 
 def encode_header(stamp_ns: int, frame_id: str) -> bytes:
