@@ -148,7 +148,10 @@ class EstimatorNode(Node):
         )
         pose_qos = QoSProfile(depth=100, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.create_subscription(Header, POSE_TOPIC, self.pose_callback, pose_qos, raw=True)
-        self.create_subscription(JointState, JOINT_STATES_TOPIC, self.joint_state_callback, 100)
+        joint_qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)  # any
+        self.create_subscription(
+            JointState, JOINT_STATES_TOPIC, self.joint_state_callback, joint_qos
+        )
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.create_subscription(
             String, ROBOT_DESCRIPTION_TOPIC, self.robot_description_callback, latched
