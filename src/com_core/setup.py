@@ -13,7 +13,7 @@ setup(
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
     ],
-    install_requires=["numpy"],
+    install_requires=["numpy", "PyYAML"],
     python_requires=">=3.10",
     zip_safe=True,
     description="ROS-free estimation core for object mass and centre of mass from F/T wrenches",
