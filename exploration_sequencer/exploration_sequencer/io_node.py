@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
@@ -67,6 +67,10 @@ class IoNode(Node):
         """The latest joint state: {name: (position rad or m, velocity)}; {} before one."""
         return self.joint_history[-1][1] if self.joint_history else {}
 
+    def joints_over(self, start_ns: int, end_ns: int) -> dict[str, float]:
+        """``mean_joint_positions`` of the history (its last 2 s) over [start_ns, end_ns)."""
+        return mean_joint_positions(self.joint_history, start_ns, end_ns)
+
     def diagnostics_callback(self, msg: DiagnosticArray) -> None:
         for status in msg.status:
             heard = heard_stamps(status)
@@ -106,3 +110,16 @@ class IoNode(Node):
     def sleep_until(self, stamp_ns: int, what: str) -> None:
         """Wait until sim time ``stamp_ns``."""
         self.wait(lambda: self.now_ns() >= stamp_ns, what, wall_timeout=None)
+
+
+def mean_joint_positions(
+    history: Iterable[tuple[int, dict[str, tuple[float, float]]]], start_ns: int, end_ns: int
+) -> dict[str, float]:
+    """The mean joint positions (rad, m) of the joint states (stamp ns, {name: (position,
+    velocity)}) stamped in [start_ns, end_ns): a window's own, not a reading taken after
+    it, when the next move may have begun; the latest joint state's if none is inside."""
+    states = list(history)
+    inside = [joints for stamp, joints in states if start_ns <= stamp < end_ns]
+    if not inside:
+        return {name: q for name, (q, _) in states[-1][1].items()} if states else {}
+    return {name: sum(j[name][0] for j in inside) / len(inside) for name in inside[-1]}

@@ -157,8 +157,8 @@ class SequencerNode(Node):
         self._lock = threading.Lock()
         self._running: str | None = None
         self._labels: list[tuple[int, str]] = []  # this run's labels
-        # each window's middle (s, sim time) and joint positions at its end (rad, m), by
-        # label: a tare window's are cached with it
+        # each window's middle (s, sim time) and mean joint positions (rad, m), by label:
+        # a tare window's are cached with it
         self._window_seen: dict[str, tuple[float, dict[str, float]]] = {}
         group = ReentrantCallbackGroup()
         self.create_service(Trigger, EXPLORE_SERVICE, self.explore_callback, callback_group=group)
@@ -544,7 +544,7 @@ class SequencerNode(Node):
             if following is not None:
                 arrival = self.arm.command(following[1], start_ns=end)
             self.io.sleep_until(end, f"recording {prefix}{name}")
-            joints = {j: q for j, (q, _) in self.io.joints.items()}
+            joints = self.io.joints_over(start, end)
             self._window_seen[prefix + name] = ((start + end) * 0.5e-9, joints)
             self._label(end, MOVING)
             if following is not None:
