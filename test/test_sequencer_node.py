@@ -356,6 +356,8 @@ def test_the_demo_prints_its_summary_and_exits_cleanly(ros_env, tmp_path):
             "--seed",
             "2",
             "--hold",
+            "--max-tilt",
+            "0.45",
         ],
         env=ros_env,
         capture_output=True,
@@ -369,6 +371,8 @@ def test_the_demo_prints_its_summary_and_exits_cleanly(ros_env, tmp_path):
     assert "mm in ft_sensor, information kinematics+mount" in out, out
     assert "the wrenches alone on the same windows: COM +-" in out, out
     assert "verification 'diagonal': f (" in out and "payload:  " in out, out
+    # --max-tilt is a limit the plan is lowered to, and the change is logged before moving
+    assert "plan changed: tilt 0.524 -> 0.45 rad (the plan's tilt exceeds max_tilt)" in out, out
     # held after the run: the compensated wrench is zero within 5 sigma of its mean
     held = re.search(r"holding: .* over (\d+) samples: f \(([-+\d., ]+)\) \+- \(([\d., ]+)\)", out)
     assert held and int(held.group(1)) > 500, out
@@ -540,3 +544,42 @@ def test_the_compensated_stream_shows_a_push_without_gravity_and_payload_files_l
     np.testing.assert_allclose(mean(before, compensated)[:3], 0.0, atol=0.045)
     gravity = mean(during, raw) - mean(during, compensated)
     assert np.linalg.norm(gravity[:3]) > 5.0  # the hand and the object, some 1.1 kg
+
+
+def test_an_arm_left_away_from_home_with_open_fingers_goes_home_first(
+    start_node, client, tmp_path
+):
+    """The arm left elsewhere by someone else (fingers open, nothing held): the run logs
+    that it moves the arm home first, and then explores as usual."""
+    from builtin_interfaces.msg import Duration
+    from sensor_msgs.msg import JointState
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+    from com_core.contract import ARM_COMMAND_TOPIC, ARM_JOINTS
+
+    start_system(start_node, tmp_path, {"seed": 6})
+    node = client.node
+    joints: dict[str, float] = {}
+    node.create_subscription(
+        JointState,
+        JOINT_STATES_TOPIC,
+        lambda m: joints.update(zip(m.name, m.position, strict=True)),
+        10,
+    )
+    assert spin_until(node, lambda: all(j in joints for j in ARM_JOINTS), 30.0)
+    goal = [joints[j] for j in ARM_JOINTS]
+    goal[0] += 0.3
+    goal[5] -= 0.3
+    arm = node.create_publisher(JointTrajectory, ARM_COMMAND_TOPIC, 10)
+    spin_until(node, lambda: arm.get_subscription_count() > 0, 5.0)
+    point = JointTrajectoryPoint(positions=goal, time_from_start=Duration(sec=1))
+    arm.publish(JointTrajectory(joint_names=list(ARM_JOINTS), points=[point]))
+    assert spin_until(
+        node,
+        lambda: max(abs(joints[j] - g) for j, g in zip(ARM_JOINTS, goal, strict=True)) < 1e-3,
+        30.0,
+    ), "the arm did not leave home"
+    result = client.wait(client.call())
+    assert result.success and result.message.startswith("[OK]"), result.message
+    log = next(tmp_path.glob("sequencer_node-*.log")).read_text()
+    assert "the arm is away from home: moving it home before the run" in log, log
