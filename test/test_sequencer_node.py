@@ -113,6 +113,38 @@ def start_system(
     return bags
 
 
+def joint_positions(node) -> dict[str, float]:
+    """The latest joint positions by name (rad, m), kept up to date as ``node`` spins."""
+    from sensor_msgs.msg import JointState
+
+    joints: dict[str, float] = {}
+    node.create_subscription(
+        JointState,
+        JOINT_STATES_TOPIC,
+        lambda m: joints.update(zip(m.name, m.position, strict=True)),
+        10,
+    )
+    return joints
+
+
+def move_arm(node, joints: dict[str, float], goal: list[float], seconds: int) -> None:
+    """Command the sim's arm to ``goal`` (rad) in ``seconds`` and wait until it is there."""
+    from builtin_interfaces.msg import Duration
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+    from com_core.contract import ARM_COMMAND_TOPIC, ARM_JOINTS
+
+    arm = node.create_publisher(JointTrajectory, ARM_COMMAND_TOPIC, 10)
+    spin_until(node, lambda: arm.get_subscription_count() > 0, 5.0)
+    point = JointTrajectoryPoint(positions=goal, time_from_start=Duration(sec=seconds))
+    arm.publish(JointTrajectory(joint_names=list(ARM_JOINTS), points=[point]))
+    assert spin_until(
+        node,
+        lambda: max(abs(joints[j] - g) for j, g in zip(ARM_JOINTS, goal, strict=True)) < 1e-3,
+        30.0,
+    ), f"the arm did not reach {goal}"
+
+
 def numbers(message: str, name: str) -> np.ndarray:
     """The (x, y, z) after ``name`` in a summary: 'COM (1.0, 2.0, 3.0) +- (...)'."""
     m = re.search(name + r" \(([-\d.]+), ([-\d.]+), ([-\d.]+)\)", message)
@@ -453,17 +485,13 @@ def test_the_compensated_stream_shows_a_push_without_gravity_and_payload_files_l
     at a new pose (the verification's sigma, about 7 mN and 0.4 mN m): 0.045 N, 2.5 mN m.
     """
     import yaml
-    from builtin_interfaces.msg import Duration
     from geometry_msgs.msg import WrenchStamped
     from rclpy.qos import QoSProfile, ReliabilityPolicy
-    from sensor_msgs.msg import JointState
-    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
     from com_core.bags.cdr import decode_wrench
     from com_core.contract import (
         APPLIED_WRENCH_TOPIC,
         APPLY_WRENCH_TOPIC,
-        ARM_COMMAND_TOPIC,
         ARM_JOINTS,
         COMPENSATED_TOPIC,
     )
@@ -494,26 +522,12 @@ def test_the_compensated_stream_shows_a_push_without_gravity_and_payload_files_l
             qos,
             raw=True,
         )
-    joints: dict[str, float] = {}
-    node.create_subscription(
-        JointState,
-        JOINT_STATES_TOPIC,
-        lambda m: joints.update(zip(m.name, m.position, strict=True)),
-        10,
-    )
+    joints = joint_positions(node)
     assert spin_until(node, lambda: len(streams["compensated"]) > 200, 20.0), "no compensation"
     goal = [joints[j] for j in ARM_JOINTS]
     goal[5] += 0.35  # joint 6: a tilt
     goal[6] += 0.6  # joint 7: a turn about the flange
-    arm = node.create_publisher(JointTrajectory, ARM_COMMAND_TOPIC, 10)
-    spin_until(node, lambda: arm.get_subscription_count() > 0, 5.0)
-    point = JointTrajectoryPoint(positions=goal, time_from_start=Duration(sec=2))
-    arm.publish(JointTrajectory(joint_names=list(ARM_JOINTS), points=[point]))
-    assert spin_until(
-        node,
-        lambda: max(abs(joints[j] - g) for j, g in zip(ARM_JOINTS, goal, strict=True)) < 1e-3,
-        30.0,
-    ), "the arm did not reach the pose"
+    move_arm(node, joints, goal, seconds=2)
     settled = len(streams["compensated"])
     spin_until(node, lambda: len(streams["compensated"]) > settled + 1000, 20.0)  # 1 s
 
@@ -551,34 +565,17 @@ def test_an_arm_left_away_from_home_with_open_fingers_goes_home_first(
 ):
     """The arm left elsewhere by someone else (fingers open, nothing held): the run logs
     that it moves the arm home first, and then explores as usual."""
-    from builtin_interfaces.msg import Duration
-    from sensor_msgs.msg import JointState
-    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-    from com_core.contract import ARM_COMMAND_TOPIC, ARM_JOINTS
+    from com_core.contract import ARM_JOINTS
 
     start_system(start_node, tmp_path, {"seed": 6})
     node = client.node
-    joints: dict[str, float] = {}
-    node.create_subscription(
-        JointState,
-        JOINT_STATES_TOPIC,
-        lambda m: joints.update(zip(m.name, m.position, strict=True)),
-        10,
-    )
+    joints = joint_positions(node)
     assert spin_until(node, lambda: all(j in joints for j in ARM_JOINTS), 30.0)
     goal = [joints[j] for j in ARM_JOINTS]
     goal[0] += 0.3
     goal[5] -= 0.3
-    arm = node.create_publisher(JointTrajectory, ARM_COMMAND_TOPIC, 10)
-    spin_until(node, lambda: arm.get_subscription_count() > 0, 5.0)
-    point = JointTrajectoryPoint(positions=goal, time_from_start=Duration(sec=1))
-    arm.publish(JointTrajectory(joint_names=list(ARM_JOINTS), points=[point]))
-    assert spin_until(
-        node,
-        lambda: max(abs(joints[j] - g) for j, g in zip(ARM_JOINTS, goal, strict=True)) < 1e-3,
-        30.0,
-    ), "the arm did not leave home"
+    move_arm(node, joints, goal, seconds=1)
     result = client.wait(client.call())
     assert result.success and result.message.startswith("[OK]"), result.message
     log = next(tmp_path.glob("sequencer_node-*.log")).read_text()
