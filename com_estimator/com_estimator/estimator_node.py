@@ -209,21 +209,29 @@ class EstimatorNode(Node):
         except Exception as exc:  # a defect must not kill the node: report it as ERROR
             self.get_logger().error(f"solve failed: {traceback.format_exc()}")
             solution = Solution(ERROR, f"internal error: {exc!r}", self._param("method"))
-        self._publish(solution, until_ns)
-        if solution.usable and solution.fit is not None and self._exploration.robot is not None:
-            try:
-                payload = payload_from_solution(
-                    solution,
-                    self._exploration.robot,
-                    frame=self._param("expected_frame"),
-                    hand_id=self._param("hand_id"),
-                )
-            except PayloadError as exc:  # a fit without the hand's windows: no payload
-                self.get_logger().warning(f"no payload to compensate with: {exc}")
-            else:
-                self._payload, self._payload_source = payload, f"estimate of {payload.time}"
-                self._start_compensating()
+        payload = self._payload_of(solution)
+        if payload is not None:
+            self._payload, self._payload_source = payload, f"estimate of {payload.time}"
+            self._start_compensating()
+        self._publish(solution, until_ns, payload is not None)
         return solution
+
+    def _payload_of(self, solution: Solution) -> Payload | None:
+        """The payload of a usable solution with a kinematic fit, else None (the wrenches
+        alone give no bias nor hand model; a fit without the hand's windows none either)."""
+        robot = self._exploration.robot
+        if not solution.usable or solution.fit is None or robot is None:
+            return None
+        try:
+            return payload_from_solution(
+                solution,
+                robot,
+                frame=self._param("expected_frame"),
+                hand_id=self._param("hand_id"),
+            )
+        except PayloadError as exc:
+            self.get_logger().warning(f"no payload to compensate with: {exc}")
+            return None
 
     # --- compensation -----------------------------------------------------------------
 
@@ -472,7 +480,10 @@ class EstimatorNode(Node):
 
     # --- output -------------------------------------------------------------------
 
-    def _publish(self, solution: Solution, stamp_ns: int) -> None:
+    def _publish(self, solution: Solution, stamp_ns: int, payload: bool = False) -> None:
+        """The solution on the logs, ~/estimate (usable only) and /diagnostics, whose
+        ``payload`` value says whether it is now the compensation's payload (the one
+        ~/save_payload writes)."""
         for window in solution.windows:
             f = window.force
             self.get_logger().info(
@@ -496,6 +507,7 @@ class EstimatorNode(Node):
             self._estimate_pub.publish(msg)
         values = [KeyValue(key=k, value=v) for k, v in solution.diagnostic_values()]
         values.append(KeyValue(key="samples", value=str(self._exploration.sample_count)))
+        values.append(KeyValue(key="payload", value=str(payload)))
         status = DiagnosticStatus(
             level=level_of(solution.status),
             name=DIAGNOSTIC_NAME,

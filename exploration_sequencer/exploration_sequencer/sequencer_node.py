@@ -373,9 +373,9 @@ class SequencerNode(Node):
         status = self._estimator_answer(end)
         if (
             status is not None
-            and {kv.key: kv.value for kv in status.values}.get("usable") == "True"
+            and {kv.key: kv.value for kv in status.values}.get("payload") == "True"
         ):
-            self._save_payload(bag)
+            self._save_payload(bag)  # this run's estimate is the estimator's payload now
         counts = self._stop_recording()
         summary = _summary(status, prediction, object_time, bag)
         log.info(f"run {run_id}: {summary} ({sum(counts.values())} messages recorded)")
