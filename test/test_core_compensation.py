@@ -108,3 +108,21 @@ def test_a_moving_arm_is_compensated_within_the_interpolations_bound_at_each_sam
     assert np.max(np.abs(errors)) > 1e-6  # linear in time, not exact: the test sees it
     assert compensator.compensate(1069 * MS, reading) is None  # 60 ms past the latest
     assert (compensator.compensated, compensator.stale) == (1000, 1)
+
+
+def test_malformed_and_repeated_joint_states_leave_the_track_as_it_was(panda):
+    """A state without one finite position per name is refused; velocities of another
+    length or not finite count as absent (held, not extrapolated); a state stamped as the
+    latest (republished) is ignored, not taken for a restarted clock."""
+    c = Compensator(payload_of(), panda)
+    assert c.add_joint_state(0, NAMES, START, SPEED)
+    assert c.add_joint_state(10 * MS, NAMES, START + SPEED * 0.01, SPEED)
+    assert not c.add_joint_state(20 * MS, NAMES, START[:5])
+    assert not c.add_joint_state(20 * MS, NAMES, [*START[:8], float("nan")])
+    assert c.add_joint_state(10 * MS, NAMES, START, SPEED)  # the latest again: ignored
+    assert c.payload_wrench_at(5 * MS) is not None  # the history is kept
+    held = Compensator(payload_of(), panda)
+    held.add_joint_state(0, NAMES, START, SPEED[:3])
+    held.add_joint_state(1 * MS, NAMES, START + 1e-3, [float("nan")] * len(NAMES))
+    w = held.payload_wrench_at(1 * MS)
+    assert held.payload_wrench_at(30 * MS) == w  # no rate: held

@@ -189,6 +189,8 @@ def test_control_toolbox_filter_removes_the_payload_wrench_but_the_bias(mount, t
     parameters = parameters["ros__parameters"]
     in_file = yaml.safe_load(payload_yaml(payload))["control_toolbox"]["gravity_compensation"]
     assert in_file == parameters
+    for text in (gravity_compensation_parameters(payload), payload_yaml(payload)):
+        assert not re.search(r"[&*]id\d", text)  # ROS 2's parameter parser refuses aliases
     assert (parameters["world_frame"], parameters["sensor_frame"]) == ("base", "hand")
     rotations = random_rotations(20, seed=4)
     contact = np.random.default_rng(5).normal(size=(20, 6))

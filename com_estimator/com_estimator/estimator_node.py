@@ -163,11 +163,16 @@ class EstimatorNode(Node):
         self.create_timer(0.02, self.drain_callback, clock=steady)
         self._received = 0  # wrench messages since the last input status
         self._latest_stamp = 0  # ns, of the latest wrench received
+        self._latest_frame = ""  # its frame_id
         self._latest_label: int | None = None  # ns, stamp of the latest label received
         self.create_timer(1.0, self.input_status_callback, clock=steady)
         self.get_logger().info(
             f"estimating with method={self._param('method')}; waiting for {POSE_TOPIC} labels"
         )
+        if self._param("robot_description"):  # a URDF given as a parameter, not on a topic
+            self._robot, problem = robot_from(self._settings())
+            if problem:
+                self.get_logger().error(f"robot model: {problem}")
         self._load_payload_file()
 
     # --- parameters -----------------------------------------------------------------
@@ -223,11 +228,9 @@ class EstimatorNode(Node):
         if not solution.usable or solution.fit is None or robot is None:
             return None
         try:
+            frame = self._param("expected_frame") or self._latest_frame  # '': the wrenches'
             return payload_from_solution(
-                solution,
-                robot,
-                frame=self._param("expected_frame"),
-                hand_id=self._param("hand_id"),
+                solution, robot, frame=frame, hand_id=self._param("hand_id")
             )
         except PayloadError as exc:
             self.get_logger().warning(f"no payload to compensate with: {exc}")
@@ -243,7 +246,7 @@ class EstimatorNode(Node):
             return
         try:
             payload = read_payload(
-                path, frame=self._param("expected_frame"), hand_id=self._param("hand_id")
+                path, frame=self._param("expected_frame") or None, hand_id=self._param("hand_id")
             )
             if payload.sensor_frame != self._param("sensor_frame"):
                 raise PayloadError(
@@ -263,7 +266,21 @@ class EstimatorNode(Node):
         a model of the same joints keeps the joint states and the counts since the last
         status (a new estimate or the URDF again leaves no sample out, loses no count)."""
         if self._payload is None or self._robot is None:
+            self._compensator = None  # a robot model refused since: nothing to compensate with
             return
+        for field, ours in (
+            ("sensor_frame", self._robot.sensor_frame),
+            ("base_frame", self._robot.base_frame),
+        ):
+            theirs = getattr(self._payload, field)
+            if theirs != ours:
+                self._compensator = None
+                self._compensation_problem = (
+                    f"the {self._payload_source}'s field {field!r} is {theirs!r}, the robot "
+                    f"model's {ours!r}"
+                )
+                self.get_logger().error(f"not compensating: {self._compensation_problem}")
+                return
         previous = self._compensator
         self._compensator = Compensator(
             self._payload, self._robot, self._payload_source, self._param("max_joint_state_age")
@@ -289,10 +306,11 @@ class EstimatorNode(Node):
         if contact is not None:
             self._compensated_pub.publish(with_wrench(raw, contact))
 
-    def _compensation_status(self) -> DiagnosticStatus:
+    def _compensation_status(self, received: int) -> DiagnosticStatus:
         """``com_estimator: compensation``: OK while every sample since the last status
         was compensated; WARN with the reason when samples were left out (stale joint
-        states) or nothing is published (no payload, no robot model, a refused file)."""
+        states), when ``received`` wrenches came and none was in the payload's frame, or
+        nothing is published (no payload, no robot model, a refused file)."""
         c = self._compensator
         values = []
         if c is None:
@@ -306,8 +324,10 @@ class EstimatorNode(Node):
         else:
             done, stale = c.compensated, c.stale
             c.compensated = c.stale = 0
-            level = level_of(WARN if stale else OK)
+            level = level_of(WARN if stale or (received and not done) else OK)
             text = f"{done} samples compensated with the {c.source}"
+            if received and not done and not stale:
+                text += f": none of the {received} wrenches is in its frame {c.payload.frame!r}"
             if stale:
                 text += (
                     f"; {stale} left out: joint states older than {c.max_age:g} s at their stamps"
@@ -336,6 +356,13 @@ class EstimatorNode(Node):
         """Joint positions for the gravity of each window (information 'kinematics') and
         for the orientation of each sample to compensate."""
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        if len(msg.position) != len(msg.name):  # malformed: not one position per joint
+            self.get_logger().warning(
+                f"dropped a joint state of {len(msg.name)} names and {len(msg.position)} "
+                "positions",
+                throttle_duration_sec=10.0,
+            )
+            return
         if self._compensator is not None:
             self._compensator.add_joint_state(stamp, msg.name, msg.position, msg.velocity)
         if self._exploration.information != WRENCHES:
@@ -392,7 +419,7 @@ class EstimatorNode(Node):
             return
         resets = self._exploration.time_resets
         self._exploration.add_samples(stamps, wrenches, frames)
-        self._latest_stamp = int(stamps[-1])
+        self._latest_stamp, self._latest_frame = int(stamps[-1]), str(frames[-1])
         if self._exploration.time_resets > resets:
             self.get_logger().warning("sensor time jumped back by more than 1 s: restarted clock")
 
@@ -418,7 +445,7 @@ class EstimatorNode(Node):
             hardware_id=self._param("expected_frame"),
             values=values,
         )
-        msg = DiagnosticArray(status=[status, self._compensation_status()])
+        msg = DiagnosticArray(status=[status, self._compensation_status(rate)])
         msg.header.stamp = self.get_clock().now().to_msg()
         self._diag_pub.publish(msg)
 

@@ -31,7 +31,7 @@ import sys
 from pathlib import Path
 
 from com_core.bags.reader import INCOMPLETE_TEXT, BagReading, feed_bag
-from com_core.contract import OBJECT_PREFIX, POSE_TOPIC, TARE_PREFIX, WRENCH_TOPIC
+from com_core.contract import OBJECT_PREFIX, POSE_TOPIC, TARE_PREFIX, VERIFY_PREFIX, WRENCH_TOPIC
 from com_core.estimator_settings import (
     SETTINGS,
     exploration_from,
@@ -149,7 +149,9 @@ def cut_short_reasons(exploration: Exploration, n_label: int, reading: BagReadin
 def last_window(exploration: Exploration) -> str:
     """The last window label that arrived, or what was there instead."""
     windows = [
-        label for _, label in exploration.labels if label.startswith((TARE_PREFIX, OBJECT_PREFIX))
+        label
+        for _, label in exploration.labels
+        if label.startswith((TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX))
     ]
     return windows[-1] if windows else "no window label (before the first window)"
 

@@ -24,6 +24,7 @@ message, inside the 1 ms its latency may add.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -74,8 +75,12 @@ class Compensator:
         velocities: Sequence[float] = (),
     ) -> bool:
         """Keep a joint state; False (and nothing kept) when it lacks a joint of the
-        robot model."""
+        robot model, or its positions are not one finite number per name. Velocities of
+        another length, or not finite, count as absent. A state stamped as the latest is
+        ignored (a republished one)."""
         names = tuple(names)
+        if len(positions) != len(names) or not all(map(math.isfinite, positions)):
+            return False
         if names != self._order[0]:
             index = {name: k for k, name in enumerate(names)}
             order = [index[n] for n in self.robot.joint_names if n in index]
@@ -84,12 +89,15 @@ class Compensator:
         if order is None:
             return False
         q = np.asarray(positions, dtype=np.float64)[order]
-        v = np.asarray(velocities, dtype=np.float64)[order] if len(velocities) else None
+        usable = len(velocities) == len(names) and all(map(math.isfinite, velocities))
+        v = np.asarray(velocities, dtype=np.float64)[order] if usable else None
+        if self._track and int(stamp_ns) == self._track[-1][0]:
+            return True
         self._add(int(stamp_ns), q, v)
         return True
 
     def _add(self, stamp: int, q: NDArray[np.float64], v: NDArray[np.float64] | None) -> None:
-        if self._track and stamp <= self._track[-1][0]:
+        if self._track and stamp < self._track[-1][0]:  # a restarted clock
             self._states.clear()
             self._track.clear()
         wrench = self._wrench(q)

@@ -34,7 +34,7 @@ class RobotModel:
     """Forward kinematics of one URDF from its base frame to its sensor frame.
 
     urdf : the URDF text. sensor_frame, base_frame : frames (links or joints) of the URDF;
-    base_frame None is the URDF's root. gravity : m/s^2 in the base frame (a tilted or
+    base_frame None is the URDF's root link. gravity : m/s^2 in the base frame (a tilted or
     wall-mounted base gives its own).
     """
 
@@ -54,7 +54,8 @@ class RobotModel:
             raise KinematicsError(f"the URDF does not parse: {error}") from error
         self.data = self.model.createData()
         frames = [frame.name for frame in self.model.frames]
-        base_frame = base_frame or frames[0]
+        root = next((f.name for f in self.model.frames if f.type == pinocchio.FrameType.BODY), "")
+        base_frame = base_frame or root or frames[0]  # the root link, a TF frame
         for role, name in (("sensor_frame", sensor_frame), ("base_frame", base_frame)):
             if not self.model.existFrame(name):
                 raise KinematicsError(

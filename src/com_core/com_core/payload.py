@@ -439,7 +439,11 @@ def _comment(text: str) -> str:
 
 
 class _Dumper(yaml.SafeDumper):
-    """SafeDumper writing mappings as blocks and lists of scalars on one line."""
+    """SafeDumper writing mappings as blocks and lists of scalars on one line, and a value
+    used twice in full both times: ROS 2's parameter parser refuses YAML aliases."""
+
+    def ignore_aliases(self, data: object) -> bool:
+        return True
 
 
 def _represent_list(dumper: yaml.SafeDumper, data: list) -> yaml.Node:
