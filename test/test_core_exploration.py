@@ -213,3 +213,23 @@ def test_a_verification_window_is_checked_against_the_fit_and_a_push_is_flagged(
     wrenches = fed(stream).solve()
     assert wrenches.status == OK and not wrenches.verifications
     assert "information 'kinematics'" in wrenches.unverified
+
+
+def test_before_a_window_label_only_the_lead_in_is_kept():
+    """A node that only compensates (no exploration running) keeps a bounded buffer: the
+    last IDLE_KEEP s of samples and joint states; once a window label came, everything."""
+    from com_core.exploration import IDLE_KEEP
+
+    ex = Exploration()
+    stamps = np.arange(0, 30_000_000_000, 1_000_000)  # 30 s at 1 kHz
+    ex.add_samples(stamps, np.zeros((len(stamps), 6)), "ft_sensor")
+    ex.add_joint_state(0, ["j"], [0.0])
+    ex.add_label(int(stamps[-1]), "moving")  # a label that opens no window
+    ex.forget_idle()
+    assert ex.sample_count == round(IDLE_KEEP * 1000) + 1 and not ex._joint_states
+    ex.add_label(int(stamps[-1]), "object/home")
+    ex.add_samples(
+        stamps[-1] + np.arange(1, 20_001) * 1_000_000, np.zeros((20_000, 6)), "ft_sensor"
+    )
+    ex.forget_idle()
+    assert ex.sample_count == round(IDLE_KEEP * 1000) + 1 + 20_000  # a window is open

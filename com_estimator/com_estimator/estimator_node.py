@@ -420,6 +420,7 @@ class EstimatorNode(Node):
         resets = self._exploration.time_resets
         self._exploration.add_samples(stamps, wrenches, frames)
         self._latest_stamp, self._latest_frame = int(stamps[-1]), str(frames[-1])
+        self._exploration.forget_idle()  # no exploration running: a bounded lead-in
         if self._exploration.time_resets > resets:
             self.get_logger().warning("sensor time jumped back by more than 1 s: restarted clock")
 

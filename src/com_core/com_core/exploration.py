@@ -93,6 +93,8 @@ METHODS = {"ml": ml, "two_pose": two_pose}
 WRENCHES, KINEMATICS, KINEMATICS_MOUNT = "wrenches", "kinematics", "kinematics+mount"
 INFORMATION = (WRENCHES, KINEMATICS, KINEMATICS_MOUNT)
 """What the fit uses: the wrenches only, or also each window's gravity from kinematics."""
+IDLE_KEEP = 10.0
+"""s (sensor time) of samples an exploration keeps before its first label."""
 JOINT_STATE_GAP = 0.1
 """s; a window without a joint state in it takes the nearest this close to it."""
 JOINT_MOTION = 2e-3
@@ -421,6 +423,22 @@ class Exploration:
         kept = [(t >= stamp_ns, t, w) for t, w in zip(self._stamps, self._wrenches, strict=True)]
         self._stamps = [t[k] for k, t, _ in kept]
         self._wrenches = [w[k] for k, _, w in kept]
+
+    def forget_idle(self, keep_s: float = IDLE_KEEP) -> None:
+        """Before the first window label, keep only the last ``keep_s`` s (sensor time) of
+        samples and joint states: the lead-in a first window may reach back into. A node
+        that only compensates (no exploration running) then holds a bounded buffer."""
+        windows = (TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX)
+        opened = any(label.startswith(windows) for _, label in self._labels)
+        if opened or self._last_stamp == _NO_STAMP:
+            return
+        cut = self._last_stamp - round(keep_s * 1e9)
+        if self._stamps and (len(self._stamps[0]) == 0 or self._stamps[0][0] < cut):
+            kept = [(t >= cut, t, w) for t, w in zip(self._stamps, self._wrenches, strict=True)]
+            self._stamps = [t[k] for k, t, _ in kept if k.any()]
+            self._wrenches = [w[k] for k, _, w in kept if k.any()]
+        if self._joint_states and self._joint_states[0][0] < cut:
+            self._joint_states = [(t, q) for t, q in self._joint_states if t >= cut]
 
     def done_stamp(self) -> int | None:
         """Stamp of the ``done`` that ends this exploration (see ``done_stamp``)."""
