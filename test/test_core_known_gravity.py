@@ -265,3 +265,14 @@ def test_the_wrench_at_an_unseen_pose_is_predicted_with_its_covariance():
         for _ in range(300)
     ]
     np.testing.assert_allclose(np.std(runs, axis=0) / np.sqrt(np.diag(cov)), 1.0, atol=0.15)
+
+
+def test_the_latest_bias_carries_the_fitted_rate_to_the_runs_last_window():
+    """With a drift within the run and a rate prior, the bias at the run's last window is
+    the epoch's bias moved along the fitted rate: nearer the truth there than the bias at
+    the epoch's mean time (noise-free; the prior shrinks the rate a little)."""
+    rate = np.array([0.05, -0.05, 0.05, 0.0025, 0.0025, -0.0025]) / 60
+    fit = kinematic_ml(observations(rate=rate), drift_rate_sigma=(0.05 / 60, 0.0025 / 60))
+    last = max(o.time for o in observations() if o.epoch == 0)
+    truth = TARE_BIAS + rate * last
+    assert np.all(np.abs(fit.latest_bias() - truth) < 0.5 * np.abs(fit.bias[0] - truth))

@@ -149,6 +149,14 @@ class KinematicFit:
         pose = _Pose(np.asarray(rotation, dtype=np.float64), 0, time, load)
         return self._model.predict(self._x, self.cov, pose)
 
+    def latest_bias(self) -> NDArray[np.float64]:
+        """This run's bias (6,; N, N m) at its latest window: the bias of epoch 0 carried
+        along its fitted rate from the epoch's mean time (what a compensation that goes
+        on after the run starts from)."""
+        model = self._model
+        latest = max(o.time for o in model.obs if o.epoch == 0)
+        return self.bias[0] + self.bias_rate[0] * (latest - model.epoch_time[0])
+
     def drift(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(bias of this run minus that of the tare pass (6,), its covariance (6, 6)): the
         drift since the tare; zeros when the run has one epoch."""

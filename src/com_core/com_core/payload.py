@@ -306,8 +306,9 @@ def payload_from_solution(
     time: str | None = None,
 ) -> Payload:
     """The payload of a solved exploration with kinematic information: the object from
-    the fit's estimate, the hand, this run's bias (``bias[0]``), the mounting and the
-    tilt when fitted; the robot's gravity and frames. ``frame`` is the wrenches'
+    the fit's estimate, the hand, this run's bias at its latest window
+    (``KinematicFit.latest_bias``), the mounting and the tilt when fitted; the robot's
+    gravity and frames. ``frame`` is the wrenches'
     frame_id, ``time`` ISO 8601 (None: now, UTC).
 
     Raises PayloadError with the reason when the solution has no usable estimate, no
@@ -337,7 +338,7 @@ def payload_from_solution(
         cov=estimate.cov,
         hand_mass=fit.hand.mass,
         hand_com=fit.hand.com,
-        bias=fit.bias[0],
+        bias=fit.latest_bias(),
         mount=np.zeros(3) if fit.mount is None else fit.mount,
         base_tilt=np.zeros(3) if fit.base_tilt is None else fit.base_tilt,
         gravity=robot.gravity,
