@@ -520,9 +520,11 @@ class Exploration:
             raise WindowError(f"window {label!r}: the joints moved {moved * 1e3:.1f} mrad")
         return self.robot.sensor_rotation(dict(zip(names, q.mean(axis=0), strict=True)))
 
-    def window_time(self, label: str, until_ns: int | None = None) -> float:
-        """The mean stamp (s) of the samples of window ``label``."""
-        stamps = self.samples()[0]
+    def window_time(
+        self, label: str, stamps: NDArray[np.int64], until_ns: int | None = None
+    ) -> float:
+        """The mean stamp (s) of the samples of window ``label``; ``stamps`` (ns) are every
+        kept sample's (``samples``), taken once by a caller that asks for many windows."""
         inside = np.zeros(len(stamps), dtype=bool)
         for a, b in self.spans(until_ns)[label]:
             inside |= (stamps >= a) & (stamps < b)
@@ -654,6 +656,7 @@ class Exploration:
             )
         assert self.robot is not None
         out = []
+        stamps = self.samples()[0]
         for window in windows:
             label = VERIFY_PREFIX + window.pose
             try:
@@ -661,7 +664,7 @@ class Exploration:
             except WindowError as exc:
                 notes.append(f"verification left out: {exc}")
                 continue
-            predicted, cov = fit.predict(rotation, self.window_time(label, until_ns))
+            predicted, cov = fit.predict(rotation, self.window_time(label, stamps, until_ns))
             out.append(verify(window, predicted, cov, self.alpha))
         return tuple(out), ""
 
@@ -757,6 +760,7 @@ class Exploration:
         assert self.robot is not None
         robot = self.robot
         observations: list[Observation] = []
+        stamps = self.samples()[0]
 
         def add(
             window: Window,
@@ -768,7 +772,7 @@ class Exploration:
             try:
                 if cached is None:
                     rotation = self.window_rotation(label, until_ns)
-                    time = self.window_time(label, until_ns)
+                    time = self.window_time(label, stamps, until_ns)
                 else:
                     rotation, time = robot.sensor_rotation(cached[0]), cached[1]
             except (WindowError, KinematicsError) as exc:
