@@ -91,17 +91,6 @@ class Observation:
 
 
 @dataclass(frozen=True)
-class _Pose:
-    """Where a wrench is predicted: R_base_sensor, bias epoch, time (s), load, group."""
-
-    rotation: NDArray[np.float64]
-    epoch: int = 0
-    time: float = 0.0
-    load: bool = True
-    group: int = 0
-
-
-@dataclass(frozen=True)
 class KinematicFit:
     """The fit of ``kinematic_ml``.
 
@@ -146,8 +135,8 @@ class KinematicFit:
         clock): the bias then, the hand's gravity wrench and, with ``load``, the
         object's; with its covariance (6, 6) from the fit's (mounting and tilt
         included). The wrench at a pose no window saw: a verification's prediction."""
-        pose = _Pose(np.asarray(rotation, dtype=np.float64), 0, time, load)
-        return self._model.predict(self._x, self.cov, pose)
+        rotation = np.asarray(rotation, dtype=np.float64)
+        return self._model.predict(self._x, self.cov, rotation, time, load)
 
     def latest_bias(self) -> NDArray[np.float64]:
         """This run's bias (6,; N, N m) at its latest window: the bias of epoch 0 carried
@@ -258,19 +247,22 @@ class _Model:
         base = _rotation(x[self.mount][3:] @ self.tilt_axes) @ self.gravity
         return [mount_t @ r.T @ base for r in rotations]
 
-    def design_rows(self, o: Observation | _Pose, g: NDArray[np.float64]) -> NDArray[np.float64]:
-        """(6, size): the derivative of the wrench at ``o`` (an observation, or a pose
-        of the fit's) at gravity ``g`` by bias, rate, hand and object (mount columns 0)."""
+    def design_rows(
+        self, g: NDArray[np.float64], epoch: int, time: float, load: bool, group: int = 0
+    ) -> NDArray[np.float64]:
+        """(6, size): the derivative of the wrench at gravity ``g`` read with the bias of
+        ``epoch`` at ``time`` (s), with the object at its place ``group`` if ``load``, by
+        bias, rate, hand and object (mount columns 0)."""
         rows = np.zeros((6, self.size))
         a = _design(g)
         if self.epochs:
-            rows[:, self.bias[o.epoch]] = np.eye(6)
+            rows[:, self.bias[epoch]] = np.eye(6)
         if self.rate:
-            rows[:, self.rate[o.epoch]] = (o.time - self.epoch_time[o.epoch]) * np.eye(6)
+            rows[:, self.rate[epoch]] = (time - self.epoch_time[epoch]) * np.eye(6)
         if self.has_hand:
             rows[:, self.hand] = a
-        if o.load:
-            rows[:, self.moved[o.group]] = a
+        if load:
+            rows[:, self.moved[group]] = a
         return rows
 
     def linear_design(self, gravities: list[NDArray[np.float64]]) -> NDArray[np.float64]:
@@ -278,19 +270,31 @@ class _Model:
         if not self.obs:
             return np.zeros((0, self.size))
         return np.concatenate(
-            [self.design_rows(o, g) for o, g in zip(self.obs, gravities, strict=True)]
+            [
+                self.design_rows(g, o.epoch, o.time, o.load, o.group)
+                for o, g in zip(self.obs, gravities, strict=True)
+            ]
         )
 
     def predict(
-        self, x: NDArray[np.float64], cov: NDArray[np.float64], o: _Pose
+        self,
+        x: NDArray[np.float64],
+        cov: NDArray[np.float64],
+        rotation: NDArray[np.float64],
+        time: float,
+        load: bool,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """The wrench (6,) the unknowns ``x`` give at pose ``o``, and its covariance
-        (6, 6) from ``cov``; the mounting and the tilt enter by central differences."""
+        """The wrench (6,) the unknowns ``x`` give at R_base_sensor ``rotation`` and
+        ``time`` in epoch 0 (with the object if ``load``), and its covariance (6, 6) from
+        ``cov``; the mounting and the tilt enter by central differences."""
+
+        def rows(at: NDArray[np.float64]) -> NDArray[np.float64]:
+            return self.design_rows(self.gravities(at, [rotation])[0], 0, time, load)
 
         def wrench(at: NDArray[np.float64]) -> NDArray[np.float64]:
-            return self.design_rows(o, self.gravities(at, [o.rotation])[0]) @ at
+            return rows(at) @ at
 
-        jac = self.design_rows(o, self.gravities(x, [o.rotation])[0])
+        jac = rows(x)
         for k in range(self.mount.start, self.mount.stop):
             step = np.zeros(self.size)
             step[k] = 1e-6
