@@ -61,10 +61,11 @@ class Compensator:
     keep: int = 16
     compensated: int = 0
     stale: int = 0
-    _states: deque[tuple[int, NDArray[np.float64], NDArray[np.float64] | None]] = field(
-        default_factory=deque, repr=False
-    )
-    _track: deque[tuple[int, list[float], list[float]]] = field(default_factory=deque, repr=False)
+    # per joint state: stamp ns, W and its rate (6 floats each), and the state (q, v)
+    # itself, from which another payload's W is computed (``take_over``)
+    _track: deque[
+        tuple[int, list[float], list[float], NDArray[np.float64], NDArray[np.float64] | None]
+    ] = field(default_factory=deque, repr=False)
     _order: tuple[tuple[str, ...], list[int] | None] = field(default=((), None), repr=False)
 
     def add_joint_state(
@@ -98,7 +99,6 @@ class Compensator:
 
     def _add(self, stamp: int, q: NDArray[np.float64], v: NDArray[np.float64] | None) -> None:
         if self._track and stamp < self._track[-1][0]:  # a restarted clock
-            self._states.clear()
             self._track.clear()
         wrench = self._wrench(q)
         rate = (
@@ -106,10 +106,8 @@ class Compensator:
             if v is not None and np.any(v)
             else np.zeros(6)
         )
-        self._states.append((stamp, q, v))
-        self._track.append((stamp, wrench.tolist(), rate.tolist()))
+        self._track.append((stamp, wrench.tolist(), rate.tolist(), q, v))
         if len(self._track) > self.keep:
-            self._states.popleft()
             self._track.popleft()
 
     def _wrench(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -119,8 +117,8 @@ class Compensator:
         """Go on from ``previous`` (another payload, the robot model received again): its
         joint states, for a model of the same joints, and its counts."""
         if previous.robot.joint_names == self.robot.joint_names:
-            for state in previous._states:
-                self._add(*state)
+            for stamp, _, _, q, v in previous._track:
+                self._add(stamp, q, v)
         self.compensated, self.stale = previous.compensated, previous.stale
 
     def payload_wrench_at(self, stamp_ns: int) -> list[float] | None:
@@ -129,7 +127,7 @@ class Compensator:
         track = self._track
         if not track or stamp_ns < track[0][0]:
             return None
-        latest, wrench, rate = track[-1]
+        latest, wrench, rate, *_ = track[-1]
         if stamp_ns >= latest:
             age = (stamp_ns - latest) * 1e-9
             if age > self.max_age:
@@ -138,7 +136,7 @@ class Compensator:
         k = len(track) - 1
         while track[k - 1][0] > stamp_ns:  # from the newest: samples come just after states
             k -= 1
-        (a, before, _), (b, after, _) = track[k - 1], track[k]
+        (a, before, *_), (b, after, *_) = track[k - 1], track[k]
         if (b - a) * 1e-9 > self.max_age:
             return None
         u = (stamp_ns - a) / (b - a)
