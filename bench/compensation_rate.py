@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import struct
 import subprocess
 import sys
@@ -51,6 +50,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from estimator_rate import cpu_seconds, lossless_scan  # bench/, the script's directory
 
 from com_core.bags.cdr import decode_wrench, encode_wrench_stamped, with_wrench
 from com_core.compensation import Compensator
@@ -113,12 +113,6 @@ def bench_payload() -> Payload:
         time="2026-01-01T00:00:00Z",
         hand_id="panda_hand",
     )
-
-
-def cpu_seconds(pid: int) -> float:
-    """User + system CPU time of a process, s."""
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def stamp_of(raw: bytes) -> int:
@@ -372,19 +366,15 @@ def reference(bench: Bench, seconds: float) -> dict:
     try:
         bench.wait_subscribers(1)
         bench.call(service)
-        rows, lossless, failures = {}, 0, 0
-        for rate in RATES:
+
+        def burst(rate: int) -> tuple[int, int, dict]:
             sent, achieved = bench.stream(rate, seconds)
             bench.spin_for(1.0)
             got = bench.cleared(service)
-            rows[rate] = {"sent": sent, "achieved": achieved, "got": got}
-            if got == sent and failures == 0:
-                lossless = rate
-            elif got != sent:
-                failures += 1
-                if failures >= 2:
-                    break
-        return {"rows": rows, "lossless": lossless}
+            return sent, got, {"sent": sent, "achieved": achieved, "got": got}
+
+        rows, lossless = lossless_scan(RATES, burst)
+        return {"rows": dict(zip(RATES, rows, strict=False)), "lossless": lossless}
     finally:
         stop(proc)
 

@@ -20,7 +20,9 @@ import re
 import subprocess
 import sys
 import time
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 from com_core.contract import ESTIMATOR_RESET_SERVICE, WRENCH_TOPIC
 from com_core.processes import executable, stop
@@ -90,6 +92,24 @@ class Bench:
         return n, n / (time.monotonic() - start)
 
 
+def lossless_scan(
+    rates: Sequence[int], burst: Callable[[int], tuple[int, int, Any]]
+) -> tuple[list[Any], int]:
+    """Bursts at rising ``rates`` (``burst(rate)`` -> (sent, received, row)) until the
+    second lossy one: (the rows, the highest rate below which no burst lost a message)."""
+    rows, lossless, failures = [], 0, 0
+    for rate in rates:
+        sent, got, row = burst(rate)
+        rows.append(row)
+        if got == sent and failures == 0:
+            lossless = rate
+        elif got != sent:
+            failures += 1
+            if failures >= 2:
+                break
+    return rows, lossless
+
+
 def measure(bench: Bench, command: list[str], service: str, seconds: float) -> dict:
     proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
@@ -101,18 +121,14 @@ def measure(bench: Bench, command: list[str], service: str, seconds: float) -> d
         cpu = (cpu_seconds(proc.pid) - cpu0) / (time.monotonic() - t0)
         time.sleep(0.3)
         bench.reset(service)
-        rows, lossless, failures = [], 0, 0
-        for rate in RATES:
+
+        def burst(rate: int) -> tuple[int, int, tuple]:
             sent, achieved = bench.burst(rate, seconds)
             time.sleep(0.5)
             got = bench.reset(service)
-            rows.append((rate, achieved, sent, got))
-            if got == sent and failures == 0:
-                lossless = rate
-            elif got != sent:
-                failures += 1
-                if failures >= 2:
-                    break
+            return sent, got, (rate, achieved, sent, got)
+
+        rows, lossless = lossless_scan(RATES, burst)
         return {"cpu_1khz": cpu, "rows": rows, "lossless": lossless}
     finally:
         stop(proc)
