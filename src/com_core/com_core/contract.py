@@ -1,8 +1,9 @@
 """The wire contract: every name the nodes, the replay, the recorder, the benchmarks and
 the tests share, written once (docs/design.md, Wire contract).
 
-Topics, services, message types, the estimator's status names and keys, the pose labels,
-the arm's joint names and the diagnostic levels. Nothing here imports rclpy; QoS profiles
+Topics, services, message types, the estimator's status names and keys, the pose labels
+and the diagnostic levels; the arm's joints and gripper are its robot configuration's
+(``robot_config``). Nothing here imports rclpy; QoS profiles
 stay with the nodes that create them (docs/design.md lists them).
 """
 
@@ -15,7 +16,6 @@ __all__ = [
     "APPLIED_WRENCH_TOPIC",
     "APPLY_WRENCH_TOPIC",
     "ARM_COMMAND_TOPIC",
-    "ARM_JOINTS",
     "BEST_EFFORT_TOPICS",
     "CLOCK_TOPIC",
     "COMPENSATED_TOPIC",
@@ -31,9 +31,6 @@ __all__ = [
     "ESTIMATOR_SET_PARAMETERS_SERVICE",
     "ESTIMATOR_SOLVE_SERVICE",
     "EXPLORE_SERVICE",
-    "FINGER_CLOSED",
-    "FINGER_JOINTS",
-    "FINGER_OPEN",
     "HAND_COMMAND_TOPIC",
     "HAND_TRUTH_TOPIC",
     "INPUT_STATUS_NAME",
@@ -80,9 +77,12 @@ APPLIED_WRENCH_TOPIC = "/wrench_sim/applied_wrench"
 its origin) at each wrench stamp while it lasts, then one zero wrench."""
 OBJECT_TOPIC = "/wrench_sim/object"
 """std_msgs/String: ``shape=box mass=0.1000 grasp_mode=rigid state=held`` (latched)."""
-ARM_COMMAND_TOPIC = "/panda_arm_controller/joint_trajectory"
-HAND_COMMAND_TOPIC = "/panda_hand_controller/commands"
-"""std_msgs/Float64MultiArray: one value, the opening per finger, m."""
+ARM_COMMAND_TOPIC = "/arm_controller/joint_trajectory"
+"""trajectory_msgs/JointTrajectory: the arm's joints (its robot configuration's
+``arm_joints``); remap to the arm's controller (``--ros-args -r``)."""
+HAND_COMMAND_TOPIC = "/gripper_controller/commands"
+"""std_msgs/Float64MultiArray: one value, the gripper's command (the robot configuration's
+``gripper_open`` .. ``gripper_closed``; m per finger on the Panda, rad on the xArm)."""
 POSE_TOPIC = "/exploration_sequencer/pose"
 """std_msgs/Header: frame_id the label, stamp the sensor time from which it applies."""
 ESTIMATE_TOPIC = "/com_estimator/estimate"
@@ -198,11 +198,6 @@ def heard_stamps(status: _Status) -> tuple[int, int | None] | None:
     return int(values[LATEST_STAMP_KEY]), None if label is None else int(label)
 
 
-# --- the arm and hand -----------------------------------------------------------------
-ARM_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))
-FINGER_JOINTS = ("panda_finger_joint1", "panda_finger_joint2")
-FINGER_OPEN, FINGER_CLOSED = 0.04, 0.0
-"""m per finger from the hand's centre line."""
-
+# --- the sim -----------------------------------------------------------------------
 TRUTH_MOVE_M = 5e-5
 """m; the simulator republishes the ground truth when the COM moves this much in the hand."""

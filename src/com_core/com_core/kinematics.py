@@ -97,6 +97,29 @@ class RobotModel:
             q[at : at + nq] = [np.cos(value), np.sin(value)] if nq == 2 else [value]
         return q
 
+    def joint_limits(self) -> dict[str, tuple[float, float, float]]:
+        """(lower, upper, velocity) of each joint of ``joint_names`` from the URDF: rad and
+        rad/s (m and m/s for a prismatic joint); a continuous joint's are +-inf."""
+        model, limits = self.model, {}
+        for name, (at, nq) in zip(self.joint_names, self._slots, strict=True):
+            velocity = float(model.velocityLimit[model.idx_vs[model.getJointId(name)]])
+            if nq == 2:
+                limits[name] = (-np.inf, np.inf, velocity)
+            else:
+                lower, upper = model.lowerPositionLimit[at], model.upperPositionLimit[at]
+                limits[name] = (float(lower), float(upper), velocity)
+        return limits
+
+    def frame_in_sensor(self, frame: str, joints: Mapping[str, float]) -> NDArray[np.float64]:
+        """T_sensor_frame (4, 4): ``frame``'s pose in the sensor frame (m) at these joint
+        positions; joints not given hold 0."""
+        if not self.model.existFrame(frame):
+            raise KinematicsError(f"{frame!r} is not a frame of the URDF")
+        q = self._configuration([joints.get(name, 0.0) for name in self.joint_names])
+        self._pin.framesForwardKinematics(self.model, self.data, q)
+        sensor = self.data.oMf[self._sensor_id]
+        return (sensor.actInv(self.data.oMf[self.model.getFrameId(frame)])).homogeneous
+
     def sensor_rotation(self, joints: Mapping[str, float]) -> NDArray[np.float64]:
         """R_base_sensor (3, 3): the sensor frame's axes in the base frame."""
         return self._rotation_at(self.configuration(joints))

@@ -1,0 +1,199 @@
+"""What differs between robots: one ROS 2 parameters file per arm (docs/design.md, Robots).
+
+``config/<robot>.yaml`` (in this package: ``config/panda.yaml``, ``config/xarm6.yaml``)
+holds, under ``/**: ros__parameters:`` so that every node reads the keys it uses:
+
+- ``robot``: the arm's name; ``hand_id``: names the hand (a cached tare and a payload
+  file serve this hand only).
+- ``urdf``: the URDF the sim loads (a file, or ``pybullet_data:<path>``); a real arm's
+  nodes take it from /robot_description instead.
+- ``base_frame``, ``sensor_frame``: URDF frames; the sensor frame is the F/T sensor's,
+  the link after the flange's fixed joint. ``grasp_frame`` and ``grasp_offset`` (m, in
+  grasp_frame): the grasp centre, where a grasped object's centre sits and the point the
+  tilts turn about.
+- ``arm_joints``: the joints a trajectory moves, in the controller's order;
+  ``home_joints``, ``pick_joints``: rad, in that order (home: the hand above the object;
+  pick: the object between the open pads).
+- ``gripper_joints``: the gripper's joints in /joint_states; ``gripper_open``,
+  ``gripper_closed``: its command (std_msgs/Float64MultiArray, one value) and joint
+  position open and closed (m or rad). ``finger_gap``: m, each pad's distance from the
+  centre at open and at closed (the sim's virtual fingers, linear between).
+
+``robot_problems`` checks a configuration against a robot model (every frame and joint
+in its URDF, home and pick within the joint limits) and says what is wrong by name.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+
+from .kinematics import RobotModel
+
+__all__ = [
+    "CONFIG_DIR",
+    "ROBOTS",
+    "RobotConfig",
+    "RobotConfigError",
+    "grasp_point",
+    "read_robot_config",
+    "robot_config_path",
+    "robot_problems",
+]
+
+CONFIG_DIR = Path(__file__).resolve().parent / "config"
+ROBOTS = ("panda", "xarm6")
+"""The arms whose files ship in CONFIG_DIR; ``panda`` is every node's default."""
+
+
+class RobotConfigError(ValueError):
+    """A robot configuration that cannot serve; the message names the file and the key."""
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    """One arm's configuration (see module); angles rad, lengths m."""
+
+    robot: str
+    urdf: str
+    base_frame: str
+    sensor_frame: str
+    grasp_frame: str
+    grasp_offset: tuple[float, ...]
+    arm_joints: tuple[str, ...]
+    gripper_joints: tuple[str, ...]
+    gripper_open: float
+    gripper_closed: float
+    finger_gap: tuple[float, ...]
+    home_joints: tuple[float, ...]
+    pick_joints: tuple[float, ...]
+    hand_id: str
+
+    def __post_init__(self) -> None:
+        for key in ("robot", "urdf", "base_frame", "sensor_frame", "grasp_frame", "hand_id"):
+            if not (isinstance(getattr(self, key), str) and getattr(self, key)):
+                raise RobotConfigError(f"{key} must be a non-empty string")
+        for key in ("arm_joints", "gripper_joints"):
+            names = getattr(self, key)
+            if not names or not all(isinstance(n, str) and n for n in names):
+                raise RobotConfigError(f"{key} must be a non-empty list of joint names")
+        for key, size in (
+            ("grasp_offset", 3),
+            ("finger_gap", 2),
+            ("home_joints", len(self.arm_joints)),
+            ("pick_joints", len(self.arm_joints)),
+        ):
+            values = getattr(self, key)
+            if len(values) != size or not all(_finite(v) for v in values):
+                raise RobotConfigError(f"{key} must be {size} finite numbers, got {list(values)}")
+        if not (_finite(self.gripper_open) and _finite(self.gripper_closed)):
+            raise RobotConfigError("gripper_open and gripper_closed must be finite numbers")
+        if self.gripper_open == self.gripper_closed:
+            raise RobotConfigError("gripper_open and gripper_closed must differ")
+        if not 0.0 <= self.finger_gap[1] < self.finger_gap[0]:
+            raise RobotConfigError("finger_gap must be [open, closed] m with open > closed >= 0")
+
+    @classmethod
+    def from_parameters(cls, values: Mapping[str, Any]) -> RobotConfig:
+        """The configuration of parameter values by key (extra keys are ignored)."""
+        missing = [key for key in KEYS if key not in values]
+        if missing:
+            raise RobotConfigError(f"missing key(s) {', '.join(missing)}")
+        fields = {}
+        for key in KEYS:
+            value = values[key]
+            if isinstance(value, (list, tuple)):
+                value = tuple(value)
+            elif isinstance(value, int) and not isinstance(value, bool):
+                value = float(value)
+            fields[key] = value
+        return cls(**fields)
+
+    def parameters(self) -> dict[str, Any]:
+        """The configuration as ROS 2 parameter values (lists, floats, strings)."""
+        return {
+            key: list(value) if isinstance(value, tuple) else value
+            for key, value in asdict(self).items()
+        }
+
+    def gripper_closed_fraction(self, position: float) -> float:
+        """How far the gripper is closed at joint ``position``: 0 open, 1 closed."""
+        return (position - self.gripper_open) / (self.gripper_closed - self.gripper_open)
+
+
+KEYS = tuple(RobotConfig.__dataclass_fields__)
+"""Every key of a robot configuration, in the file's order."""
+
+
+def _finite(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def robot_config_path(robot: str) -> Path:
+    """The file of ``robot``: a path to a file as it is, else ``CONFIG_DIR/<robot>.yaml``."""
+    path = Path(robot)
+    if path.suffix in (".yaml", ".yml") or path.exists():
+        return path
+    return CONFIG_DIR / f"{robot}.yaml"
+
+
+def read_robot_config(robot: str) -> RobotConfig:
+    """The configuration in ``robot``'s file (``robot_config_path``): the ``/**`` section's
+    ros__parameters. RobotConfigError names the file and what is wrong."""
+    path = robot_config_path(robot)
+    try:
+        document = yaml.safe_load(path.read_text(encoding="utf-8"))
+        values = document["/**"]["ros__parameters"]
+        return RobotConfig.from_parameters(values)
+    except OSError as error:
+        known = ", ".join(ROBOTS)
+        raise RobotConfigError(f"{path}: cannot read it ({error}); known robots: {known}") from error
+    except (yaml.YAMLError, KeyError, TypeError) as error:
+        raise RobotConfigError(
+            f"{path}: not a ROS 2 parameters file with a '/**: ros__parameters:' section "
+            f"({error!r})"
+        ) from error
+    except RobotConfigError as error:
+        raise RobotConfigError(f"{path}: {error}") from error
+
+
+def robot_problems(config: RobotConfig, robot: RobotModel) -> list[str]:
+    """What keeps ``robot`` (the URDF's model) from serving ``config``, each naming the
+    key and the frame, joint or value: frames and joints the URDF lacks, home and pick
+    poses outside the joint limits. Empty when it serves."""
+    model, problems = robot.model, []
+    for key in ("base_frame", "sensor_frame", "grasp_frame"):
+        if not model.existFrame(getattr(config, key)):
+            problems.append(f"{key} {getattr(config, key)!r} is not a frame of the URDF")
+    for key in ("arm_joints", "gripper_joints"):
+        missing = [name for name in getattr(config, key) if not model.existJointName(name)]
+        if missing:
+            problems.append(f"{key}: the URDF has no joint {', '.join(map(repr, missing))}")
+    if problems:
+        return problems
+    limits = robot.joint_limits()
+    for key in ("home_joints", "pick_joints"):
+        for name, value in zip(config.arm_joints, getattr(config, key), strict=True):
+            lower, upper, _ = limits[name]
+            if not lower - 1e-9 <= value <= upper + 1e-9:
+                problems.append(
+                    f"{key}: {name} = {value:.4f} rad is outside its limits "
+                    f"[{lower:.4f}, {upper:.4f}]"
+                )
+    return problems
+
+
+def grasp_point(config: RobotConfig, robot: RobotModel) -> NDArray[np.float64]:
+    """The grasp centre (3,), m, in the sensor frame: grasp_frame's origin moved by
+    grasp_offset (along grasp_frame's axes). The frames are rigidly joined (a fixed joint
+    or the same link); taken at the home pose."""
+    home = dict(zip(config.arm_joints, config.home_joints, strict=True))
+    transform = robot.frame_in_sensor(config.grasp_frame, home)
+    return transform[:3, 3] + transform[:3, :3] @ np.asarray(config.grasp_offset)
