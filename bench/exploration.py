@@ -1,7 +1,8 @@
 """The reference exploration, end to end in the pybullet sim, over many random objects.
 
     source ./env.sh && python bench/exploration.py [--runs 50] [--seed 0]
-        [--information NAME] [--target-com-sigma M --fewer-poses] [--bias-drift N_PER_S]
+        [--robots panda,xarm6] [--information NAME] [--target-com-sigma M --fewer-poses]
+        [--bias-drift N_PER_S]
 
 docs/design.md's reference: a 0.1 kg object (the paper's), sensor noise sigma_f 0.1 N and
 sigma_tau 0.005 N m per sample at 1 kHz, tilt at most pi/6, rigid grasp. The estimator
@@ -20,6 +21,11 @@ the wrenches alone. Targets: COM error <= 1 mm at the 95th percentile, mass erro
 percentile of the compensated force's and torque's magnitude there in units of one
 object window's mean noise per axis (sigma / sqrt(samples)), and of the verification
 window's own; target <= 3 for both; and how many verifications passed.
+
+With ``--robots panda,xarm6`` the same objects (seeds) run on each arm in turn (each
+arm's robot configuration given to every node) and the last arms are compared with the
+first: the median object pass time and COM sigma per axis of the node's model as ratios
+(target: within 20 %).
 """
 
 from __future__ import annotations
@@ -38,6 +44,7 @@ import numpy as np
 from com_core.bags.run import read_run
 from com_core.contract import EXPLORE_SERVICE
 from com_core.processes import executable, ros_args, stop
+from com_core.robot_config import robot_config_path
 from com_core.rosenv import keep_dds_local
 
 SHAPES = ("box", "cylinder", "mug")
@@ -45,11 +52,15 @@ MODELS = ("wrenches", "kinematics", "kinematics+mount")
 NOISE = {"sigma_f": 0.1, "sigma_tau": 0.005}
 
 
-def node(package: str, name: str, params: dict, log: Path) -> subprocess.Popen:
-    """A node's console script as a process, as ``ros2 run`` would start it."""
+def node(package: str, name: str, params: dict, log: Path, robot: str) -> subprocess.Popen:
+    """A node's console script as a process, as ``ros2 run`` would start it, with
+    ``robot``'s configuration."""
     with open(log, "w") as out:
         return subprocess.Popen(
-            [str(executable(package, name)), *ros_args(params)],
+            [
+                str(executable(package, name)),
+                *ros_args(params, params_file=robot_config_path(robot)),
+            ],
             stdout=out,
             stderr=subprocess.STDOUT,
         )
@@ -60,6 +71,9 @@ def main() -> int:
     parser.add_argument("--runs", type=int, default=50)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--bag-dir", type=Path, default=None, help="keep the bags here")
+    parser.add_argument(
+        "--robots", default="panda", help="robot configurations, comma separated, run in turn"
+    )
     parser.add_argument(
         "--information",
         default=None,
@@ -74,13 +88,30 @@ def main() -> int:
     )
     args = parser.parse_args()
     keep_dds_local(own_domain=True)
-    bags = args.bag_dir or Path(tempfile.mkdtemp(prefix="exploration_bench_"))
-    bags.mkdir(parents=True, exist_ok=True)
-    cache = {"tare_cache": str(bags / "tare_cache.json")}
+    root = args.bag_dir or Path(tempfile.mkdtemp(prefix="exploration_bench_"))
+    import rclpy
+
+    rclpy.init()
+    results = {}
+    try:
+        for robot in args.robots.split(","):
+            print(f"\n=== {robot} ===", flush=True)
+            results[robot] = run_batch(robot, args, root / robot)
+            report(results[robot])
+    finally:
+        rclpy.try_shutdown()
+    if len(results) > 1:
+        compare(results)
+    return 0
+
+
+def run_batch(robot: str, args: argparse.Namespace, bags: Path) -> list[dict]:
+    """The runs of ``args`` on ``robot``: one row per run (``evaluate``)."""
     import rclpy
     from std_srvs.srv import Trigger
 
-    rclpy.init()
+    bags.mkdir(parents=True, exist_ok=True)
+    cache = {"tare_cache": str(bags / "tare_cache.json")}
     client_node = rclpy.create_node("exploration_bench")
     client = client_node.create_client(Trigger, EXPLORE_SERVICE)
     sim_time = {"use_sim_time": True}
@@ -96,12 +127,14 @@ def main() -> int:
             "estimator_node",
             sim_time | NOISE | cache | information,
             log=bags / "estimator.log",
+            robot=robot,
         ),
         node(
             "exploration_sequencer",
             "sequencer_node",
             sim_time | {"bag_dir": str(bags)} | cache | planner,
             log=bags / "sequencer.log",
+            robot=robot,
         ),
     ]
     drift = [args.bias_drift] * 3 + [0.0] * 3
@@ -115,6 +148,7 @@ def main() -> int:
                 {"object": shape, "seed": seed, "real_time_factor": 5.0, "bias_drift": drift}
                 | NOISE,
                 log=bags / f"sim_{i}.log",
+                robot=robot,
             )
             try:
                 if not client.wait_for_service(timeout_sec=60.0):
@@ -137,9 +171,27 @@ def main() -> int:
         for proc in services:
             stop(proc)
         client_node.destroy_node()
-        rclpy.try_shutdown()
-    report(rows)
-    return 0
+    return rows
+
+
+def compare(results: dict[str, list[dict]]) -> None:
+    """Each arm after the first against the first: the median object pass time and COM
+    sigma per axis of the node's model, as ratios."""
+    (first, reference), *others = results.items()
+
+    def medians(rows: list[dict]) -> np.ndarray:
+        sigma = np.nanmedian([r[r["node"]]["sigma"] for r in rows], axis=0)
+        return np.array([np.nanmedian([r["pass_s"] for r in rows]), *sigma])
+
+    base = medians(reference)
+    print(f"\n{'':>8} {'object pass s':>14} {'sigma x, y, z mm (median)':>28}  ratio to {first}")
+    for robot, rows in [(first, reference), *others]:
+        m = medians(rows)
+        print(
+            f"{robot:>8} {m[0]:14.2f} {' '.join(f'{v:8.3f}' for v in m[1:]):>28}  "
+            + " ".join(f"{v:5.2f}" for v in m / base)
+        )
+    print("target: object pass and sigma within 20 % of the first arm's (ratios 0.8 .. 1.2)")
 
 
 def evaluate(i: int, shape: str, seed: int, message: str) -> dict:

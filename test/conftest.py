@@ -33,11 +33,16 @@ from typing import Any
 import pytest
 
 from com_core.processes import STOP_SEQUENCE, executable, ros_args, stop
+from com_core.robot_config import read_robot_config
 
 # Nothing in the test process may talk DDS beyond this machine.
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 
 WORKSPACE = Path(__file__).resolve().parents[1]
+PANDA = read_robot_config("panda")
+"""The Panda's robot configuration: every node's default arm."""
+PANDA_JOINTS = (*PANDA.arm_joints, *PANDA.gripper_joints)
+"""The names of the Panda's /joint_states: arm, then gripper."""
 _LOCK_DIR = Path(tempfile.gettempdir()) / "ros_domain_id_locks"
 _held_locks: dict[int, Any] = {}
 _counter = itertools.count()

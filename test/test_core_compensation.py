@@ -8,14 +8,14 @@ from pathlib import Path
 import numpy as np
 import pybullet_data
 import pytest
+from conftest import PANDA_JOINTS
 
 from com_core.compensation import Compensator
-from com_core.contract import ARM_JOINTS, FINGER_JOINTS
 from com_core.kinematics import RobotModel
 from com_core.payload import Payload, payload_wrench
 
 MS = 1_000_000  # ns
-NAMES = [*ARM_JOINTS, *FINGER_JOINTS]
+NAMES = list(PANDA_JOINTS)
 START = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8, 0.04, 0.04])
 SPEED = np.array([0.2, -0.1, 0.3, 0.1, -0.4, 0.5, 0.6, 0.0, 0.0])  # rad/s, m/s
 

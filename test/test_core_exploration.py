@@ -102,20 +102,18 @@ def kinematic_stream(rng: np.random.Generator, verify: bool = False):
 
     import pybullet_data
 
-    from com_core.kinematics import RobotModel
-    from exploration_sequencer.choreography import VERIFY_POSE, pose_joints, verify_joints
-    from wrench_sim.physics import HOME_JOINTS
+    from com_core.robot_config import read_robot_config
+    from exploration_sequencer.choreography import VERIFY_POSE, Choreography
 
     urdf = (Path(pybullet_data.getDataPath()) / "franka_panda" / "panda.urdf").read_text()
-    robot = RobotModel(urdf, "panda_hand")
-    fingers = {"panda_finger_joint1": 0.04, "panda_finger_joint2": 0.04}
-    arm = [f"panda_joint{i}" for i in range(1, 8)]
-    home_g = robot.gravity_in_sensor(dict(zip(arm, HOME_JOINTS, strict=True)) | fingers)
+    motion = Choreography.of(read_robot_config("panda"), urdf)
+    robot, fingers, arm = motion.robot, motion.others, motion.arm_joints
+    home_g = robot.gravity_in_sensor(dict(zip(arm, motion.home, strict=True)) | fingers)
     plan = Plan(dwell=0.3, gravity_home=tuple(home_g / np.linalg.norm(home_g)))
-    joints = dict(pose_joints(plan, HOME_JOINTS))
+    joints = dict(motion.pose_joints(plan))
     directions = {}
     if verify:
-        joints[VERIFY_POSE] = verify_joints(HOME_JOINTS)
+        joints[VERIFY_POSE] = motion.verify_joints()[0]
         g = robot.gravity_in_sensor(dict(zip(arm, joints[VERIFY_POSE], strict=True)) | fingers)
         directions[VERIFY_POSE] = g / np.linalg.norm(g)
     stream = exploration_stream(plan, LOAD, HAND, rng, verify=directions)

@@ -17,21 +17,22 @@ import pytest
 
 from com_core.inverse_kinematics import IkResult, largest_reachable_tilt, solve_pose
 from com_core.kinematics import KinematicsError, RobotModel
+from com_core.robot_config import read_robot_config
 from com_core.wrench_model import STANDARD_GRAVITY, rotation_about
-from wrench_sim.physics import HOME_JOINTS
 
 DATA = Path(pybullet_data.getDataPath())
 PIVOT = (0.0, 0.0, 0.1)  # m in the sensor frame: a grasped object's centre below the flange
 ORIENTATION_TOLERANCE = 1e-4  # rad
 POSITION_TOLERANCE = 1e-3  # m
 
+HOME_JOINTS = read_robot_config("panda").home_joints
 PANDA_HOME = {f"panda_joint{i}": q for i, q in enumerate(HOME_JOINTS, 1)} | {
     "panda_finger_joint1": 0.04,
     "panda_finger_joint2": 0.04,
 }
-XARM_ARM = (0.0, -0.2, -1.0, 0.0, 1.2, 0.0)
-"""rad, joint1..joint6: the flange at (0.419, 0, 0.408) m, pointing down (its z along
--world z, its x along world x), the wrist (joint5) 1.2 rad from its singularity."""
+XARM_ARM = read_robot_config("xarm6").home_joints
+"""rad, joint1..joint6: the flange at (0.4, 0, 0.5) m, pointing down (its z along -world
+z, its x along world x)."""
 XARM_GRIPPER = (
     "drive_joint",
     "left_finger_joint",

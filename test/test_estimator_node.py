@@ -10,10 +10,9 @@ from pathlib import Path
 import numpy as np
 import pybullet_data
 import pytest
-from conftest import replay_json, spin_until
+from conftest import PANDA_JOINTS, replay_json, spin_until
 
 from com_core.contract import (
-    ARM_JOINTS,
     COMPENSATED_TOPIC,
     COMPENSATION_STATUS_NAME,
     DIAGNOSTIC_NAME,
@@ -23,7 +22,6 @@ from com_core.contract import (
     ESTIMATOR_RESET_SERVICE,
     ESTIMATOR_SAVE_PAYLOAD_SERVICE,
     ESTIMATOR_SOLVE_SERVICE,
-    FINGER_JOINTS,
     INPUT_STATUS_NAME,
     JOINT_STATES_TOPIC,
     ROBOT_DESCRIPTION_TOPIC,
@@ -211,7 +209,7 @@ def test_every_bad_input_gives_its_status_and_the_node_keeps_serving(start_node,
 # --- the compensated stream and the payload files -----------------------------------------
 
 PANDA_URDF = Path(pybullet_data.getDataPath()) / "franka_panda" / "panda.urdf"
-JOINTS = (*ARM_JOINTS, *FINGER_JOINTS)
+JOINTS = PANDA_JOINTS
 POSE = dict(zip(JOINTS, (0.3, -0.5, 0.2, -2.0, 0.4, 1.9, 0.6, 0.03, 0.03), strict=True))
 """A still arm; gravity is 27 degrees off the hand's z axis."""
 CONTACT = np.array([1.5, -0.7, 2.0, 0.05, -0.12, 0.03])  # N, N m: a push on the held object

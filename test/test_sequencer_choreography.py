@@ -1,166 +1,192 @@
-"""exploration_sequencer.choreography (no ROS): the joints of each pose of a plan, and the
-motion time between poses, against the Panda's limits and the sim's own trajectories."""
+"""exploration_sequencer.choreography (no ROS) on the two arms of the robot configurations
+(the Panda and the xArm6 of pybullet_data): the joints of each pose of a plan, checked by
+forward kinematics of their own (the sensor's orientation and the grasp centre), poses
+out of reach, a configuration the URDF does not serve, and the motion time between poses
+against the URDF's velocity limits and the sim's own trajectories."""
 
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
-import pybullet
 import pybullet_data
 import pytest
 
-from com_core.contract import ARM_JOINTS
+from com_core.kinematics import RobotModel
 from com_core.planner import Plan
+from com_core.robot_config import ROBOTS, RobotConfigError, read_robot_config
+from com_core.wrench_model import rotation_about
 from exploration_sequencer.choreography import (
-    PANDA_VELOCITY_LIMITS,
+    MAX_PIVOT_SHIFT,
     QUINTIC_PEAK,
-    WRIST_TURN,
-    motion_time,
-    pose_joints,
+    VERIFY_AXIS,
+    VERIFY_TILT,
+    Choreography,
+    PoseUnreachable,
 )
-from wrench_sim.physics import HOME_JOINTS
 from wrench_sim.trajectory import JointLimits, trajectory_from_command
 
 TILT = 0.4
-J6, J7 = 5, 6  # indices of panda_joint6 (the tilt) and panda_joint7 (the wrist turn)
+ORIENTATION_TOLERANCE = 1e-4  # rad
 
 
-def test_poses_home_first_then_y_then_x_and_only_the_wrist_moves():
-    home = list(HOME_JOINTS)
-    poses = pose_joints(Plan(tilt=TILT), home)
-    assert home == list(HOME_JOINTS)  # not modified
+def urdf_of(robot: str) -> str:
+    """The URDF text of a configuration's ``pybullet_data:`` source."""
+    source = read_robot_config(robot).urdf
+    return (Path(pybullet_data.getDataPath()) / source.split(":", 1)[1]).read_text()
+
+
+@pytest.fixture(scope="module", params=ROBOTS)
+def arm(request: pytest.FixtureRequest) -> tuple[str, Choreography]:
+    return request.param, Choreography.of(read_robot_config(request.param), urdf_of(request.param))
+
+
+def placement(arm: tuple[str, Choreography], joints: list[float]) -> tuple[np.ndarray, ...]:
+    """(R_base_sensor, the grasp centre in the base frame, m) at arm ``joints``, from a
+    robot model of its own."""
+    name, motion = arm
+    config = read_robot_config(name)
+    robot = RobotModel(urdf_of(name), config.sensor_frame, config.base_frame)
+    q = dict(zip(motion.arm_joints, joints, strict=True)) | motion.others
+    T_base_sensor = np.linalg.inv(robot.frame_in_sensor(config.base_frame, q))
+    return T_base_sensor[:3, :3], T_base_sensor[:3, :3] @ motion.pivot + T_base_sensor[:3, 3]
+
+
+def angle_between(R_a: np.ndarray, R_b: np.ndarray) -> float:
+    """rad of the rotation R_a^T R_b."""
+    return math.acos(np.clip((np.trace(R_a.T @ R_b) - 1.0) / 2.0, -1.0, 1.0))
+
+
+def test_each_pose_turns_the_sensor_by_the_plans_rotation_about_the_grasp_centre(arm):
+    motion = arm[1]
+    plan = Plan(tilt=TILT)
+    poses = motion.pose_joints(plan)
     assert [name for name, _ in poses] == ["home", "tilt_y+", "tilt_y-", "tilt_x-", "tilt_x+"]
-    q = {name: np.array(joints) for name, joints in poses}
-    assert q["home"].tolist() == home
-    for name in ("tilt_y+", "tilt_y-", "tilt_x+", "tilt_x-"):
-        moved = np.flatnonzero(q[name] != q["home"])
-        assert set(moved) <= {J6, J7}, (name, moved)
-        assert q[name][:J6].tolist() == home[:J6]  # joints 1-5 keep home
-    # about y: joint 6 alone, by +-tilt
-    assert q["tilt_y+"][J6] == pytest.approx(home[J6] + TILT, abs=1e-12)
-    assert q["tilt_y-"][J6] == pytest.approx(home[J6] - TILT, abs=1e-12)
-    assert q["tilt_y+"][J7] == q["tilt_y-"][J7] == home[J7]
-    # about x: joint 7 turned by pi/2, joint 6 by +-tilt
-    assert math.isclose(WRIST_TURN, math.pi / 2)
-    for name, sign in (("tilt_x+", 1.0), ("tilt_x-", -1.0)):
-        assert q[name][J7] == pytest.approx(home[J7] + math.pi / 2, abs=1e-12)
-        assert q[name][J6] == pytest.approx(home[J6] + sign * TILT, abs=1e-12)
-    # tilt_y- and tilt_x- share joint 6: between them only the wrist turns
-    assert q["tilt_y-"][J6] == q["tilt_x-"][J6]
+    assert poses[0][1] == list(motion.home)
+    R_home, pivot_home = placement(arm, poses[0][1])
+    rotations = dict(plan.poses())
+    for name, joints in poses:
+        R, pivot = placement(arm, joints)
+        angle = angle_between(R_home @ rotations[name], R)
+        assert angle < ORIENTATION_TOLERANCE, (name, angle)
+        assert np.linalg.norm(pivot - pivot_home) < MAX_PIVOT_SHIFT, name
+        limits = motion.robot.joint_limits()
+        for joint, value in zip(motion.arm_joints, joints, strict=True):
+            assert limits[joint][0] <= value <= limits[joint][1], (name, joint)
 
 
-def test_the_papers_single_tilt_and_unsupported_axes():
-    poses = pose_joints(Plan(tilt=0.3, axes=("x",), both_directions=False), HOME_JOINTS)
+def test_gravity_at_each_pose_is_the_plans(arm):
+    """The plan's gravity directions (R_rel^T g_home) are what the joints give."""
+    motion = arm[1]
+    home = dict(zip(motion.arm_joints, motion.home, strict=True)) | motion.others
+    g = motion.robot.gravity_in_sensor(home)
+    plan = Plan(tilt=TILT, gravity_home=tuple(g / np.linalg.norm(g)))
+    planned = dict(zip([n for n, _ in plan.poses()], plan.gravity_directions(), strict=True))
+    for name, joints in motion.pose_joints(plan):
+        q = dict(zip(motion.arm_joints, joints, strict=True)) | motion.others
+        g_pose = motion.robot.gravity_in_sensor(q)
+        np.testing.assert_allclose(g_pose / np.linalg.norm(g_pose), planned[name], atol=2e-4)
+
+
+def test_the_papers_single_tilt_and_the_verification_pose(arm):
+    motion = arm[1]
+    poses = motion.pose_joints(Plan(tilt=0.3, axes=("x",), both_directions=False))
     assert [name for name, _ in poses] == ["home", "tilt_x+"]
-    assert poses[1][1][J6] == pytest.approx(HOME_JOINTS[J6] + 0.3, abs=1e-12)
-    with pytest.raises(ValueError, match="x and y only, not z"):
-        pose_joints(Plan(axes=("y", "z")), HOME_JOINTS)
+    joints, reason = motion.verify_joints()
+    assert joints is not None, reason
+    R_home, _ = placement(arm, list(motion.home))
+    R, _ = placement(arm, joints)
+    turn = rotation_about(np.array(VERIFY_AXIS), VERIFY_TILT)
+    assert angle_between(R_home @ turn, R) < ORIENTATION_TOLERANCE
 
 
-def gravity_in_sensor(client: int, robot: int, joints) -> np.ndarray:
-    """Unit gravity direction in ft_sensor (panda_hand's axes) at ``joints``, by FK."""
-    for j, value in enumerate(joints):
-        pybullet.resetJointState(robot, j, value, physicsClientId=client)
-    orientation = pybullet.getLinkState(
-        robot, 8, computeForwardKinematics=True, physicsClientId=client
-    )[5]
-    R_world_sensor = np.array(pybullet.getMatrixFromQuaternion(orientation)).reshape(3, 3)
-    return R_world_sensor.T @ [0.0, 0.0, -1.0]
+def test_a_tilt_beyond_reach_is_refused_with_the_largest_the_arm_reaches(arm):
+    """A tilt of 1.5 rad about each axis: where it is out of reach, the refusal names the
+    pose and a reason, and its largest tilt is reached while 0.01 rad more is not."""
+    motion = arm[1]
+    refused = 0
+    for axis in ("x", "y"):
+        plan = Plan(tilt=1.5, axes=(axis,))
+        try:
+            motion.pose_joints(plan)
+        except PoseUnreachable as exc:
+            refused += 1
+            assert exc.pose.startswith(f"tilt_{axis}") and exc.reason
+            assert f"{exc.largest:.3f} rad" in str(exc)
+            assert 0.0 < exc.largest < 1.5
+            smaller = Plan(tilt=exc.largest, axes=(axis,))
+            assert len(motion.pose_joints(smaller)) == 3
+            with pytest.raises(PoseUnreachable):
+                motion.pose_joints(Plan(tilt=exc.largest + 0.01, axes=(axis,)))
+    assert refused >= 1  # each arm has a limit below 1.5 rad about one of its axes
 
 
-@pytest.fixture(scope="module")
-def panda():
-    client = pybullet.connect(pybullet.DIRECT)
-    robot = pybullet.loadURDF(
-        f"{pybullet_data.getDataPath()}/franka_panda/panda.urdf",
-        useFixedBase=True,
-        physicsClientId=client,
-    )
-    assert pybullet.getJointInfo(robot, 8, physicsClientId=client)[12] == b"panda_hand"
-    yield client, robot
-    pybullet.disconnect(client)
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_a_configuration_the_urdf_does_not_serve_names_what(robot):
+    config = read_robot_config(robot)
+    urdf = urdf_of(robot)
+    for change, named in (
+        ({"sensor_frame": "ft_link"}, "sensor_frame 'ft_link' is not a frame"),
+        ({"grasp_frame": "tool0"}, "grasp_frame 'tool0' is not a frame"),
+        ({"arm_joints": (*config.arm_joints[:-1], "wrist_3")}, "no joint 'wrist_3'"),
+    ):
+        values = config.parameters() | change
+        with pytest.raises(RobotConfigError, match=named):
+            Choreography.of(type(config).from_parameters(values), urdf)
+    home = list(config.home_joints)
+    lower, _, _ = RobotModel(urdf, config.sensor_frame).joint_limits()[config.arm_joints[1]]
+    home[1] = lower - 0.1
+    values = config.parameters() | {"home_joints": home}
+    with pytest.raises(RobotConfigError, match=f"home_joints: {config.arm_joints[1]} = "):
+        Choreography.of(type(config).from_parameters(values), urdf)
 
 
-def physical_and_planned(panda, axis: str) -> list[tuple[str, np.ndarray, np.ndarray]]:
-    plan = Plan(tilt=TILT, gravity_home=(0.0, 0.0, 1.0))  # the sim's home: gravity along +z
-    planned = dict(zip([name for name, _ in plan.poses()], plan.gravity_directions(), strict=True))
-    return [
-        (name, gravity_in_sensor(*panda, q), planned[name])
-        for name, q in pose_joints(plan, HOME_JOINTS)
-        if name == "home" or name[-2] == axis
-    ]
-
-
-def test_the_joints_tilt_the_sensor_by_the_tilt_about_its_own_axis(panda):
-    """Forward kinematics of the Panda: home has gravity along +z of the sensor, and each
-    tilt pose turns it by exactly the tilt, in the plane normal to the tilt axis."""
-    for axis, normal in (("y", 1), ("x", 0)):
-        for name, g, _ in physical_and_planned(panda, axis):
-            assert abs(g[normal]) < 1e-6, (name, g)  # no component along the tilt axis
-            angle = math.acos(np.clip(g[2], -1.0, 1.0))
-            assert angle == pytest.approx(0.0 if name == "home" else TILT, abs=1e-6), name
-
-
-def test_the_y_tilts_give_the_plans_gravity_directions(panda):
-    for name, g, planned in physical_and_planned(panda, "y"):
-        np.testing.assert_allclose(g, planned, atol=1e-6, err_msg=name)
-
-
-def test_the_x_tilts_give_the_plans_gravity_directions(panda):
-    for name, g, planned in physical_and_planned(panda, "x"):
-        np.testing.assert_allclose(g, planned, atol=1e-6, err_msg=name)
-
-
-def test_motion_time_is_the_slowest_joint_at_its_cap_with_a_floor():
-    home = np.array(HOME_JOINTS)
-    assert motion_time(home, home) == 0.4  # no motion: the floor
-    assert motion_time(home, home, floor=0.1) == 0.1
+def test_motion_time_is_the_slowest_joint_at_its_urdf_cap_with_a_floor():
+    motion = Choreography.of(read_robot_config("panda"), urdf_of("panda"))
+    limits = motion.velocity_limits()
+    assert limits == [2.175] * 4 + [2.61] * 3  # the URDF's
+    home = np.array(motion.home)
+    assert motion.motion_time(home, home) == 0.4  # no motion: the floor
+    assert motion.motion_time(home, home, floor=0.1) == 0.1
     wrist = home.copy()
-    wrist[J6] += 1.0  # joint 6: limit 2.61 / 1.875 = 1.392 rad/s > speed: speed binds
-    assert motion_time(home, wrist) == pytest.approx(1.0 / 1.35)
+    wrist[5] += 1.0  # joint 6: limit 2.61 / 1.875 = 1.392 rad/s > speed: speed binds
+    assert motion.motion_time(home, wrist) == pytest.approx(1.0 / 1.35)
     shoulder = home.copy()
     shoulder[0] -= 1.0  # joint 1: limit 2.175 / 1.875 = 1.16 rad/s < speed: the limit binds
-    assert motion_time(home, shoulder) == pytest.approx(1.0 * 1.875 / 2.175)
+    assert motion.motion_time(home, shoulder) == pytest.approx(1.0 * 1.875 / 2.175)
     both = wrist.copy()
     both[0] -= 1.0
-    assert motion_time(home, both) == pytest.approx(1.0 * 1.875 / 2.175)  # the slowest
-    assert motion_time(home, wrist, speed=0.5) == pytest.approx(2.0)
-    assert motion_time(wrist, home) == motion_time(home, wrist)  # either way
+    assert motion.motion_time(home, both) == pytest.approx(1.0 * 1.875 / 2.175)  # the slowest
+    assert motion.motion_time(home, wrist, speed=0.5) == pytest.approx(2.0)
+    assert motion.motion_time(wrist, home) == motion.motion_time(home, wrist)  # either way
     with pytest.raises(ValueError):
-        motion_time(home[:6], home)  # one joint short
+        motion.motion_time(home[:6], home)  # one joint short
 
 
-def panda_limits() -> JointLimits:
-    return JointLimits(
-        ARM_JOINTS,
-        np.full(7, -10.0),
-        np.full(7, 10.0),
-        np.array(PANDA_VELOCITY_LIMITS),
-    )
-
-
-def test_a_motion_of_motion_time_is_one_the_sim_accepts_and_no_faster():
+def test_a_motion_of_motion_time_is_one_the_sim_accepts_and_no_faster(arm):
     """The quintic's peak is 1.875x its mean speed (15/8): a move of ``motion_time`` keeps
-    every joint under the Panda's limit, and the same move 10 % faster does not, when
-    the limit binds (speed above limit / 1.875)."""
+    every joint under its URDF limit, and the same move 10 % faster does not, when the
+    limit binds (speed above limit / 1.875)."""
+    motion = arm[1]
     assert QUINTIC_PEAK == 15 / 8
     rng = np.random.default_rng(4)
-    home = np.array(HOME_JOINTS)
-    rest = (home, np.zeros(7), np.zeros(7))
+    home = np.array(motion.home)
+    n = len(home)
+    velocity = np.array(motion.velocity_limits())
+    limits = JointLimits(motion.arm_joints, np.full(n, -10.0), np.full(n, 10.0), velocity)
+    rest = (home, np.zeros(n), np.zeros(n))
     for _ in range(20):
-        goal = home + rng.uniform(-1.5, 1.5, 7)
-        duration = motion_time(home, goal, speed=10.0)  # every joint at its limit's cap
+        goal = home + rng.uniform(-1.5, 1.5, n)
+        duration = motion.motion_time(home, goal, speed=10.0)  # every joint at its cap
         trajectory = trajectory_from_command(
-            ARM_JOINTS, [duration], [goal], panda_limits(), 0.0, rest
+            motion.arm_joints, [duration], [goal], limits, 0.0, rest
         )
         peak = trajectory.peak_speed()
-        slowest = int(np.argmax(np.abs(goal - home) / PANDA_VELOCITY_LIMITS))
-        assert peak[slowest] == pytest.approx(PANDA_VELOCITY_LIMITS[slowest], rel=2e-3)
+        slowest = int(np.argmax(np.abs(goal - home) / velocity))
+        assert peak[slowest] == pytest.approx(velocity[slowest], rel=2e-3)
         with pytest.raises(ValueError, match="velocity limit"):
-            trajectory_from_command(
-                ARM_JOINTS, [0.9 * duration], [goal], panda_limits(), 0.0, rest
-            )
+            trajectory_from_command(motion.arm_joints, [0.9 * duration], [goal], limits, 0.0, rest)
 
 
 def test_a_windows_joints_are_the_mean_of_its_own_joint_states():

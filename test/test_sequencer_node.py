@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import UNCLEAN_EXIT, replay_json, spin_until
+from conftest import PANDA, UNCLEAN_EXIT, replay_json, spin_until
 
 from com_core.bags.cdr import decode_header
 from com_core.bags.reader import read_raw
@@ -25,11 +25,12 @@ from com_core.contract import (
     TRUTH_TOPIC,
     WRENCH_TOPIC,
 )
+from com_core.robot_config import robot_config_path
 
 pytestmark = pytest.mark.system
 
 NOISE = {"sigma_f": 0.1, "sigma_tau": 0.005}
-RUN_STARTED = re.compile(r"\]: run \d{8}-\d{6}-\d{3}: poses")
+RUN_STARTED = re.compile(r"\]: run \d{8}-\d{6}-\d{3}: \w+, poses")
 SET_PARAMETERS_SERVICE = EXPLORE_SERVICE.rsplit("/", 1)[0] + "/set_parameters"
 
 
@@ -94,21 +95,28 @@ def start_system(
     sim: dict,
     sequencer: dict | None = None,
     estimator: dict | None = None,
+    robot: str = "panda",
 ) -> Path:
-    """The three nodes with the test's noise and one tare cache; ``sim``, ``sequencer`` and
-    ``estimator`` add parameters. Returns the bag directory."""
+    """The three nodes with the test's noise and one tare cache, all with ``robot``'s
+    configuration file; ``sim``, ``sequencer`` and ``estimator`` add parameters. Returns
+    the bag directory."""
     bags = tmp_path / "bags"
     cache = {"tare_cache": str(bags / "tare_cache.json")}
-    start_node("sim_node", "wrench_sim", params={"real_time_factor": 5.0, **NOISE, **sim})
+    config = ["--ros-args", "--params-file", str(robot_config_path(robot))]
+    start_node(
+        "sim_node", "wrench_sim", params={"real_time_factor": 5.0, **NOISE, **sim}, args=config
+    )
     start_node(
         "estimator_node",
         "com_estimator",
         params={"use_sim_time": True, **NOISE, **cache, **(estimator or {})},
+        args=config,
     )
     start_node(
         "sequencer_node",
         "exploration_sequencer",
         params={"use_sim_time": True, "bag_dir": str(bags), **cache, **(sequencer or {})},
+        args=config,
     )
     return bags
 
@@ -132,15 +140,17 @@ def move_arm(node, joints: dict[str, float], goal: list[float], seconds: int) ->
     from builtin_interfaces.msg import Duration
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-    from com_core.contract import ARM_COMMAND_TOPIC, ARM_JOINTS
+    from com_core.contract import ARM_COMMAND_TOPIC
 
     arm = node.create_publisher(JointTrajectory, ARM_COMMAND_TOPIC, 10)
     spin_until(node, lambda: arm.get_subscription_count() > 0, 5.0)
     point = JointTrajectoryPoint(positions=goal, time_from_start=Duration(sec=seconds))
-    arm.publish(JointTrajectory(joint_names=list(ARM_JOINTS), points=[point]))
+    arm.publish(JointTrajectory(joint_names=list(PANDA.arm_joints), points=[point]))
     assert spin_until(
         node,
-        lambda: max(abs(joints[j] - g) for j, g in zip(ARM_JOINTS, goal, strict=True)) < 1e-3,
+        lambda: (
+            max(abs(joints[j] - g) for j, g in zip(PANDA.arm_joints, goal, strict=True)) < 1e-3
+        ),
         30.0,
     ), f"the arm did not reach {goal}"
 
@@ -152,11 +162,15 @@ def numbers(message: str, name: str) -> np.ndarray:
     return np.array([float(v) for v in m.groups()])
 
 
-@pytest.mark.parametrize(("shape", "seed"), [("box", 1), ("cylinder", 2), ("mug", 3)])
+@pytest.mark.parametrize(
+    ("robot", "shape", "seed"),
+    [("panda", "box", 1), ("panda", "cylinder", 2), ("panda", "mug", 3), ("xarm6", "box", 4)],
+)
 def test_rigid_grasp_estimate_is_within_tolerance_of_ground_truth(
-    start_node, client, tmp_path, shape, seed
+    start_node, client, tmp_path, robot, shape, seed
 ):
-    start_system(start_node, tmp_path, {"object": shape, "seed": seed})
+    """The reference exploration on each arm of the robot configurations."""
+    start_system(start_node, tmp_path, {"object": shape, "seed": seed}, robot=robot)
     first = client.call()
     time.sleep(1.0)
     second = client.wait(client.call(), timeout=10.0)  # while the first runs
@@ -328,9 +342,7 @@ def test_a_run_after_a_sequencer_killed_mid_run_starts_clean(start_node, client,
 def test_a_grasp_that_holds_nothing_fails_before_the_object_pass(start_node, client, tmp_path):
     """Fingers closed on air (pick_joints at home): the sequencer weighs the grasp after
     lifting and says so, rather than an estimator's hint about the tare."""
-    from wrench_sim.physics import HOME_JOINTS
-
-    start_system(start_node, tmp_path, {"object": "box"}, {"pick_joints": list(HOME_JOINTS)})
+    start_system(start_node, tmp_path, {"object": "box"}, {"pick_joints": list(PANDA.home_joints)})
     result = client.wait(client.call())
     assert not result.success and "grasp failed" in result.message, result.message
     assert "the object was not picked up" in result.message
@@ -492,7 +504,6 @@ def test_the_compensated_stream_shows_a_push_without_gravity_and_payload_files_l
     from com_core.contract import (
         APPLIED_WRENCH_TOPIC,
         APPLY_WRENCH_TOPIC,
-        ARM_JOINTS,
         COMPENSATED_TOPIC,
     )
 
@@ -524,7 +535,7 @@ def test_the_compensated_stream_shows_a_push_without_gravity_and_payload_files_l
         )
     joints = joint_positions(node)
     assert spin_until(node, lambda: len(streams["compensated"]) > 200, 20.0), "no compensation"
-    goal = [joints[j] for j in ARM_JOINTS]
+    goal = [joints[j] for j in PANDA.arm_joints]
     goal[5] += 0.35  # joint 6: a tilt
     goal[6] += 0.6  # joint 7: a turn about the flange
     move_arm(node, joints, goal, seconds=2)
@@ -566,14 +577,11 @@ def test_an_arm_left_away_from_home_with_open_fingers_goes_home_first(
 ):
     """The arm left elsewhere by someone else (fingers open, nothing held): the run logs
     that it moves the arm home first, and then explores as usual."""
-
-    from com_core.contract import ARM_JOINTS
-
     start_system(start_node, tmp_path, {"seed": 6})
     node = client.node
     joints = joint_positions(node)
-    assert spin_until(node, lambda: all(j in joints for j in ARM_JOINTS), 30.0)
-    goal = [joints[j] for j in ARM_JOINTS]
+    assert spin_until(node, lambda: all(j in joints for j in PANDA.arm_joints), 30.0)
+    goal = [joints[j] for j in PANDA.arm_joints]
     goal[0] += 0.3
     goal[5] -= 0.3
     move_arm(node, joints, goal, seconds=1)

@@ -1,8 +1,10 @@
 """The arm and its gripper, commanded over the ros2_control topics of the contract and
 timed in sim time: smooth moves to joint goals, arrival and settling, the fingers.
 
-A move is one ``trajectory_msgs/JointTrajectory`` point whose duration follows from the
-joint distance and ``speed`` (``choreography.motion_time``); it may be stamped to start
+The arm's joints and gripper are its robot configuration's (``config``), its motion
+times its choreography's (``motion``; the URDF's velocity limits). A move is one
+``trajectory_msgs/JointTrajectory`` point whose duration follows from the joint distance
+and ``speed`` (``Choreography.motion_time``); it may be stamped to start
 later (the controller starts it at its header stamp), which lets a pass send each move
 ahead. The arm rests at a goal when every joint is within 5 mrad of it and slower than
 5 mrad/s.
@@ -15,47 +17,52 @@ from rclpy.node import Node
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from com_core.contract import (
-    ARM_COMMAND_TOPIC,
-    ARM_JOINTS,
-    FINGER_JOINTS,
-    FINGER_OPEN,
-    HAND_COMMAND_TOPIC,
-)
-from exploration_sequencer.choreography import motion_time
+from com_core.contract import ARM_COMMAND_TOPIC, HAND_COMMAND_TOPIC
+from com_core.robot_config import RobotConfig
+from exploration_sequencer.choreography import Choreography
 from exploration_sequencer.io_node import IoNode, TimeoutRunError
 
 REST_POSITION, REST_SPEED = 5e-3, 5e-3  # rad, rad/s
 
 
-def resting(joints: dict[str, tuple[float, float]], goal: list[float]) -> bool:
-    """The arm's joints (position rad, speed rad/s) are within REST_POSITION of ``goal``
-    and slower than REST_SPEED."""
+def resting(
+    joints: dict[str, tuple[float, float]], names: tuple[str, ...], goal: list[float]
+) -> bool:
+    """The joints ``names`` (position rad, speed rad/s) are within REST_POSITION of
+    ``goal`` and slower than REST_SPEED."""
     return all(
         abs(joints[j][0] - g) < REST_POSITION and abs(joints[j][1]) < REST_SPEED
-        for j, g in zip(ARM_JOINTS, goal, strict=True)
+        for j, g in zip(names, goal, strict=True)
     )
 
 
 class Arm:
-    """Moves the arm and the fingers; ``speed`` (rad/s, mean joint speed) and ``settle``
-    (s to wait after arriving) are set by the sequencer for each run."""
+    """Moves the arm and the gripper; ``config``, ``motion``, ``speed`` (rad/s, mean joint
+    speed) and ``settle`` (s to wait after arriving) are set by the sequencer for each
+    run."""
 
-    def __init__(self, node: Node, io: IoNode) -> None:
+    def __init__(self, node: Node, io: IoNode, config: RobotConfig) -> None:
         self._log = node.get_logger()
         self._io = io
         self._arm_pub = node.create_publisher(JointTrajectory, ARM_COMMAND_TOPIC, 10)
         self._hand_pub = node.create_publisher(Float64MultiArray, HAND_COMMAND_TOPIC, 10)
+        self.config = config
+        self.motion: Choreography | None = None
         self.speed = 1.0
         self.settle = 0.3
 
-    def finger_opening(self) -> float:
-        """The smaller opening of the two fingers, m (FINGER_OPEN when not reported)."""
-        return min(self._io.joints.get(j, (FINGER_OPEN, 0.0))[0] for j in FINGER_JOINTS)
+    def gripper_closed(self) -> float:
+        """How far the gripper is closed, 0 open .. 1 closed: its most closed joint (a
+        joint not reported counts as open)."""
+        config = self.config
+        return max(
+            config.gripper_closed_fraction(self._io.joints.get(j, (config.gripper_open, 0.0))[0])
+            for j in config.gripper_joints
+        )
 
     def at(self, goal: list[float]) -> bool:
         """The arm rests at ``goal`` now."""
-        return resting(self._io.joints, goal)
+        return resting(self._io.joints, self.config.arm_joints, goal)
 
     def move(self, goal: list[float], what: str, must_arrive: bool = True) -> int:
         """Move to ``goal`` (rad) now and wait until the arm has rested there ``settle`` s;
@@ -67,13 +74,15 @@ class Arm:
     def command(self, goal: list[float], start_ns: int = 0) -> int:
         """Send a smooth move to ``goal`` (rad) starting at sim time ``start_ns`` (0: when
         the controller receives it); returns the sim time (ns) at which it ends."""
-        start = [self._io.joints[j][0] for j in ARM_JOINTS]
-        duration = round(motion_time(start, goal, self.speed) * 1e9)
+        names = self.config.arm_joints
+        start = [self._io.joints[j][0] for j in names]
+        assert self.motion is not None, "the sequencer sets the choreography before a move"
+        duration = round(self.motion.motion_time(start, goal, self.speed) * 1e9)
         secs, nsecs = divmod(duration, 1_000_000_000)
         point = JointTrajectoryPoint(
             positions=[float(v) for v in goal], time_from_start=Duration(sec=secs, nanosec=nsecs)
         )
-        msg = JointTrajectory(joint_names=list(ARM_JOINTS), points=[point])
+        msg = JointTrajectory(joint_names=list(names), points=[point])
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(start_ns, 1_000_000_000)
         self._arm_pub.publish(msg)
         return max(start_ns, self._io.now_ns()) + duration
@@ -100,21 +109,22 @@ class Arm:
             return io.now_ns()
         rested = io.now_ns()
         for stamp, joints in reversed(tuple(io.joint_history)):  # tuple(): one C call
-            if not resting(joints, goal):
+            if not resting(joints, self.config.arm_joints, goal):
                 break
             rested = stamp
         ready = rested + round(self.settle * 1e9)
         io.sleep_until(ready, f"settling at {what}")
         return ready
 
-    def gripper(self, opening: float, wait: float = 0.0) -> None:
-        """Move each finger to ``opening`` m and wait ``wait`` s (sim)."""
-        self._hand_pub.publish(Float64MultiArray(data=[opening]))
+    def gripper(self, close: bool, wait: float = 0.0) -> None:
+        """Close (or open) the gripper and wait ``wait`` s (sim)."""
+        command = self.config.gripper_closed if close else self.config.gripper_open
+        self._hand_pub.publish(Float64MultiArray(data=[command]))
         self._io.sleep_until(self._io.now_ns() + round(wait * 1e9), "moving the fingers")
 
     def put_back(self, home: list[float], pick: list[float]) -> None:
         """Carry what the hand holds home, down to the stand, open, and back home."""
         self.move(home, "home")
         self.move(pick, "the stand", must_arrive=False)  # a shifted object may hit it
-        self.gripper(FINGER_OPEN, wait=0.6)
+        self.gripper(close=False, wait=0.6)
         self.move(home, "home")

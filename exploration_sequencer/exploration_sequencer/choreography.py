@@ -1,93 +1,176 @@
-"""Joint-space targets and motion times of an exploration (no ROS).
+"""Joint-space targets and motion times of an exploration on any arm (no ROS).
 
-The wrist's last two joints do the tilting (Franka Panda, hand pointing down at home):
-joint 6 tilts the hand about the sensor's y axis, and with joint 7 turned by +pi/2
-(a turn about the sensor's z axis, along gravity at home, so the load's wrench does not
-change) the same joint-6 tilt is about the sensor's x axis. The plan's poses map to
-joints as:
+Each pose of a plan is a target orientation of the sensor frame: home, or home turned by
+R_rel = rotation_about(axis, +-tilt) in the sensor's own home axes (``Plan.poses``), so
+gravity in the sensor frame turns as the plan says. The turn is about the grasp centre
+(the robot configuration's ``grasp_frame`` and ``grasp_offset``), which stays within
+``MAX_PIVOT_SHIFT`` of its home position: the object swings little. The joints come from
+``inverse_kinematics.solve_pose`` (damped least squares from home, within the URDF's
+joint limits, the solution nearest home); only the configuration's ``arm_joints`` move.
+A pose no solution reaches is ``PoseUnreachable``, raised before anything moves, with
+the reason and the largest tilt the arm reaches about that axis.
 
-    home      q_home
-    tilt_y+-  q_home, joint 6 +- tilt
-    tilt_x+-  q_home, joint 7 + pi/2, joint 6 +- tilt
+The pass visits home, tilt_y+, tilt_y-, tilt_x-, tilt_x+ (of those the plan has): the
+negative tilts are neighbours, so the pass is short. The verification pose
+``VERIFY_POSE`` is one no plan has: ``VERIFY_TILT`` about the sensor's diagonal, between
+its x and y axes.
 
-so that each pose turns gravity in the sensor frame as ``Plan.poses`` says (a rotation
-by +-tilt about the sensor's axis; checked against the Panda's forward kinematics). The
-verification pose ``VERIFY_POSE`` is one no plan has: joint 7 turned by pi/4 and joint 6
-by ``VERIFY_TILT``, a tilt about the sensor's diagonal, between the y and x axes.
-
-Motion times give each joint at most ``speed`` rad/s on average with the quintic
-profile's peak (1.875x the mean) under the joint's limit, with a floor, so tilts stay
-smooth and the dynamic wrench small; the sequencer waits ``settle`` s after every motion
-before a window starts.
+Motion times give each joint at most ``speed`` rad/s on average and keep the quintic
+profile's peak (1.875x the mean) under the joint's velocity limit in the URDF, with a
+floor, so tilts stay smooth and the dynamic wrench small; the sequencer waits ``settle``
+s after every motion before a window starts.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
+import numpy as np
+from numpy.typing import NDArray
+
+from com_core.inverse_kinematics import largest_reachable_tilt, solve_pose
+from com_core.kinematics import KinematicsError, RobotModel
 from com_core.planner import HOME, Plan
+from com_core.robot_config import RobotConfig, RobotConfigError, grasp_point, robot_problems
+from com_core.wrench_model import rotation_about
 
 __all__ = [
-    "PANDA_VELOCITY_LIMITS",
-    "TILT_JOINT",
+    "MAX_PIVOT_SHIFT",
+    "QUINTIC_PEAK",
+    "VERIFY_AXIS",
     "VERIFY_POSE",
     "VERIFY_TILT",
-    "WRIST_TURN",
-    "motion_time",
-    "pose_joints",
-    "verify_joints",
+    "Choreography",
+    "PoseUnreachable",
 ]
 
-WRIST_TURN = math.pi / 2
 VERIFY_POSE, VERIFY_TILT = "diagonal", math.radians(20.0)
-TILT_JOINT, _TURN_JOINT = 5, 6  # indices of panda_joint6 and panda_joint7
-
-
-def pose_joints(plan: Plan, home: Sequence[float]) -> list[tuple[str, list[float]]]:
-    """(pose name, 7 joint positions in rad) for every pose of ``plan``, home first.
-
-    The order is home, tilt_y+, tilt_y-, tilt_x-, tilt_x+ (of those the plan has): the
-    wrist turns once, between tilt_y- and tilt_x-, which share joint 6, so the pass is
-    short.
-    """
-    out = []
-    names = [name for name, _ in plan.poses()]
-    for name in sorted(
-        names, key=lambda n: (n != HOME, n[-2:-1] != "y", n[-1] == "+" and "x" in n)
-    ):
-        q = list(home)
-        if name != HOME:
-            axis, sign = name[-2], 1.0 if name[-1] == "+" else -1.0
-            if axis == "x":
-                q[_TURN_JOINT] += WRIST_TURN
-            elif axis != "y":
-                raise ValueError(f"this arm tilts about the sensor's x and y only, not {axis}")
-            q[TILT_JOINT] += sign * plan.tilt
-        out.append((name, q))
-    return out
-
-
-def verify_joints(home: Sequence[float], tilt: float = VERIFY_TILT) -> list[float]:
-    """7 joint positions (rad) of the verification pose: ``home`` tilted by ``tilt`` (rad)
-    about the sensor's diagonal (joint 7 a half wrist turn, joint 6 ``tilt``)."""
-    q = list(home)
-    q[_TURN_JOINT] += WRIST_TURN / 2
-    q[TILT_JOINT] += tilt
-    return q
-
-
-PANDA_VELOCITY_LIMITS = (2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61)
-"""rad/s per joint (Franka Panda datasheet)."""
+VERIFY_AXIS = (math.sqrt(0.5), math.sqrt(0.5), 0.0)
+"""The verification tilt's axis in the sensor's home axes: between x and y."""
+MAX_PIVOT_SHIFT = 1e-3
+"""m; how far the grasp centre may end from its home position at a pose."""
 QUINTIC_PEAK = 1.875
 """Peak over mean speed of a quintic (rest-to-rest) profile."""
+_AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 
 
-def motion_time(
-    start: Sequence[float], goal: Sequence[float], speed: float = 1.35, floor: float = 0.4
-) -> float:
-    """s for a smooth joint motion: each joint at most ``speed`` rad/s on average and its
-    peak under the Panda's limit; at least ``floor`` s."""
-    caps = [min(speed, limit / QUINTIC_PEAK) for limit in PANDA_VELOCITY_LIMITS]
-    steps = [abs(a - b) / cap for a, b, cap in zip(start, goal, caps, strict=True)]
-    return max(floor, *steps)
+class PoseUnreachable(ValueError):  # noqa: N818 (a pose, refused)
+    """A pose of the plan that no joint solution reaches; ``largest`` is the largest
+    tilt (rad) the arm reaches about that pose's axis and direction."""
+
+    def __init__(self, pose: str, tilt: float, reason: str, largest: float) -> None:
+        super().__init__(
+            f"pose {pose} at {tilt:.3f} rad is out of reach ({reason}); the largest tilt "
+            f"the arm reaches there is {largest:.3f} rad"
+        )
+        self.pose, self.reason, self.largest = pose, reason, largest
+
+
+@dataclass(frozen=True)
+class Choreography:
+    """The poses and motions of one arm: its robot model (the sensor frame is the one
+    turned), the configuration's arm joints and home (rad), and the grasp centre (m, in
+    the sensor frame) the tilts turn about."""
+
+    robot: RobotModel
+    arm_joints: tuple[str, ...]
+    home: tuple[float, ...]
+    pivot: NDArray[np.float64]
+    others: dict[str, float]
+    """The model's joints that do not move (the gripper's, at open): their positions."""
+
+    @classmethod
+    def of(cls, config: RobotConfig, urdf: str) -> Choreography:
+        """The choreography of ``config`` on the arm of ``urdf`` (its text).
+        RobotConfigError names every frame or joint the URDF lacks and a home or pick
+        pose outside the joint limits."""
+        try:
+            robot = RobotModel(urdf, config.sensor_frame, config.base_frame)
+        except KinematicsError as error:  # the URDF does not parse, a frame it lacks
+            raise RobotConfigError(f"robot {config.robot!r}: {error}") from error
+        problems = robot_problems(config, robot)
+        if problems:
+            raise RobotConfigError(f"robot {config.robot!r}: {'; '.join(problems)}")
+        others = {
+            name: config.gripper_open if name in config.gripper_joints else 0.0
+            for name in robot.joint_names
+            if name not in config.arm_joints
+        }
+        return cls(
+            robot, config.arm_joints, config.home_joints, grasp_point(config, robot), others
+        )
+
+    def _home(self) -> dict[str, float]:
+        return dict(zip(self.arm_joints, self.home, strict=True)) | self.others
+
+    def turned(self, axis: Sequence[float], tilt: float) -> tuple[list[float] | None, str]:
+        """(arm joints, rad, that turn the sensor by ``tilt`` rad about ``axis`` (its home
+        axes) about the grasp centre, or None; the reason when None)."""
+        result = solve_pose(
+            self.robot,
+            self._home(),
+            rotation_about(np.asarray(axis, dtype=np.float64), tilt),
+            self.pivot,
+            joints=self.arm_joints,
+            max_position_error=MAX_PIVOT_SHIFT,
+        )
+        if not result.reachable:
+            return None, result.reason
+        return [result.joints[name] for name in self.arm_joints], ""
+
+    def pose_joints(self, plan: Plan) -> list[tuple[str, list[float]]]:
+        """(pose name, arm joints in rad) for every pose of ``plan``, home first, in the
+        pass's order (see module). PoseUnreachable for the first pose no solution
+        reaches."""
+        names = [name for name, _ in plan.poses()]
+        order = sorted(
+            names, key=lambda n: (n != HOME, n[-2:-1] != "y", n[-1] == "+" and "x" in n)
+        )
+        out = []
+        for name in order:
+            if name == HOME:
+                out.append((name, list(self.home)))
+                continue
+            axis = np.asarray(_AXES[name[-2]]) * (1.0 if name[-1] == "+" else -1.0)
+            joints, reason = self.turned(axis, plan.tilt)
+            if joints is None:
+                largest = largest_reachable_tilt(
+                    self.robot,
+                    self._home(),
+                    axis,
+                    self.pivot,
+                    max_tilt=plan.tilt,
+                    joints=self.arm_joints,
+                    max_position_error=MAX_PIVOT_SHIFT,
+                )
+                raise PoseUnreachable(name, plan.tilt, reason, largest)
+            out.append((name, joints))
+        return out
+
+    def verify_joints(self, tilt: float = VERIFY_TILT) -> tuple[list[float] | None, str]:
+        """(arm joints of the verification pose, home turned by ``tilt`` rad about the
+        sensor's diagonal, or None; the reason when None)."""
+        return self.turned(VERIFY_AXIS, tilt)
+
+    def velocity_limits(self) -> list[float]:
+        """rad/s (m/s) of each arm joint, from the URDF."""
+        limits = self.robot.joint_limits()
+        return [limits[name][2] for name in self.arm_joints]
+
+    def motion_time(
+        self,
+        start: Sequence[float],
+        goal: Sequence[float],
+        speed: float = 1.35,
+        floor: float = 0.4,
+    ) -> float:
+        """s for a smooth motion: each joint at most ``speed`` rad/s on average and its
+        quintic peak under its URDF velocity limit; at least ``floor`` s."""
+        caps = [
+            min(speed, limit / QUINTIC_PEAK) if limit > 0 else speed  # 0: none in the URDF
+            for limit in self.velocity_limits()
+        ]
+        steps = [abs(a - b) / cap for a, b, cap in zip(start, goal, caps, strict=True)]
+        return max(floor, *steps)

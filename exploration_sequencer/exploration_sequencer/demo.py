@@ -1,9 +1,10 @@
 """The demo: simulator, estimator and sequencer as processes, one exploration, a summary.
 
-    python -m exploration_sequencer.demo [--object mug] [--seed 3] [...]   (make demo)
+    python -m exploration_sequencer.demo [--robot xarm6] [--object mug] [...]   (make demo)
 
 Finds each node's executable the way ``ros2 run`` does (ament_index: <prefix>/lib/<pkg>/),
-starts the three with matching parameters (no launch files), calls
+starts the three with the robot's configuration (``--params-file``; ``com_core``'s
+``config/<robot>.yaml`` or a file of your own) and matching parameters (no launch files), calls
 /exploration_sequencer/explore, prints the sequencer's progress and a final summary
 (estimate, sigma, truth, error, time, bag and report paths), and stops the nodes with
 SIGINT. Logs of the simulator and the estimator go to <bag-dir>/logs/.
@@ -32,11 +33,17 @@ from com_core.contract import (
 from com_core.exploration import INFORMATION, vector_value, verification_lines
 from com_core.payload import PAYLOAD_FILE
 from com_core.processes import executable, ros_args, stop
+from com_core.robot_config import ROBOTS, RobotConfigError, read_robot_config, robot_config_path
 from com_core.rosenv import keep_dds_local
 
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="demo", description=__doc__.split("\n\n")[0])
+    p.add_argument(
+        "--robot",
+        default="panda",
+        help=f"the arm: {', '.join(ROBOTS)}, or a robot configuration file of your own",
+    )
     p.add_argument("--object", choices=("box", "cylinder", "mug"), default="box")
     p.add_argument("--mass", type=float, default=0.1, help="kg")
     p.add_argument("--seed", type=int, default=0, help="draws the COM offset and the noise")
@@ -84,6 +91,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    try:
+        robot = read_robot_config(args.robot)
+    except RobotConfigError as error:
+        print(f"demo: {error}", file=sys.stderr)
+        return 2
+    params_file = robot_config_path(args.robot)
+    print(f"robot: {robot.robot} ({params_file})", flush=True)
     keep_dds_local(own_domain=True)
     args.bag_dir.mkdir(parents=True, exist_ok=True)
     logs = args.bag_dir / "logs"
@@ -137,7 +151,7 @@ def main(argv: list[str] | None = None) -> int:
             out = open(log, "w") if log else None  # noqa: SIM115 - closed with the process
             procs.append(
                 subprocess.Popen(
-                    [executable(package, name), *ros_args(params)],
+                    [executable(package, name), *ros_args(params, params_file=params_file)],
                     stdout=out,
                     stderr=subprocess.STDOUT if out else None,
                 )

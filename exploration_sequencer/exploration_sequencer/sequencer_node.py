@@ -9,6 +9,11 @@ it back on the stand first, an arm away from home goes home; and the grasp must 
 load before the object pass. Pose labels go out on ``~/pose`` (std_msgs/Header:
 frame_id = label, stamp = the sim time from which it applies; transient local) only once
 the arm has settled.
+The arm is the robot configuration's (``robot_config``: the parameters of
+``config/<robot>.yaml``, given with ``--params-file``; the Panda's by default) on the URDF of
+/robot_description: each pose is solved for its joints (``choreography``) before anything
+moves, and a tilt the arm cannot reach is lowered to the largest it reaches (logged as a
+plan change) or the run is refused.
 Every run is recorded to ``<bag_dir>/<run-id>/`` (rosbag2, MCAP) with a PNG report.
 
 Threads: the high-rate subscriptions (recording, joint states, sim clock) live on a
@@ -39,7 +44,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from rclpy.signals import SignalHandlerOptions
-from std_msgs.msg import Header
+from std_msgs.msg import Header, String
 from std_srvs.srv import Trigger
 
 from com_core.bags.cdr import decode_wrench_batch
@@ -50,13 +55,11 @@ from com_core.contract import (
     ESTIMATOR_SAVE_PAYLOAD_SERVICE,
     ESTIMATOR_SET_PARAMETERS_SERVICE,
     EXPLORE_SERVICE,
-    FINGER_CLOSED,
-    FINGER_OPEN,
     MOVING,
     OBJECT_PREFIX,
     OK,
     POSE_TOPIC,
-    SIM_PARAMETERS_SERVICE,
+    ROBOT_DESCRIPTION_TOPIC,
     TARE_PREFIX,
     VERIFY_PREFIX,
     WRENCH_TOPIC,
@@ -64,6 +67,7 @@ from com_core.contract import (
 )
 from com_core.exploration import WRENCHES, Exploration, vector_value, verification_lines
 from com_core.planner import Plan, dwell_for_target, predict, within_max_tilt
+from com_core.robot_config import KEYS, RobotConfig, RobotConfigError, read_robot_config
 from com_core.rosenv import keep_dds_local, stop_on_signals
 from com_core.tare_cache import (
     BAG_TARE_FILE,
@@ -78,13 +82,7 @@ from com_core.tare_cache import (
 from com_core.windows import Window
 from com_core.wrench_model import STANDARD_GRAVITY, SensorModel
 from exploration_sequencer.arm import Arm
-from exploration_sequencer.choreography import (
-    TILT_JOINT,
-    VERIFY_POSE,
-    motion_time,
-    pose_joints,
-    verify_joints,
-)
+from exploration_sequencer.choreography import VERIFY_POSE, Choreography, PoseUnreachable
 from exploration_sequencer.io_node import IoNode, RunError, TimeoutRunError
 
 PARAMETERS: dict[str, tuple[object, str]] = {
@@ -94,7 +92,7 @@ PARAMETERS: dict[str, tuple[object, str]] = {
     "dwell": (0.9, "s of samples per object window"),
     "tare_dwell": (5.0, "s of samples per tare window (empty hand; cached per hand)"),
     "settle": (0.3, "s to wait after a motion before a window starts"),
-    "speed": (1.35, "rad/s mean joint speed, capped per joint by the Panda's limits"),
+    "speed": (1.35, "rad/s mean joint speed, capped per joint by the URDF's velocity limits"),
     "max_tilt": (math.pi / 6, "rad; the largest tilt the object allows (a full mug: small)"),
     "raise_tilt": (False, "with target_com_sigma: the tilt may be raised up to max_tilt"),
     "target_com_sigma": (0.0, "m; extend dwell until the predicted COM sigma meets it (0: off)"),
@@ -104,10 +102,7 @@ PARAMETERS: dict[str, tuple[object, str]] = {
     "sigma_tau": (0.005, "N m; the sensor's torque noise per sample (for the prediction)"),
     "rate": (1000.0, "Hz; the sensor's rate (for the prediction)"),
     "mass_guess": (0.1, "kg; a guess of the object's mass (for the prediction)"),
-    "com_guess": ([0.0, 0.0, 0.1], "m; a guess of the COM in ft_sensor (fingers: 0.1 m out)"),
-    "gravity_home": ([0.0, 0.0, 1.0], "gravity direction in ft_sensor at home (prediction)"),
-    "home_joints": ([0.0], "rad; 7 joints of the arm at home ([0.0]: ask /wrench_sim)"),
-    "pick_joints": ([0.0], "rad; 7 joints with the fingers around the object ([0.0]: ask sim)"),
+    "com_guess": ([0.0], "m; a guess of the COM in ft_sensor ([0.0]: the grasp centre)"),
     "sim_timeout": (5.0, "s (wall) without /joint_states before a run fails"),
     "estimate_timeout": (10.0, "s (wall) to wait for the estimator: to hear us, to answer"),
     "bag_dir": ("bags", "directory that receives one rosbag2 directory per run"),
@@ -129,7 +124,6 @@ PARAMETERS: dict[str, tuple[object, str]] = {
         "put the object back on its stand after the run (false: the run ends holding it at "
         "home, for the compensated wrench; no empty-hand window after it)",
     ),
-    "hand_id": ("panda_hand", "names the hand: a cached tare serves this hand only"),
     "min_load": (0.005, "kg; the grasp must hold at least this before the object pass"),
     "grasp_check_dwell": (0.2, "s of samples at home after lifting that check the grasp"),
 }
@@ -149,11 +143,21 @@ class SequencerNode(Node):
         )
         for name, (default, text) in PARAMETERS.items():
             self.declare_parameter(name, default, ParameterDescriptor(description=text))
+        robot = ParameterDescriptor(description="robot configuration (robot_config)")
+        for name, default in read_robot_config("panda").parameters().items():
+            self.declare_parameter(name, default, robot)
         self.add_on_set_parameters_callback(self.validate_parameters)
         self.io = io
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.pose_pub = self.create_publisher(Header, POSE_TOPIC, latched)  # the current label
-        self.arm = Arm(self, io)
+        self.arm = Arm(self, io, self.robot_config())
+        self._urdf = ""  # the latest /robot_description
+        self.create_subscription(
+            String,
+            ROBOT_DESCRIPTION_TOPIC,
+            self.robot_description_callback,
+            QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL),
+        )
         self._lock = threading.Lock()
         self._running: str | None = None
         self._labels: list[tuple[int, str]] = []  # this run's labels
@@ -162,9 +166,6 @@ class SequencerNode(Node):
         self._window_seen: dict[str, tuple[float, dict[str, float]]] = {}
         group = ReentrantCallbackGroup()
         self.create_service(Trigger, EXPLORE_SERVICE, self.explore_callback, callback_group=group)
-        self._sim_params = self.create_client(
-            GetParameters, SIM_PARAMETERS_SERVICE, callback_group=group
-        )
         self._estimator_reset = self.create_client(
             Trigger, ESTIMATOR_RESET_SERVICE, callback_group=group
         )
@@ -191,8 +192,8 @@ class SequencerNode(Node):
                 bad = "must be in (0, pi/2) rad"
             elif prm.name == "tilt_axes" and (not v or any(a not in ("x", "y") for a in v)):
                 bad = "must be a non-empty list of 'x' and 'y'"
-            elif prm.name in ("home_joints", "pick_joints") and len(v) not in (1, 7):
-                bad = "must hold 7 joint positions (or [0.0] to read them from /wrench_sim)"
+            elif prm.name == "com_guess" and len(v) not in (1, 3):
+                bad = "must be 3 values (m) or [0.0] for the grasp centre"
             elif (
                 prm.name
                 in ("dwell", "tare_dwell", "speed", "rate", "mass_guess", "grasp_check_dwell")
@@ -216,30 +217,74 @@ class SequencerNode(Node):
                 reason = f"{prm.name}={v!r} refused: {bad}"
                 self.get_logger().error(reason)
                 return SetParametersResult(successful=False, reason=reason)
+        if any(prm.name in KEYS for prm in params):
+            values = {name: self.p(name) for name in KEYS}
+            values |= {prm.name: prm.value for prm in params if prm.name in KEYS}
+            try:
+                RobotConfig.from_parameters(values)
+            except RobotConfigError as exc:
+                reason = f"robot configuration refused: {exc}"
+                self.get_logger().error(reason)
+                return SetParametersResult(successful=False, reason=reason)
         return SetParametersResult(successful=True)
+
+    def robot_config(self) -> RobotConfig:
+        """The robot configuration of the parameters."""
+        return RobotConfig.from_parameters({name: self.p(name) for name in KEYS})
+
+    def robot_description_callback(self, msg: String) -> None:
+        """The URDF (latched): checked against the robot configuration at once, so a
+        frame or joint it lacks is an ERROR when the robot comes up, not at a run."""
+        self._urdf = msg.data
+        try:
+            motion = Choreography.of(self.robot_config(), msg.data)
+        except (RobotConfigError, ValueError) as exc:
+            self.get_logger().error(f"the robot cannot run an exploration: {exc}")
+            return
+        self.get_logger().info(
+            f"robot {motion.robot.model.name!r}: sensor {motion.robot.sensor_frame}, grasp "
+            f"centre ({', '.join(f'{1e3 * v:.1f}' for v in motion.pivot)}) mm, "
+            f"{len(motion.arm_joints)} arm joints"
+        )
+
+    def _choreography(self) -> Choreography:
+        """The arm's choreography on the latest /robot_description; RunError naming what
+        does not serve."""
+        self.io.wait(
+            lambda: self._urdf,
+            f"waiting for {ROBOT_DESCRIPTION_TOPIC}",
+            wall_timeout=self.p("sim_timeout"),
+        )
+        try:
+            return Choreography.of(self.robot_config(), self._urdf)
+        except (RobotConfigError, ValueError) as exc:
+            raise RunError(f"the robot cannot run an exploration: {exc}") from exc
 
     def _planned(
         self,
         method: str,
         information: str,
         bias_drift_rate: tuple[float, ...],
-        home: list[float],
-    ) -> Plan:
-        """The plan of the parameters, within ``max_tilt`` and, with ``target_com_sigma``,
-        its dwell (and with ``raise_tilt`` its tilt) set by the planner for the estimator's
+        motion: Choreography,
+    ) -> tuple[Plan, list[tuple[str, list[float]]]]:
+        """The plan of the parameters and the joints of its poses: within ``max_tilt`` and
+        the arm's reach (a pose no joint solution reaches is refused and the tilt lowered
+        to the largest the arm reaches there) and, with ``target_com_sigma``, its dwell
+        (and with ``raise_tilt`` its tilt) set by the planner for the estimator's
         ``method`` and ``information``; every change is logged with its reason. RunError
-        when the target cannot be met (the reason says what would)."""
-        plan = self.plan(home)
+        when no plan is feasible (the reason says what would be)."""
+        plan = self.plan(motion)
         if len(bias_drift_rate) == 2:  # the estimator's (kinematic information)
             plan = replace(plan, bias_drift_rate=bias_drift_rate)
         plan, lowered = within_max_tilt(plan, self.p("max_tilt"))
         changes = list(lowered)
+        plan, reach = self._within_reach(plan, motion, changes)
         target = self.p("target_com_sigma")
         if target > 0:
             advice = dwell_for_target(
                 plan,
                 target,
-                max_tilt=self.p("max_tilt"),
+                max_tilt=min(self.p("max_tilt"), reach),
                 max_time=self.p("max_object_time"),
                 raise_tilt=self.p("raise_tilt"),
                 method=method,
@@ -251,13 +296,48 @@ class SequencerNode(Node):
             plan, changes = advice.plan, changes + list(advice.changes)
         for change in changes:
             self.get_logger().warning(f"plan changed: {change}")
-        return plan
+        try:
+            return plan, motion.pose_joints(plan)
+        except PoseUnreachable as exc:
+            raise RunError(f"no exploration is feasible: {exc}") from exc
 
-    def plan(self, home: list[float]) -> Plan:
+    def _within_reach(
+        self, plan: Plan, motion: Choreography, changes: list[str]
+    ) -> tuple[Plan, float]:
+        """(``plan`` with its tilt lowered until the arm reaches every pose, the largest
+        tilt it reaches: rad, inf when it reaches the plan's); each lowering is refused
+        with its reason (WARN) and appended to ``changes``. RunError when a pose is out
+        of reach at any tilt."""
+        reach = math.inf
+        while True:
+            try:
+                motion.pose_joints(plan)
+                return plan, reach
+            except PoseUnreachable as exc:
+                self.get_logger().warning(f"refused before moving: {exc}")
+                if exc.largest <= 0.0:
+                    raise RunError(f"no exploration is feasible: {exc}") from exc
+                reach = exc.largest
+                changes.append(
+                    f"tilt {plan.tilt:.3f} -> {reach:.3f} rad (the largest the arm reaches "
+                    f"at {exc.pose}: {exc.reason})"
+                )
+                plan = replace(plan, tilt=reach, move_time=self._move_time(motion, reach))
+
+    def _move_time(self, motion: Choreography, tilt: float) -> float:
+        """s of one move from home to a tilt of ``tilt`` rad about the first axis at
+        ``speed`` (the floor if the arm cannot take it)."""
+        axis = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0)}[self.p("tilt_axes")[0]]
+        tilted, _ = motion.turned(axis, tilt)
+        return motion.motion_time(motion.home, tilted or motion.home, self.p("speed"))
+
+    def plan(self, motion: Choreography) -> Plan:
         """The plan the parameters ask for, as set, its move time that of one tilt from
-        ``home`` (rad) at ``speed``."""
-        tilted = list(home)
-        tilted[TILT_JOINT] += self.p("tilt")
+        home at ``speed``; the COM guess ([0.0]: the grasp centre) and the gravity at home
+        from the arm's model."""
+        home = dict(zip(motion.arm_joints, motion.home, strict=True)) | motion.others
+        gravity = motion.robot.gravity_in_sensor(home)
+        guess = self.p("com_guess")
         return Plan(
             tilt=self.p("tilt"),
             axes=tuple(self.p("tilt_axes")),
@@ -265,13 +345,13 @@ class SequencerNode(Node):
             dwell=self.p("dwell"),
             tare_dwell=self.p("tare_dwell"),
             settle=self.p("settle"),
-            move_time=motion_time(home, tilted, self.p("speed")),
+            move_time=self._move_time(motion, self.p("tilt")),
             sensor=SensorModel.from_scalars(
                 self.p("sigma_f"), self.p("sigma_tau"), rate_hz=self.p("rate")
             ),
             mass_guess=self.p("mass_guess"),
-            com_guess=tuple(self.p("com_guess")),
-            gravity_home=tuple(self.p("gravity_home")),
+            com_guess=tuple(motion.pivot if len(guess) == 1 else guess),
+            gravity_home=tuple(gravity / np.linalg.norm(gravity)),
             bias_dwell=self.p("bias_dwell"),
         )
 
@@ -305,6 +385,8 @@ class SequencerNode(Node):
         self.io.sim_timeout = self.p("sim_timeout")
         self.arm.speed, self.arm.settle = self.p("speed"), self.p("settle")
         self.io.wait(lambda: self.io.joints, "waiting for the joint states", wall_timeout=None)
+        config, motion = self.robot_config(), self._choreography()
+        self.arm.config, self.arm.motion = config, motion
         # The estimator hears the sensor on this clock (not a sensor that was restarted),
         # and this node's labels: a "moving" now, which begins no window, must come back
         # in its input status (a subscriber can match a publisher seconds after the
@@ -321,30 +403,29 @@ class SequencerNode(Node):
         )
         self._call(self._estimator_reset, Trigger.Request(), "resetting the estimator")
         self.io.diagnostics.clear()  # only this run's answers from here on
-        home, pick = self._joint_sets()
+        home, pick = list(config.home_joints), list(config.pick_joints)
         names = ["method", "information", "tare_cache", "bias_drift_rate"]
         request = GetParameters.Request(names=names)
         answer = self._call(self._estimator_params, request, "reading the estimator's settings")
         method, information, estimator_cache = (value.string_value for value in answer.values[:3])
         drift_rate = tuple(answer.values[3].double_array_value)
-        plan = self._planned(method, information, drift_rate, home)
+        plan, poses = self._planned(method, information, drift_rate, motion)
         prediction = predict(plan, method, information)
-        poses = pose_joints(plan, home)
         log.info(
-            f"run {run_id}: poses {[n for n, _ in poses]}, tilt {plan.tilt:.3f} rad, "
-            f"dwell {plan.dwell:g} s; predicted {prediction}"
+            f"run {run_id}: {config.robot}, poses {[n for n, _ in poses]}, "
+            f"tilt {plan.tilt:.3f} rad, dwell {plan.dwell:g} s; predicted {prediction}"
         )
         bag = Path(self.p("bag_dir")).resolve() / run_id
         self._labels = []
         self.io.recorder.start(bag)
 
         self._to_known_state(home, pick)
-        self.arm.gripper(FINGER_OPEN)
-        tare_home = self._tare(plan, poses, bag, estimator_cache, information != WRENCHES)
+        self.arm.gripper(close=False)
+        tare_home = self._tare(plan, motion, bag, estimator_cache, information != WRENCHES)
         log.info("phase 2/4: grasp and lift")
         self.arm.move(home, "home")
         self.arm.move(pick, "the object")
-        self.arm.gripper(FINGER_CLOSED, wait=0.6)
+        self.arm.gripper(close=True, wait=0.6)
         self._check_grasp(home, tare_home, pick)
         log.info("phase 3/4: object pass")
         start = self.io.now_ns()
@@ -353,10 +434,13 @@ class SequencerNode(Node):
         object_time = (end - start) * 1e-9
         bracket = information != WRENCHES  # an empty-hand window after the pass brackets
         if bracket and self.p("verify_dwell") > 0:  # the fit predicts the wrench there
-            log.info("verification pose: a tilt no fit uses")
-            verify = [(VERIFY_POSE, verify_joints(home))]
-            self._pass(VERIFY_PREFIX, verify, self.p("verify_dwell"))
-            end = self._labels[-1][0]
+            verify, reason = motion.verify_joints()
+            if verify is None:
+                log.warning(f"no verification: its pose is out of reach ({reason})")
+            else:
+                log.info("verification pose: a tilt no fit uses")
+                self._pass(VERIFY_PREFIX, [(VERIFY_POSE, verify)], self.p("verify_dwell"))
+                end = self._labels[-1][0]
         release = self.p("release")
         log.info("phase 4/4: return and release" if release else "phase 4/4: return, holding")
         if bracket and release:  # the bias's drift (kinematic information): done after it
@@ -387,7 +471,7 @@ class SequencerNode(Node):
     def _tare(
         self,
         plan: Plan,
-        poses: list[tuple[str, list[float]]],
+        motion: Choreography,
         bag: Path,
         estimator_cache: str,
         hand_model: bool,
@@ -406,8 +490,8 @@ class SequencerNode(Node):
         """
         log = self.get_logger()
         path = Path(self.p("tare_cache") or Path(self.p("bag_dir")) / "tare_cache.json")
-        home_name, home = poses[0]
-        tare_poses = pose_joints(plan.tare_plan(), home)
+        tare_poses = motion.pose_joints(plan.tare_plan())
+        home_name, home = tare_poses[0]
         signature = tare_signature(self.p("hand_id"), tare_poses)
         try:
             if hand_model:
@@ -423,7 +507,7 @@ class SequencerNode(Node):
                 f"the estimator reads the tare cache {estimator_cache or '(none)'!r}, not "
                 f"{str(path)!r}: taking a fresh tare pass (give both nodes one tare_cache)"
             )
-        needed = [] if hand_model else [name for name, _ in poses]
+        needed = [] if hand_model else [name for name, _ in plan.poses()]
         if shared and reusable(cache, self.p("tare_max_age"), needed):
             what = "this run's bias" if hand_model else "drift check of the cached tare"
             log.info(f"phase 1/4: {what} ({cache.age():.0f} s old), empty hand at home")
@@ -457,11 +541,11 @@ class SequencerNode(Node):
         (a run that stopped mid-way), so it is put back on the stand first; an arm away
         from home goes home."""
         log = self.get_logger()
-        opening = self.arm.finger_opening()
-        if opening < FINGER_OPEN - 1e-3:
+        closed = self.arm.gripper_closed()
+        if closed > 0.025:
             log.warning(
-                f"the fingers are closed to {opening * 1e3:.1f} mm: the hand may hold "
-                "an object; putting it back on the stand before the run"
+                f"the gripper is {closed:.0%} closed: the hand may hold an object; putting "
+                "it back on the stand before the run"
             )
             self.arm.put_back(home, pick)
         elif not self.arm.at(home):
@@ -557,19 +641,6 @@ class SequencerNode(Node):
         self._labels.append((stamp_ns, label))
         if label != MOVING:
             self.get_logger().info(f"window {label} from t={stamp_ns * 1e-9:.3f} s")
-
-    def _joint_sets(self) -> tuple[list[float], list[float]]:
-        """home_joints and pick_joints: the parameters, else /wrench_sim's."""
-        home, pick = self.p("home_joints"), self.p("pick_joints")
-        if len(home) == 7 and len(pick) == 7:
-            return list(home), list(pick)
-        request = GetParameters.Request(names=["home_joints", "pick_joints"])
-        answer = self._call(self._sim_params, request, "reading /wrench_sim's joint sets")
-        values = [list(v.double_array_value) for v in answer.values]
-        return (
-            list(home) if len(home) == 7 else values[0],
-            list(pick) if len(pick) == 7 else values[1],
-        )
 
     def _call(self, client, request, what: str):
         """The answer of a service; RunError if it is not there within ``sim_timeout`` s,

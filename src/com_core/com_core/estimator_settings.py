@@ -28,6 +28,7 @@ from .exploration import (
 )
 from .kinematics import DEFAULT_GRAVITY, KinematicsError, RobotModel
 from .known_gravity import BIAS_DRIFT_RATE
+from .robot_config import read_robot_config
 from .tare_cache import TareCache, load_tares
 from .wrench_model import SensorModel
 
@@ -61,7 +62,10 @@ SETTINGS: dict[str, tuple[Any, str]] = {
         "sensor's mounting and the base tilt); two_pose uses the wrenches",
     ),
     "robot_description": ("", "URDF text or file for 'kinematics' ('': /robot_description)"),
-    "sensor_frame": ("panda_hand", "URDF frame of the F/T sensor (the wrenches' frame)"),
+    "sensor_frame": (
+        read_robot_config("panda").sensor_frame,
+        "URDF frame of the F/T sensor (the wrenches' frame; robot configuration)",
+    ),
     "base_frame": ("", "URDF frame gravity is given in ('': the URDF's root)"),
     "gravity": (list(DEFAULT_GRAVITY), "m/s^2 in base_frame (a tilted base gives its own)"),
     "bias_drift_rate": (

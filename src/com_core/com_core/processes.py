@@ -2,8 +2,8 @@
 
 The demo, the benchmarks and the system tests start the nodes as processes (there are no
 launch files); these are the one way they do it. ``ros_args`` writes parameters as
-``--ros-args -p name:=value``; ``stop`` ends a process the way a terminal's Ctrl-C
-would, then harder.
+``--ros-args -p name:=value`` (after a ``--params-file``, such as a robot configuration);
+``stop`` ends a process the way a terminal's Ctrl-C would, then harder.
 """
 
 from __future__ import annotations
@@ -47,9 +47,16 @@ def parameter_text(value: Any) -> str:
     return str(value)
 
 
-def ros_args(params: Mapping[str, Any], remaps: Mapping[str, str] | None = None) -> list[str]:
-    """``--ros-args`` with ``-r from:=to`` per remap and ``-p name:=value`` per parameter."""
+def ros_args(
+    params: Mapping[str, Any],
+    remaps: Mapping[str, str] | None = None,
+    params_file: Path | None = None,
+) -> list[str]:
+    """``--ros-args`` with ``--params-file`` if given, ``-r from:=to`` per remap and
+    ``-p name:=value`` per parameter (which wins over the file's value)."""
     out = ["--ros-args"]
+    if params_file is not None:
+        out += ["--params-file", str(params_file)]
     for source, target in (remaps or {}).items():
         out += ["-r", f"{source}:={target}"]
     for key, value in params.items():

@@ -154,7 +154,9 @@ def read_robot_config(robot: str) -> RobotConfig:
         return RobotConfig.from_parameters(values)
     except OSError as error:
         known = ", ".join(ROBOTS)
-        raise RobotConfigError(f"{path}: cannot read it ({error}); known robots: {known}") from error
+        raise RobotConfigError(
+            f"{path}: cannot read it ({error}); known robots: {known}"
+        ) from error
     except (yaml.YAMLError, KeyError, TypeError) as error:
         raise RobotConfigError(
             f"{path}: not a ROS 2 parameters file with a '/**: ros__parameters:' section "
