@@ -55,12 +55,10 @@ from estimator_rate import cpu_seconds, lossless_scan  # bench/, the script's di
 from com_core.bags.cdr import decode_wrench, encode_wrench_stamped, with_wrench
 from com_core.compensation import Compensator
 from com_core.contract import (
-    ARM_JOINTS,
     COMPENSATED_TOPIC,
     COMPENSATION_STATUS_NAME,
     DIAGNOSTICS_TOPIC,
     ESTIMATOR_RESET_SERVICE,
-    FINGER_JOINTS,
     JOINT_STATES_TOPIC,
     ROBOT_DESCRIPTION_TOPIC,
     WRENCH_TOPIC,
@@ -68,6 +66,7 @@ from com_core.contract import (
 from com_core.kinematics import RobotModel
 from com_core.payload import PAYLOAD_FILE, Payload, payload_wrench, write_payload_files
 from com_core.processes import executable, ros_args, stop
+from com_core.robot_config import read_robot_config
 from com_core.rosenv import keep_dds_local
 
 RATES = (1000, 2000, 5000, 10000, 15000, 20000, 30000, 40000, 50000)
@@ -77,7 +76,8 @@ LOSSLESS_TARGET_HZ = 5000
 JOINT_STATE_PERIOD = 0.01  # s: 100 Hz
 SPEED = 0.02  # rad/s, every arm joint, unless --still
 HOME = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785, 0.04, 0.04])  # rad, m
-JOINTS = (*ARM_JOINTS, *FINGER_JOINTS)
+PANDA = read_robot_config("panda")
+JOINTS = (*PANDA.arm_joints, *PANDA.gripper_joints)
 RAW_WRENCH = np.array([1.0, -2.0, 9.0, 0.1, -0.2, 0.3])  # N, N m: what every sample reads
 CHECK_EVERY = 200  # one compensated message in this many is checked
 CHECK_TOLERANCE = 1e-5
@@ -213,7 +213,7 @@ def path_cost_us(robot: RobotModel, payload: Payload, speed: float, paced: bool)
     message per 1 ms of wall time, as the node takes them at 1 kHz; else back to back."""
     n = 2000 if paced else 20000
     compensator = Compensator(payload, robot, "bench")
-    velocity = np.where(np.arange(len(JOINTS)) < len(ARM_JOINTS), speed, 0.0)
+    velocity = np.where(np.arange(len(JOINTS)) < len(PANDA.arm_joints), speed, 0.0)
     raws = [encode_wrench_stamped(k * 1_000_000, "ft_sensor", RAW_WRENCH) for k in range(n)]
     cpu = 0
     for k, raw in enumerate(raws):
@@ -260,7 +260,7 @@ class Bench:
         f, t = self.msg.wrench.force, self.msg.wrench.torque
         f.x, f.y, f.z, t.x, t.y, t.z = (float(v) for v in RAW_WRENCH)
         self.joints = JointState(name=list(JOINTS))
-        self.velocity = np.where(np.arange(len(JOINTS)) < len(ARM_JOINTS), speed, 0.0)
+        self.velocity = np.where(np.arange(len(JOINTS)) < len(PANDA.arm_joints), speed, 0.0)
         self.joints.velocity = self.velocity.tolist()
         self.origin = time.time_ns()  # ns, wall: the current stream's start at HOME
         self.stale = 0  # samples the estimator left out (its compensation status)
