@@ -33,7 +33,7 @@ from typing import Any
 import pytest
 
 from com_core.processes import STOP_SEQUENCE, executable, ros_args, stop
-from com_core.robot_config import read_robot_config
+from com_core.robot_config import read_robot_config, urdf_file
 
 # Nothing in the test process may talk DDS beyond this machine.
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
@@ -43,6 +43,17 @@ PANDA = read_robot_config("panda")
 """The Panda's robot configuration: every node's default arm."""
 PANDA_JOINTS = (*PANDA.arm_joints, *PANDA.gripper_joints)
 """The names of the Panda's /joint_states: arm, then gripper."""
+
+
+def choreography(robot: str) -> Any:
+    """The ``exploration_sequencer`` choreography of a shipped robot configuration on the
+    URDF of its ``urdf`` file (gripper joints movable, as a real arm's)."""
+    from exploration_sequencer.choreography import Choreography
+
+    config = read_robot_config(robot)
+    return Choreography.of(config, urdf_file(config).read_text())
+
+
 _LOCK_DIR = Path(tempfile.gettempdir()) / "ros_domain_id_locks"
 _held_locks: dict[int, Any] = {}
 _counter = itertools.count()

@@ -98,15 +98,12 @@ def kinematic_stream(rng: np.random.Generator, verify: bool = False):
     """A synthetic exploration of the Panda's plan, its joint states, and its robot model:
     the stream's gravity per pose is the forward kinematics' at the choreography's joints;
     ``verify`` adds the choreography's verification window."""
-    from pathlib import Path
 
-    import pybullet_data
+    from conftest import choreography
 
-    from com_core.robot_config import read_robot_config
-    from exploration_sequencer.choreography import VERIFY_POSE, Choreography
+    from exploration_sequencer.choreography import VERIFY_POSE
 
-    urdf = (Path(pybullet_data.getDataPath()) / "franka_panda" / "panda.urdf").read_text()
-    motion = Choreography.of(read_robot_config("panda"), urdf)
+    motion = choreography("panda")
     robot, fingers, arm = motion.robot, motion.others, motion.arm_joints
     home_g = robot.gravity_in_sensor(dict(zip(arm, motion.home, strict=True)) | fingers)
     plan = Plan(dwell=0.3, gravity_home=tuple(home_g / np.linalg.norm(home_g)))

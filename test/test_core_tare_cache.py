@@ -6,7 +6,7 @@ import math
 import time
 
 import numpy as np
-from conftest import WORKSPACE
+from conftest import WORKSPACE, choreography
 
 from com_core.planner import Plan
 from com_core.tare_cache import (
@@ -22,9 +22,8 @@ from com_core.tare_cache import (
     use_tares,
 )
 from com_core.windows import window_from_mean
-from exploration_sequencer.choreography import pose_joints
 
-HOME = [0.0, -0.1559, 0.0, -2.1983, 0.0, 2.0424, 0.7854]
+PANDA = choreography("panda")
 
 
 def windows(fz: float) -> dict:
@@ -35,8 +34,8 @@ def windows(fz: float) -> dict:
 def test_a_run_with_another_plan_keeps_the_first_plans_tare(tmp_path):
     """Two plans share one cache file: each keeps its entry, the last used is current."""
     path = tmp_path / "tare_cache.json"
-    default = tare_signature("panda_hand", pose_joints(Plan(), HOME))
-    paper = tare_signature("panda_hand", pose_joints(Plan(0.05, ("x",), False), HOME))
+    default = tare_signature("panda_hand", PANDA.pose_joints(Plan()))
+    paper = tare_signature("panda_hand", PANDA.pose_joints(Plan(0.05, ("x",), False)))
     assert default != paper
     save_tares(path, default, windows(9.9))
     save_tares(path, paper, windows(9.8))
@@ -66,11 +65,13 @@ def test_the_hand_model_is_the_newest_entry_of_the_hand_with_joints_whatever_its
     path = tmp_path / "tare_cache.json"
     joints = {"home": {"panda_joint1": 0.1, "panda_joint2": -0.2}}
     times = {"home": 12.345678901234567}
-    default = tare_signature("panda_hand", pose_joints(Plan(), HOME))
-    paper = tare_signature("panda_hand", pose_joints(Plan(0.05, ("x",), False), HOME))
+    default = tare_signature("panda_hand", PANDA.pose_joints(Plan()))
+    paper = tare_signature("panda_hand", PANDA.pose_joints(Plan(0.05, ("x",), False)))
     save_tares(path, default, windows(9.9), joints, times)
     save_tares(path, paper, windows(9.8))  # newer, but without joints: no hand model
-    save_tares(path, tare_signature("gripper_2", [("home", HOME)]), windows(7.0), joints)
+    save_tares(
+        path, tare_signature("gripper_2", [("home", list(PANDA.home))]), windows(7.0), joints
+    )
     model = latest_hand_model(path, "panda_hand")
     assert model is not None and model.signature == default and model.has_joints
     assert model.joints == joints and model.times == times

@@ -7,15 +7,14 @@ against the URDF's velocity limits and the sim's own trajectories."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
-import pybullet_data
 import pytest
+from conftest import choreography
 
 from com_core.kinematics import RobotModel
 from com_core.planner import Plan
-from com_core.robot_config import ROBOTS, RobotConfigError, read_robot_config
+from com_core.robot_config import ROBOTS, RobotConfigError, read_robot_config, urdf_file
 from com_core.wrench_model import rotation_about
 from exploration_sequencer.choreography import (
     MAX_PIVOT_SHIFT,
@@ -32,14 +31,13 @@ ORIENTATION_TOLERANCE = 1e-4  # rad
 
 
 def urdf_of(robot: str) -> str:
-    """The URDF text of a configuration's ``pybullet_data:`` source."""
-    source = read_robot_config(robot).urdf
-    return (Path(pybullet_data.getDataPath()) / source.split(":", 1)[1]).read_text()
+    """The URDF text of a shipped configuration's ``urdf`` file."""
+    return urdf_file(read_robot_config(robot)).read_text()
 
 
 @pytest.fixture(scope="module", params=ROBOTS)
 def arm(request: pytest.FixtureRequest) -> tuple[str, Choreography]:
-    return request.param, Choreography.of(read_robot_config(request.param), urdf_of(request.param))
+    return request.param, choreography(request.param)
 
 
 def placement(arm: tuple[str, Choreography], joints: list[float]) -> tuple[np.ndarray, ...]:
@@ -143,7 +141,7 @@ def test_a_configuration_the_urdf_does_not_serve_names_what(robot):
 
 
 def test_motion_time_is_the_slowest_joint_at_its_urdf_cap_with_a_floor():
-    motion = Choreography.of(read_robot_config("panda"), urdf_of("panda"))
+    motion = choreography("panda")
     limits = motion.velocity_limits()
     assert limits == [2.175] * 4 + [2.61] * 3  # the URDF's
     home = np.array(motion.home)

@@ -46,6 +46,7 @@ __all__ = [
     "read_robot_config",
     "robot_config_path",
     "robot_problems",
+    "urdf_file",
 ]
 
 CONFIG_DIR = Path(__file__).resolve().parent / "config"
@@ -164,6 +165,17 @@ def read_robot_config(robot: str) -> RobotConfig:
         ) from error
     except RobotConfigError as error:
         raise RobotConfigError(f"{path}: {error}") from error
+
+
+def urdf_file(config: RobotConfig) -> Path:
+    """The file of the configuration's ``urdf``: a path, or ``pybullet_data:<path>``
+    inside the pybullet_data package."""
+    prefix = "pybullet_data:"
+    if config.urdf.startswith(prefix):
+        import pybullet_data
+
+        return Path(pybullet_data.getDataPath()) / config.urdf[len(prefix) :]
+    return Path(config.urdf)
 
 
 def robot_problems(config: RobotConfig, robot: RobotModel) -> list[str]:
