@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from conftest import PANDA, UNCLEAN_EXIT, replay_json, spin_until
 
 from com_core.bags.cdr import decode_header
@@ -341,12 +342,45 @@ def test_a_run_after_a_sequencer_killed_mid_run_starts_clean(start_node, client,
 
 def test_a_grasp_that_holds_nothing_fails_before_the_object_pass(start_node, client, tmp_path):
     """Fingers closed on air (pick_joints at home): the sequencer weighs the grasp after
-    lifting and says so, rather than an estimator's hint about the tare."""
-    start_system(start_node, tmp_path, {"object": "box"}, {"pick_joints": list(PANDA.home_joints)})
+    lifting and says so, rather than an estimator's hint about the tare. The tilt asked
+    for (1.5 rad) is beyond the Panda's reach about y: refused before moving, with the
+    largest it reaches (1.132 rad, joint 6 at its limit), and the plan takes that."""
+    tilt = {"tilt": 1.5, "max_tilt": 1.5, "pick_joints": list(PANDA.home_joints)}
+    start_system(start_node, tmp_path, {"object": "box"}, tilt)
     result = client.wait(client.call())
     assert not result.success and "grasp failed" in result.message, result.message
     assert "the object was not picked up" in result.message
     assert not any(label.startswith("object/") for label in client.labels)
+    log = next(tmp_path.glob("sequencer_node-*.log")).read_text()
+    assert re.search(
+        r"refused before moving: pose tilt_y\+ at 1.500 rad is out of reach \(joint limit: "
+        r"panda_joint6 at its upper limit .*the largest tilt the arm reaches there is 1.13",
+        log,
+    ), log
+    assert "plan changed: tilt 1.500 -> 1.13" in log
+
+
+def test_a_configuration_the_urdf_does_not_serve_is_an_error_that_names_it(
+    start_node, client, tmp_path
+):
+    """The sequencer checks its robot configuration against /robot_description when it
+    comes: an ERROR naming the frame, and a run refused with it before anything moves."""
+    config = PANDA.parameters() | {"sensor_frame": "ft_link"}
+    path = tmp_path / "my_arm.yaml"
+    path.write_text(yaml.safe_dump({"/**": {"ros__parameters": config}}))
+    start_node("sim_node", "wrench_sim", params={"real_time_factor": 1.0})
+    sequencer = start_node(
+        "sequencer_node",
+        "exploration_sequencer",
+        params={"bag_dir": str(tmp_path / "bags")},
+        args=["--ros-args", "--params-file", str(path)],
+    )
+    named = "sensor_frame 'ft_link' is not a frame of the URDF"
+    assert spin_until(client.node, lambda: named in sequencer.log_path.read_text(), 30.0)
+    assert "[ERROR]" in sequencer.log_path.read_text()
+    result = client.wait(client.call(), timeout=30.0)
+    assert not result.success and named in result.message, result.message
+    assert not client.labels
 
 
 def test_a_sequencer_without_a_sim_says_the_sim_never_published(start_node, client, tmp_path):
