@@ -1,8 +1,8 @@
 """Real-time factor of wrench_sim, headless, 1 kHz physics, with and without publishing.
 
-Runs the same scenario three times in one process: pybullet stepping alone (``PandaWorld``),
-the node's loop without DDS publishing, and the node's loop publishing /clock and
-/ft_sensor/wrench at 1 kHz plus /joint_states at 100 Hz (sim time). Each real-time factor
+Runs the same scenario on the Panda three times in one process: pybullet stepping alone
+(``ArmWorld``), the node's loop without DDS publishing, and the node's loop publishing /clock
+and /ft_sensor/wrench at 1 kHz plus /joint_states at 100 Hz (sim time). Each real-time factor
 (sim s per wall s) is printed with its ratio to the physics-only run. ``--subscriber`` adds a
 separate process that takes every wrench (as the estimator would) and reports what it got.
 
@@ -21,9 +21,8 @@ from pathlib import Path
 import numpy as np
 import rclpy
 
-from com_core.contract import ARM_JOINTS
 from com_core.rosenv import keep_dds_local
-from wrench_sim.physics import HOME_JOINTS, PandaWorld, SimConfig
+from wrench_sim.physics import ArmWorld, SimConfig
 from wrench_sim.sim_node import SimNode
 
 TARGET = 5.0
@@ -31,19 +30,20 @@ TARGET = 5.0
 BARE_SUBSCRIBER = Path(__file__).with_name("bare_subscriber.py")
 
 
-def scenario(world: PandaWorld, run) -> float:
+def scenario(world: ArmWorld, run) -> float:
     """Hold, tilt joint 6 by 0.5 rad in 2 s, hold, tilt back; returns the sim seconds run."""
-    tilted = np.array(HOME_JOINTS)
+    robot = world.config.robot
+    tilted = np.array(robot.home_joints)
     tilted[5] += 0.5
     run(1.0)
-    world.command_arm(ARM_JOINTS, [2.0], [tilted.tolist()])
+    world.command_arm(robot.arm_joints, [2.0], [tilted.tolist()])
     run(3.0)
-    world.command_arm(ARM_JOINTS, [2.0], [list(HOME_JOINTS)])
+    world.command_arm(robot.arm_joints, [2.0], [list(robot.home_joints)])
     run(2.0)
     return 6.0
 
 
-def timed(repeats: int, world: PandaWorld, run) -> float:
+def timed(repeats: int, world: ArmWorld, run) -> float:
     """Real-time factor of ``repeats`` scenarios."""
     start = time.perf_counter()
     sim = sum(scenario(world, run) for _ in range(repeats))
@@ -61,7 +61,7 @@ def main() -> int:
     keep_dds_local(own_domain=True)
     repeats = max(1, round(options.seconds / 6.0))
 
-    world = PandaWorld(SimConfig())
+    world = ArmWorld(SimConfig())
     physics = timed(repeats, world, world.run)
     world.close()
 
@@ -88,7 +88,7 @@ def main() -> int:
     rclpy.try_shutdown()
 
     print(f"scenario: hold, tilt 0.5 rad, hold, tilt back; {6.0 * repeats:.0f} s sim per run")
-    print(f"physics only (PandaWorld.step)       : real-time factor {physics:6.2f}")
+    print(f"physics only (ArmWorld.step)         : real-time factor {physics:6.2f}")
     print(
         f"node loop, no publishing             : real-time factor {quiet:6.2f}"
         f"  ({quiet / physics:.2f} x physics only)"

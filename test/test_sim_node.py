@@ -1,5 +1,5 @@
-"""The sim node as a process: topics, a commanded tilt, pushes, and bad commands that change
-nothing.
+"""The sim node as a process: topics, a commanded tilt, pushes, bad commands that change
+nothing, the xArm6 from its parameters file and a robot configuration that does not serve.
 
 Starts install/wrench_sim/lib/wrench_sim/sim_node (no launch file), subscribes to its topics,
 grasps the object and tilts the wrist through the ros2_control-style command topics, and
@@ -25,7 +25,6 @@ from com_core.contract import (
     APPLIED_WRENCH_TOPIC,
     APPLY_WRENCH_TOPIC,
     ARM_COMMAND_TOPIC,
-    ARM_JOINTS,
     CLOCK_TOPIC,
     HAND_COMMAND_TOPIC,
     HAND_TRUTH_TOPIC,
@@ -35,6 +34,7 @@ from com_core.contract import (
     TRUTH_TOPIC,
     WRENCH_TOPIC,
 )
+from com_core.robot_config import CONFIG_DIR, read_robot_config
 from com_core.wrench_model import gravity_in_sensor, gravity_wrench
 
 rclpy = pytest.importorskip("rclpy")
@@ -48,8 +48,8 @@ from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Float64MultiArray, String  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint  # noqa: E402
 
-from wrench_sim.physics import HOME_JOINTS, PICK_JOINTS  # noqa: E402
-
+PANDA = read_robot_config("panda")
+HOME_JOINTS, PICK_JOINTS, ARM_JOINTS = PANDA.home_joints, PANDA.pick_joints, PANDA.arm_joints
 SIGMA_F, SIGMA_TAU, RATE = 0.05, 0.002, 250.0
 PARAMS = {
     "object": "box",
@@ -417,3 +417,83 @@ def test_a_push_changes_the_wrench_by_what_the_sim_reports_it_applied(start_node
         assert process.poll() is None
     finally:
         client.node.destroy_node()
+
+
+XARM_FILE = CONFIG_DIR / "xarm6.yaml"
+
+
+def test_the_xarm6_runs_from_its_parameters_file(start_node, rclpy_context):
+    """``--params-file config/xarm6.yaml``: its joints on /joint_states, its URDF on
+    /robot_description (sensor frame xarm_gripper_base_link), at rest the wrench is the
+    gravity wrench of the gripper's ground truth, and driven into the ground it warns of the
+    collision."""
+    from com_core.kinematics import RobotModel
+
+    xarm = read_robot_config("xarm6")
+    process = start_node(
+        "sim_node",
+        "wrench_sim",
+        {"rate": RATE, "real_time_factor": 4.0},
+        args=["--ros-args", "--params-file", str(XARM_FILE)],
+    )
+    client = Client(rclpy_context)
+    texts: list[str] = []
+    client.node.create_subscription(
+        String, ROBOT_DESCRIPTION_TOPIC, lambda m: texts.append(m.data), LATCHED
+    )
+    try:
+        ready = client.spin_until(
+            lambda: texts and client.hand_truth and client.joint_state, timeout=40.0
+        )
+        assert ready, f"sim did not come up:\n{log_tail(process.log_path)}"
+        assert tuple(client.joint_state.name) == xarm.arm_joints + xarm.gripper_joints
+        assert_allclose(client.joint_state.position[:6], xarm.home_joints, atol=1e-3)
+        assert client.joint_state.position[6] == xarm.gripper_open
+        robot = RobotModel(texts[0], xarm.sensor_frame, xarm.base_frame)
+        assert robot.joint_names == xarm.arm_joints  # rigid mode: the gripper's joints fixed
+        client.wait_sim(0.3)
+        start = round(client.sim_time * 1e9)
+        client.wait_sim(0.5)
+        window = np.array([w for s, w in client.wrenches if s > start])
+        assert len(window) > 0.4 * RATE
+        state = client.joint_state
+        g_sensor = robot.gravity_in_sensor(dict(zip(state.name, state.position, strict=True)))
+        hand = client.hand_truth[-1].inertia
+        assert hand.m == pytest.approx(0.7514296, abs=1e-6)
+        expected = gravity_wrench(hand.m, [hand.com.x, hand.com.y, hand.com.z], g_sensor)
+        error = window.mean(axis=0) - expected
+        assert np.abs(error[:3]).max() < 2e-3, error
+        assert np.abs(error[3:]).max() < 2e-4, error
+        assert "ready: robot xarm6" in process.log_path.read_text()
+        # beside the stand (joint 1 a quarter turn), then the fingertips into the ground
+        beside = list(xarm.pick_joints)
+        beside[0] = math.pi / 2
+        into = list(beside)
+        into[1] += 0.6
+        client.send_trajectory(xarm.arm_joints, [(3.0, beside), (5.0, into)])
+
+        def warned() -> bool:
+            return any(
+                "[WARN]" in line and "collision: link" in line
+                for line in process.log_path.read_text().splitlines()
+            )
+
+        assert client.spin_until(warned, 30.0), log_tail(process.log_path)
+        assert process.poll() is None
+    finally:
+        client.node.destroy_node()
+
+
+def test_a_robot_configuration_that_does_not_serve_stops_the_node(start_node, tmp_path):
+    """A parameters file naming a sensor frame its URDF lacks: an ERROR naming it, exit 1."""
+    text = XARM_FILE.read_text().replace(
+        "sensor_frame: xarm_gripper_base_link", "sensor_frame: ft_flange"
+    )
+    assert "ft_flange" in text
+    bad = tmp_path / "bad_robot.yaml"
+    bad.write_text(text)
+    process = start_node("sim_node", "wrench_sim", args=["--ros-args", "--params-file", str(bad)])
+    assert process.wait(timeout=30) == 1
+    log = process.log_path.read_text()
+    assert "[ERROR]" in log and "sensor_frame 'ft_flange' is not a frame of the URDF" in log, log
+    assert "Traceback" not in log, log

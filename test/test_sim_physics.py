@@ -1,29 +1,25 @@
 """The simulated F/T sensor against the analytic gravity wrench, without ROS.
 
-Drives ``wrench_sim.physics.PandaWorld`` directly: grasp the object from its stand, hold the
-arm still at several orientations and compare the sensed wrench with
-``com_core.wrench_model.gravity_wrench`` of hand (+ object) from the ground truth, and the
-change a push on the held object makes with the push as the sensor reads it.
+Drives ``wrench_sim.physics.ArmWorld`` directly, on the Panda and on the xArm6: grasp the
+object from its stand, hold the arm still at several orientations and compare the sensed
+wrench with ``com_core.wrench_model.gravity_wrench`` of hand (+ object) from the ground truth,
+and the change a push on the held object makes with the push as the sensor reads it; drive the
+arm into the ground and read the collision it reports.
 """
 
 from __future__ import annotations
 
 import itertools
+from dataclasses import replace
 
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from com_core.contract import ARM_JOINTS
+from com_core.robot_config import read_robot_config
 from com_core.wrench_model import STANDARD_GRAVITY, SensorModel, gravity_wrench
 from wrench_sim.objects import SHAPES, holdable_com_range, object_spec
-from wrench_sim.physics import (
-    HOME_JOINTS,
-    PICK_JOINTS,
-    TIME_STEP,
-    PandaWorld,
-    SimConfig,
-)
+from wrench_sim.physics import TIME_STEP, ArmWorld, SimConfig
 from wrench_sim.sensor import WrenchSensor, random_streams
 
 FORCE_TOL = 1e-3  # N
@@ -34,6 +30,8 @@ TORQUE_TOL = 1e-4  # N m
 FRICTION_ACROSS = (0.08, 0.02)
 FRICTION_ANY = (1.2, 0.13)
 COM_OFFSET = (0.01, -0.005, 0.02)
+PANDA = read_robot_config("panda")
+HOME_JOINTS, PICK_JOINTS, ARM_JOINTS = PANDA.home_joints, PANDA.pick_joints, PANDA.arm_joints
 
 
 def tilted(joint: int, angle: float, turn: float = 0.0) -> list[float]:
@@ -59,17 +57,44 @@ POSES = {
 }
 ACROSS_FINGERS = ("home", "j6+0.5", "j6-0.5")
 
+XARM = read_robot_config("xarm6")
 
-def grasp(world: PandaWorld) -> None:
+
+def xarm_tilted(joint: int, angle: float, turn: float = 0.0) -> list[float]:
+    """The xArm6's home joints with joint 6 turned by ``turn`` and ``joint`` (0-based) moved
+    by ``angle``."""
+    q = np.array(XARM.home_joints)
+    q[5] += turn
+    q[joint] += angle
+    return q.tolist()
+
+
+# xArm6: gravity along sensor z at home; joint 5 tilts about sensor y, joint 4 about an axis
+# in the sensor's y-z plane; joint 6 turned by pi/2 then joint 5 by +-pi/2 puts gravity along
+# -+y, the finger axis.
+XARM_POSES = {
+    "home": list(XARM.home_joints),
+    "j5+0.5": xarm_tilted(4, 0.5),
+    "j5-0.6": xarm_tilted(4, -0.6),
+    "j4+0.6": xarm_tilted(3, 0.6),
+    "fingers-down": xarm_tilted(4, np.pi / 2, np.pi / 2),
+    "fingers-up": xarm_tilted(4, -np.pi / 2, np.pi / 2),
+    "mixed": [0.3, -0.4, -1.0, 0.5, 1.0, -0.7],
+}
+
+
+def grasp(world: ArmWorld) -> None:
     """Pick the object from its stand and lift it to the home pose."""
-    world.move_arm(PICK_JOINTS, 3.0)
-    world.command_gripper(0.0)
+    robot = world.config.robot
+    world.move_arm(robot.pick_joints, 3.0)
+    world.command_gripper(robot.gripper_closed)
     world.run(0.5)
     assert world.object_held, world.events
-    world.move_arm(HOME_JOINTS, 3.0)
+    world.move_arm(robot.home_joints, 3.0)
+    assert world.collisions == 0, world.events
 
 
-def hold_and_compare(world: PandaWorld, q: list[float], steps: int = 20) -> np.ndarray:
+def hold_and_compare(world: ArmWorld, q: list[float], steps: int = 20) -> np.ndarray:
     """Move to ``q``, hold still; sensed minus analytic wrench over ``steps`` steps, (n, 6)."""
     world.move_arm(q, 4.0)
     world.run(0.2)
@@ -86,7 +111,7 @@ def hold_and_compare(world: PandaWorld, q: list[float], steps: int = 20) -> np.n
 
 @pytest.fixture(scope="module")
 def rigid_world():
-    world = PandaWorld(SimConfig(object_shape="box", object_com_offset=COM_OFFSET))
+    world = ArmWorld(SimConfig(object_shape="box", object_com_offset=COM_OFFSET))
     yield world
     world.close()
 
@@ -127,14 +152,14 @@ def test_rigid_grasp_matches_gravity_wrench_at_every_orientation(rigid_world):
 
 @pytest.mark.parametrize("shape", ["cylinder", "mug"])
 def test_every_shape_is_grasped_and_measured_exactly(shape):
-    world = PandaWorld(SimConfig(object_shape=shape, object_mass=0.3, seed=3))
+    world = ArmWorld(SimConfig(object_shape=shape, object_mass=0.3, seed=3))
     try:
         grasp(world)
         for name in ("j6+0.5", "fingers-down"):
             errors = hold_and_compare(world, POSES[name])
             assert np.abs(errors[:, :3]).max() < FORCE_TOL, (shape, name)
             assert np.abs(errors[:, 3:]).max() < TORQUE_TOL, (shape, name)
-        world.command_gripper(0.04)
+        world.command_gripper(PANDA.gripper_open)
         world.run(0.5)
         assert not world.object_held
         assert any("released" in event for event in world.events)
@@ -143,7 +168,7 @@ def test_every_shape_is_grasped_and_measured_exactly(shape):
 
 
 def test_hand_mass_override_scales_the_hand():
-    world = PandaWorld(SimConfig(hand_mass=2.0))
+    world = ArmWorld(SimConfig(hand_mass=2.0))
     try:
         mass, com = world.hand_ground_truth()
         assert mass == pytest.approx(2.0)
@@ -156,7 +181,7 @@ def test_hand_mass_override_scales_the_hand():
 
 
 def test_friction_mode_error_stays_within_the_documented_bound():
-    world = PandaWorld(
+    world = ArmWorld(
         SimConfig(object_shape="box", grasp_mode="friction", object_com_offset=COM_OFFSET)
     )
     try:
@@ -177,7 +202,7 @@ def test_friction_mode_error_stays_within_the_documented_bound():
 def test_a_friction_grasp_too_weak_for_a_tilt_slips_and_the_ground_truth_shows_it():
     """0.55 N per finger holds the 0.1 kg box still at home but not through a quick tilt:
     it slides along the fingers (~28 mm) and the ground truth follows it."""
-    world = PandaWorld(SimConfig(object_shape="box", grasp_mode="friction", grip_force=0.55))
+    world = ArmWorld(SimConfig(object_shape="box", grasp_mode="friction", grip_force=0.55))
     try:
         grasp(world)
         world.run(0.3)
@@ -195,7 +220,7 @@ def test_a_friction_grasp_too_weak_for_a_tilt_slips_and_the_ground_truth_shows_i
 
 
 def test_slip_sigma_shifts_the_object_at_each_new_tilt():
-    world = PandaWorld(SimConfig(object_com_offset=COM_OFFSET, slip_sigma=0.002, seed=11))
+    world = ArmWorld(SimConfig(object_com_offset=COM_OFFSET, slip_sigma=0.002, seed=11))
     try:
         grasp(world)
         world.run(0.3)
@@ -216,7 +241,7 @@ def test_slip_sigma_shifts_the_object_at_each_new_tilt():
 
 
 def run_readings(seed: int, com_offset=None) -> tuple[np.ndarray, tuple]:
-    world = PandaWorld(SimConfig(seed=seed, object_com_offset=com_offset))
+    world = ArmWorld(SimConfig(seed=seed, object_com_offset=com_offset))
     sensor = WrenchSensor(SensorModel.from_scalars(0.1, 0.005), random_streams(seed)["sensor"])
     try:
         world.command_arm(ARM_JOINTS, [0.5], [POSES["j6+0.5"]])
@@ -317,7 +342,7 @@ def test_a_trajectory_with_a_later_start_waits_for_it(rigid_world):
 
 def test_bad_gripper_commands_are_refused(rigid_world):
     for opening in (-0.01, 0.05, float("nan")):
-        with pytest.raises(ValueError, match="finger opening"):
+        with pytest.raises(ValueError, match="gripper position must be in"):
             rigid_world.command_gripper(opening)
 
 
@@ -329,7 +354,7 @@ def test_invalid_scene_is_refused():
     with pytest.raises(ValueError, match="slip_sigma applies"):
         SimConfig(grasp_mode="friction", slip_sigma=0.001)
     with pytest.raises(ValueError, match="outside what the sim can hold for the box"):
-        PandaWorld(SimConfig(object_com_offset=(0.0, 0.0, 0.5)))
+        ArmWorld(SimConfig(object_com_offset=(0.0, 0.0, 0.5)))
 
 
 # The COM offsets the sim can hold (objects.holdable_com_range), as the README states them.
@@ -364,7 +389,7 @@ def test_an_offset_at_the_edge_of_the_holdable_range_is_held(shape, grasp_mode):
     that), is grasped and lifted, and its ground-truth COM is the requested offset."""
     offset = range_corner(shape)
     assert holdable_com_range(shape).contains(offset)
-    world = PandaWorld(
+    world = ArmWorld(
         SimConfig(object_shape=shape, grasp_mode=grasp_mode, object_com_offset=offset)
     )
     try:
@@ -392,7 +417,7 @@ def test_an_offset_outside_the_holdable_range_is_refused_with_the_range(shape):
         (0.0, 0.0, -1.05 * reach.half_z),
     ):
         with pytest.raises(ValueError, match="outside what the sim can hold") as error:
-            PandaWorld(SimConfig(object_shape=shape, object_com_offset=offset))
+            ArmWorld(SimConfig(object_shape=shape, object_com_offset=offset))
         assert STATED_RANGES[shape] in str(error.value)
 
 
@@ -404,21 +429,26 @@ def test_every_seeded_com_offset_is_in_the_holdable_range(shape):
         assert reach.contains(offset), (seed, offset, str(reach))
 
 
-@pytest.mark.parametrize("grasp_mode", ["rigid", "friction"])
-def test_the_urdf_the_sim_loads_gives_its_sensor_orientation(grasp_mode):
-    """com_core.kinematics on the URDF the sim publishes: the sensor frame ``panda_hand``
-    turns as the simulated sensor does, and the hand's sensed force is m g_s with the
-    g_s it computes (frames and signs checked against the measurement itself)."""
+@pytest.mark.parametrize(
+    ("robot", "grasp_mode"), [("panda", "rigid"), ("panda", "friction"), ("xarm6", "rigid")]
+)
+def test_the_urdf_the_sim_loads_gives_its_sensor_orientation(robot, grasp_mode):
+    """com_core.kinematics on the URDF the sim publishes: the sensor frame (``panda_hand``,
+    ``xarm_gripper_base_link``) turns as the simulated sensor does, and the hand's sensed
+    force is m g_s with the g_s it computes (frames and signs checked against the
+    measurement itself)."""
     from com_core.kinematics import RobotModel
 
-    world = PandaWorld(SimConfig(object_shape="box", grasp_mode=grasp_mode))
+    config = read_robot_config(robot)
+    world = ArmWorld(SimConfig(robot=config, object_shape="box", grasp_mode=grasp_mode))
     try:
-        robot = RobotModel(world.urdf_text, "panda_hand")
-        for name, q in POSES.items():
+        model = RobotModel(world.urdf_text, config.sensor_frame, config.base_frame)
+        poses = POSES if robot == "panda" else XARM_POSES
+        for name, q in poses.items():
             world.move_arm(q, 4.0)
             world.run(0.2)
             names, positions, _, _ = world.joint_state()
-            g_s = robot.gravity_in_sensor(dict(zip(names, positions, strict=True)))
+            g_s = model.gravity_in_sensor(dict(zip(names, positions, strict=True)))
             # pybullet keeps link orientations and joint positions consistent to ~1e-8 rad
             assert_allclose(g_s, world.gravity_in_sensor(), atol=1e-6, err_msg=name)
             if grasp_mode == "rigid":  # the friction-mode sensor carries the finger error
@@ -442,7 +472,7 @@ PUSH_TORQUE_TOL = 5e-6  # N m
 
 @pytest.fixture(scope="module")
 def push_world():
-    world = PandaWorld(SimConfig(object_shape="box", object_com_offset=COM_OFFSET))
+    world = ArmWorld(SimConfig(object_shape="box", object_com_offset=COM_OFFSET))
     grasp(world)
     yield world
     world.close()
@@ -458,7 +488,7 @@ def held_world(push_world):
         push_world.step()
 
 
-def push_in_sensor(world: PandaWorld, force, torque, frame: str) -> np.ndarray:
+def push_in_sensor(world: ArmWorld, force, torque, frame: str) -> np.ndarray:
     """What a push (N, N m; frame 'world' or 'ft_sensor') adds to the load on the sensor (6,),
     from the ground truth: the push in ft_sensor (F_s, T_s) about the sensor origin, so
     f = F_s and tau = T_s + p x F_s with p the object's COM (m, ft_sensor)."""
@@ -475,7 +505,7 @@ def assert_wrench_close(error: np.ndarray, message: str = "") -> None:
     assert np.abs(error[..., 3:]).max() < PUSH_TORQUE_TOL, (message, error)
 
 
-def still_wrench(world: PandaWorld, steps: int = 20) -> np.ndarray:
+def still_wrench(world: ArmWorld, steps: int = 20) -> np.ndarray:
     """Mean reading (6,) over ``steps`` steps."""
     readings = []
     for _ in range(steps):
@@ -563,7 +593,7 @@ def test_a_bad_push_is_refused(held_world, force, frame, duration, message):
 def test_a_push_needs_a_held_object():
     """Refused with nothing held; a push acting when the object is released ends then, and
     one that would start after it is dropped, both recorded in the events."""
-    world = PandaWorld(SimConfig(object_shape="box"))
+    world = ArmWorld(SimConfig(object_shape="box"))
     try:
         with pytest.raises(ValueError, match="no object is held"):
             world.apply_wrench(PUSH_FORCE, PUSH_TORQUE)
@@ -572,7 +602,7 @@ def test_a_push_needs_a_held_object():
         world.apply_wrench(PUSH_FORCE, PUSH_TORQUE, "world", world.time + 1.5)
         world.run(0.2)
         assert world.push_active
-        world.command_gripper(0.04)
+        world.command_gripper(PANDA.gripper_open)
         world.run(1.0)
         assert not world.object_held
         assert not world.push_active and world.push_scheduled  # the later one still waits
@@ -582,3 +612,164 @@ def test_a_push_needs_a_held_object():
         assert any("dropped: no object held at its start" in e for e in world.events)
     finally:
         world.close()
+
+
+# ----------------------------------------------------------------- the xArm6
+XARM_COM_OFFSET = (0.01, -0.005, 0.02)
+
+
+@pytest.fixture(scope="module")
+def xarm_world():
+    world = ArmWorld(SimConfig(robot=XARM, object_shape="box", object_com_offset=XARM_COM_OFFSET))
+    yield world
+    world.close()
+
+
+def urdf_load_inertia(urdf: str, sensor_frame: str, links: list[str]) -> tuple[float, np.ndarray]:
+    """Mass (kg) and COM (3,) in m, sensor frame, of ``links`` from the URDF's inertials (link
+    poses by pinocchio at its neutral configuration)."""
+    import xml.etree.ElementTree as ET
+
+    import pinocchio
+
+    model = pinocchio.buildModelFromXML(urdf)
+    data = model.createData()
+    pinocchio.framesForwardKinematics(model, data, pinocchio.neutral(model))
+    sensor = data.oMf[model.getFrameId(sensor_frame)]
+    inertials = {link.get("name"): link.find("inertial") for link in ET.fromstring(urdf)}
+    mass, moment = 0.0, np.zeros(3)
+    for link in links:
+        link_mass = float(inertials[link].find("mass").get("value"))
+        xyz = [float(v) for v in inertials[link].find("origin").get("xyz").split()]
+        pose = sensor.actInv(data.oMf[model.getFrameId(link, pinocchio.FrameType.BODY)])
+        mass += link_mass
+        moment += link_mass * pose.act(np.array(xyz))
+    return mass, moment / mass
+
+
+XARM_GRIPPER_LINKS = [
+    "xarm_gripper_base_link",
+    "left_outer_knuckle",
+    "left_finger",
+    "left_inner_knuckle",
+    "right_outer_knuckle",
+    "right_finger",
+    "right_inner_knuckle",
+]
+
+
+def test_xarm_hand_ground_truth_is_the_gripper_of_the_urdf(xarm_world):
+    mass, com = xarm_world.hand_ground_truth()
+    urdf_mass, urdf_com = urdf_load_inertia(
+        xarm_world.urdf_text, XARM.sensor_frame, XARM_GRIPPER_LINKS
+    )
+    assert mass == pytest.approx(0.7514296, abs=1e-6)  # the gripper's seven links
+    assert mass == pytest.approx(urdf_mass)
+    assert_allclose(com, urdf_com, atol=1e-7)
+
+
+def test_xarm_hand_only_matches_gravity_wrench_at_every_orientation(xarm_world):
+    assert not xarm_world.object_held
+    for name, q in XARM_POSES.items():
+        errors = hold_and_compare(xarm_world, q)
+        assert np.abs(errors[:, :3]).max() < FORCE_TOL, name
+        assert np.abs(errors[:, 3:]).max() < TORQUE_TOL, name
+    xarm_world.move_arm(XARM.home_joints, 4.0)
+    assert xarm_world.collisions == 0, xarm_world.events
+
+
+def test_xarm_rigid_grasp_matches_gravity_wrench_at_every_orientation(xarm_world):
+    grasp(xarm_world)
+    mass, com = xarm_world.object_ground_truth()
+    # The box's centre on the grasp centre, 0.16 m from the flange; object frame (x, y, z) =
+    # sensor (x, -y, -z) at home.
+    assert mass == pytest.approx(0.1)
+    offset = np.array(XARM_COM_OFFSET) * [1, -1, -1]
+    assert_allclose(com, np.array([0.0, 0.0, 0.16]) + offset, atol=COM_TOL)
+    gravity_directions, worst = [], np.zeros(2)
+    for name, q in XARM_POSES.items():
+        errors = np.abs(hold_and_compare(xarm_world, q))
+        assert errors[:, :3].max() < FORCE_TOL, name
+        assert errors[:, 3:].max() < TORQUE_TOL, name
+        worst = np.maximum(worst, [errors[:, :3].max(), errors[:, 3:].max()])
+        gravity_directions.append(xarm_world.gravity_in_sensor() / STANDARD_GRAVITY)
+    print(f"xArm6 rigid grasp: max error {worst[0]:.2e} N, {worst[1]:.2e} N m")
+    # The poses include gravity along the finger axis (sensor y), both ways.
+    assert max(g[1] for g in gravity_directions) > 0.999
+    assert min(g[1] for g in gravity_directions) < -0.999
+    assert xarm_world.collisions == 0, xarm_world.events
+
+
+@pytest.mark.parametrize("shape", sorted(SHAPES))
+def test_xarm_grasps_every_shape_at_its_grasp_centre(shape):
+    """At pick_joints the object stands between the open pads; closing the gripper holds it
+    (drive_joint stops where the pads meet it), its COM is the requested offset from the
+    grasp centre, and opening releases it."""
+    offset = range_corner(shape)
+    world = ArmWorld(SimConfig(robot=XARM, object_shape=shape, object_com_offset=offset))
+    try:
+        grasp(world)
+        world.run(0.3)
+        mass, com = world.object_ground_truth()
+        assert world.object_held and mass == pytest.approx(0.1)
+        centre = np.array([0.0, 0.0, 0.16 + SHAPES[shape].half_extents[2] - 0.04])
+        assert_allclose(com, centre + np.array(offset) * [1.0, -1.0, -1.0], atol=COM_TOL)
+        names, positions, velocities, _ = world.joint_state()
+        assert names == XARM.arm_joints + XARM.gripper_joints
+        # drive_joint (rad) where each pad is the object's half width from the centre
+        gap_open, gap_closed = XARM.finger_gap
+        closed = (gap_open - SHAPES[shape].grasp_half_width) / (gap_open - gap_closed)
+        assert positions[-1] == pytest.approx(closed * XARM.gripper_closed)
+        assert velocities[-1] == 0.0
+        world.command_gripper(XARM.gripper_open)
+        world.run(0.5)
+        assert not world.object_held
+        assert world.joint_state()[1][-1] == XARM.gripper_open
+    finally:
+        world.close()
+
+
+def test_xarm_driven_into_the_ground_reports_a_collision():
+    """Beside the stand (joint 1 turned a quarter), the gripper lowered into the ground: the
+    fingers touch it, each contact is one event and counts once; lifted, they no longer do."""
+    world = ArmWorld(SimConfig(robot=XARM))
+    try:
+        beside = list(XARM.pick_joints)
+        beside[0] = np.pi / 2
+        world.move_arm(beside, 3.0)
+        assert world.collisions == 0, world.events
+        into = list(beside)
+        into[1] += 0.6  # the fingertips 0.15 m below the ground
+        world.command_arm(XARM.arm_joints, [2.0], [into])
+        world.run(2.5)
+        touches = [e for e in world.events if "collision: link" in e]
+        assert world.collisions == len(touches) >= 1, world.events
+        assert all(e.endswith("touches the ground") for e in touches), touches
+        assert any("finger" in e for e in touches), touches
+        world.command_arm(XARM.arm_joints, [2.0], [beside])
+        world.run(2.5)
+        assert any("no longer touches the ground" in e for e in world.events), world.events
+        assert world.collisions == len(touches)
+    finally:
+        world.close()
+
+
+def test_xarm_configurations_that_do_not_serve_are_refused():
+    with pytest.raises(ValueError, match="sensor_frame 'tool0' is not a frame of the URDF"):
+        ArmWorld(SimConfig(robot=replace(XARM, sensor_frame="tool0")))
+    with pytest.raises(ValueError, match="arm_joints: the URDF has no joint 'joint7'"):
+        ArmWorld(SimConfig(robot=replace(XARM, arm_joints=(*XARM.arm_joints[:5], "joint7"))))
+    home = list(XARM.home_joints)
+    home[4] = 3.5
+    with pytest.raises(ValueError, match=r"joint5 = 3.5000 rad is outside its limits \[-1.6930"):
+        ArmWorld(SimConfig(robot=XARM, home_joints=tuple(home)))
+    with pytest.raises(ValueError, match="home_joints must be 6 finite values"):
+        SimConfig(robot=XARM, home_joints=PANDA.home_joints)
+    with pytest.raises(ValueError, match="grasp_mode 'friction' needs two prismatic finger"):
+        ArmWorld(SimConfig(robot=XARM, grasp_mode="friction"))
+    with pytest.raises(ValueError, match="gripper position must be in"):
+        world = ArmWorld(SimConfig(robot=XARM))
+        try:
+            world.command_gripper(-0.1)
+        finally:
+            world.close()

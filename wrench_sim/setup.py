@@ -13,8 +13,9 @@ setup(
     install_requires=["setuptools"],
     zip_safe=True,
     description=(
-        "pybullet simulation of a Franka Panda with a wrist F/T sensor, "
-        "publishing wrenches, joint states and sim time"
+        "pybullet simulation of an arm with a wrist F/T sensor (Franka Panda, UFACTORY "
+        "xArm6, or any arm a robot configuration describes), publishing wrenches, joint "
+        "states and sim time"
     ),
     license="Apache-2.0",
     entry_points={"console_scripts": ["sim_node = wrench_sim.sim_node:main"]},

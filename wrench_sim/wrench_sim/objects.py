@@ -126,11 +126,12 @@ def holdable_com_range(shape: str) -> ComRange:
     """The COM offsets the simulator can hold for ``shape``, the same in both grasp modes.
 
     Only the inertial frame moves with the offset (``create_object_body``): whatever the
-    offset, the body stands centred on the stand between the open fingers (0.04 m per finger
-    against a half width of 0.025 m, mug 0.028 m) and the finger pads (0.085-0.11 m below the
-    flange) close on it 0.01-0.035 m below its top, so the grasp reaches every offset. What
-    limits the offset is the stand: the object rests there on its bottom face until the
-    fingers close, and it stays upright only while its COM lies above that footprint, the
+    offset, the body stands centred on the stand between the open pads (Panda 0.04 m, xArm6
+    0.0415 m from the centre, against a half width of 0.025 m, mug 0.028 m) and the pads
+    (``physics``, Gripper) close on it 0.01-0.035 m below its top, so the grasp reaches every
+    offset. What limits the offset is the stand: the object rests there on its bottom face
+    until the fingers close, and it stays upright only while its COM lies above that
+    footprint, the
     box's 0.05 m square, the cylinder's 0.025 m and the mug's 0.028 m radius disc (the handle
     ends 0.02 m above the bottom). Bullet rocks it over a little inside the edge (16
     directions at the bottom, middle and top of the body: the cylinder and mug stay upright

@@ -1,4 +1,9 @@
-"""The sim node's parameters: names, defaults, descriptions, and why a value is refused."""
+"""The sim node's parameters: names, defaults, descriptions, and why a value is refused.
+
+Besides the scene's and the sensor's, the node reads every key of a robot configuration
+(``com_core.robot_config.KEYS``), read-only, the Panda's by default: give another arm's file
+with ``--ros-args --params-file <file>`` (e.g. com_core's ``config/xarm6.yaml``).
+"""
 
 from __future__ import annotations
 
@@ -9,8 +14,9 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from com_core.contract import APPLY_WRENCH_TOPIC
+from com_core.robot_config import read_robot_config
 from wrench_sim.objects import SHAPES, com_offset_problem
-from wrench_sim.physics import GRASP_MODES, HOME_JOINTS, PICK_JOINTS
+from wrench_sim.physics import GRASP_MODES
 
 __all__ = ["PARAMETERS", "SENSOR_PARAMETERS", "check_parameter", "declare_parameters"]
 
@@ -25,15 +31,13 @@ PARAMETERS = [  # name, default, description, read-only, lower bound of a float
     ("seed", 0, f"seeds the COM draw, sensor noise and grasp shifts; {_START}", True, None),
     ("grasp_mode", "rigid", f"rigid | friction; {_START}", True, None),
     ("slip_sigma", 0.0, "rigid mode: sigma of the object's shift at each new tilt, m", False, 0.0),
-    ("hand_mass", 0.0, f"hand + fingers mass, kg; 0 = URDF's 1.01 kg; {_START}", True, 0.0),
+    ("hand_mass", 0.0, "mass of the links beyond the sensor (hand or gripper, fingers), kg; "
+     f"0 = the URDF's; {_START}", True, 0.0),
     ("grip_force", 5.0, f"friction mode: force limit per finger, N; {_START}", True, 1e-6),
-    ("home_joints", list(HOME_JOINTS), f"initial arm joints, rad; {_START}", True, None),
-    ("pick_joints", list(PICK_JOINTS), "arm joints that grasp the object on its stand, rad "
-     "(information)", True, None),
     ("gui", False, f"open the pybullet window; {_START}", True, None),
     ("sensor_mount_rpy", [0.0, 0.0, 0.0], "the F/T sensor mounted off its URDF frame "
-     "(panda_hand) by roll, pitch, yaw (rad, fixed axes x, y, z): its readings and the ground "
-     f"truth are in the mounted frame; {_START}", True, None),
+     "(sensor_frame) by roll, pitch, yaw (rad, fixed axes x, y, z): its readings and the "
+     f"ground truth are in the mounted frame; {_START}", True, None),
     ("sigma_f", 0.0, "sensor noise sigma per force axis, N", False, 0.0),
     ("sigma_tau", 0.0, "sensor noise sigma per torque axis, N m", False, 0.0),
     ("bias_f", 0.0, "sensor bias on each force axis, N", False, None),
@@ -51,6 +55,9 @@ PARAMETERS = [  # name, default, description, read-only, lower bound of a float
     ("push_duration", 1.0, f"how long each push on {APPLY_WRENCH_TOPIC} acts on the held "
      "object, s of sim time, > 0 (whole 1 ms steps, at least one); for pushes received from "
      "then on", False, 0.0),
+] + [
+    (key, value, f"robot configuration (com_core.robot_config); {_START}", True, None)
+    for key, value in read_robot_config("panda").parameters().items()
 ]  # fmt: skip
 SENSOR_PARAMETERS = tuple(
     entry[0]
@@ -81,8 +88,6 @@ def check_parameter(parameter: Parameter, shape: str | None = None) -> str | Non
         return "sensor_mount_rpy must be 3 finite angles (rad) within +-pi"
     if name == "bias_drift" and (len(value) != 6 or not all(map(math.isfinite, value))):
         return "bias_drift must be 6 finite rates (3 forces N/s, 3 torques N m/s)"
-    if name in ("home_joints", "pick_joints") and len(value) != 7:
-        return f"{name} must be 7 values (rad)"
     if name in ("rate", "clock_rate") and not (
         0.0 < value <= 1000.0 and abs(1000.0 / value % 1) < 1e-9
     ):

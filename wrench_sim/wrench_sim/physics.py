@@ -1,22 +1,47 @@
-"""The pybullet world: a fixed-base Franka Panda with a wrist F/T sensor and a graspable object.
+"""The pybullet world: a fixed-base arm with a wrist F/T sensor, its gripper and a graspable
+object on a stand.
 
-ROS-free; the node (``sim_node``) is a thin adapter around ``PandaWorld`` and tests drive it
-directly.
+ROS-free; the node (``sim_node``) is a thin adapter around ``ArmWorld`` and tests drive it
+directly. The arm is the one a robot configuration (``com_core.robot_config``) describes: its
+URDF, sensor frame, joints, gripper and poses. Two ship with com_core: the Franka Emika Panda
+with its hand (``panda``, the default) and the UFACTORY xArm6 with its gripper (``xarm6``).
 
 Sensor frame and sign convention
 --------------------------------
-Frame ``ft_sensor`` has the axes of the fixed joint ``panda_hand_joint`` (the axes of link
-``panda_hand``) and its origin at that joint, the flange/hand interface. The published wrench
-is the wrench the load beyond the sensor (hand, fingers and a grasped object) exerts on the
-sensor, expressed in ``ft_sensor``: a static load of mass m with COM p gives f = m g_s,
-tau = p x f (docs/design.md, Conventions).
+Frame ``ft_sensor`` has the axes and origin of the configuration's ``sensor_frame`` (Panda:
+``panda_hand``; xArm6: ``xarm_gripper_base_link``), the child link of the fixed joint at the
+flange (``panda_hand_joint``; ``gripper_fix``). The published wrench is the wrench the load
+beyond the sensor (every link after that joint: hand or gripper base, fingers, and a grasped
+object) exerts on the sensor, expressed in ``ft_sensor``: a static load of mass m with COM p
+gives f = m g_s, tau = p x f (docs/design.md, Conventions).
 
-pybullet's joint force/torque sensor on ``panda_hand_joint`` reports (F, M), the wrench the
-flange (parent) applies to the hand (child), in the hand's axes. In the default feedback mode M
-is taken about the hand's centre of mass (0, 0, 0.04 m), so the load on the sensor would be
-f = -F, tau = -(M + d x F) with d = (0, 0, 0.04). This world sets
+pybullet's joint force/torque sensor on that joint reports (F, M), the wrench the flange
+(parent) applies to the child link, in the child's axes. In the default feedback mode M is
+taken about the child link's centre of mass d (the Panda hand's: (0, 0, 0.04) m), so the load
+on the sensor would be f = -F, tau = -(M + d x F). This world sets
 ``jointFeedbackMode=JOINT_FEEDBACK_IN_JOINT_FRAME``, in which M is already taken about the
 joint origin, so the conversion is just f = -F, tau = -M (both checked to agree to 1e-9).
+
+Scene
+-----
+A stand carries the object upright. At the configuration's ``pick_joints`` the object's
+geometric centre lies on the grasp centre (``com_core.robot_config.grasp_point``) across the
+sensor's z, and its top 0.04 m before the grasp centre along it (Panda: grasp centre 0.115 m
+from the flange, the top 0.075 m); the object's axes are the world's.
+
+Gripper
+-------
+In ``rigid`` grasp mode every movable joint beyond the sensor is a fixed joint of a generated
+copy of the URDF, at its open position (the gripper joints at ``gripper_open``, a mimic joint
+at multiplier * position + offset of the joint it mimics, others at 0), and the gripper is
+virtual: its position (the gripper command's units, m or rad) runs between ``gripper_open``
+and ``gripper_closed`` in 0.4 s, each pad's distance from the grasp centre is linear in it
+(``finger_gap``), and the pads span 0.03 to 0.005 m before the grasp centre along the sensor's
+z. An object between the pads is grasped (attached by a fixed constraint) when the pads reach
+its ``grasp_half_width`` and released when they open beyond it. ``/joint_states`` reports each
+gripper joint at the virtual position. ``friction`` mode simulates the gripper: it needs two
+prismatic fingers, which a gear constraint couples as the URDF's mimic does (the Panda's
+hand), and refuses other grippers.
 
 Exactness
 ---------
@@ -26,14 +51,20 @@ Exactness
 - Each step's true wrench (``wrench``) is the mean of the last two steps' readings (a 2-tap
   anti-alias filter, a zero at 500 Hz): it removes any remaining two-step oscillation and
   delays the signal by half a step.
-- Bullet feeds the prismatic finger joints' motor, limit and coupling forces into the hand
-  joint's reading as a false wrench. In ``rigid`` grasp mode the fingers are fixed joints of a
-  generated copy of the URDF (drawn open at 0.04 m; ``/joint_states`` reports a virtual
-  finger opening), and the reading equals the gravity wrench of hand + object to 2e-4 N and
-  1e-5 N m at any orientation. In ``friction`` mode the fingers are the real prismatic joints,
-  coupled by a gear constraint (the URDF's mimic), and the static error is ~0.11 kg times the
-  gravity component along the finger axis (1.05 N, 0.10 N m with gravity along it; <= 0.06 N,
-  0.011 N m with gravity across it), measured by ``test/test_sim_physics.py``.
+- Bullet feeds the motor, limit and coupling forces of movable joints beyond the sensor into
+  the sensor joint's reading as a false wrench. In ``rigid`` mode there are none, and the
+  reading equals the gravity wrench of hand + object to 2e-4 N and 1e-5 N m at any orientation
+  (both robots). In ``friction`` mode the Panda's fingers are the real prismatic joints and the
+  static error is ~0.11 kg times the gravity component along the finger axis (1.05 N,
+  0.10 N m with gravity along it; <= 0.06 N, 0.011 N m with gravity across it), measured by
+  ``test/test_sim_physics.py``.
+
+Collisions
+----------
+Every 10 ms the world looks up the contacts of the arm's moving links with the ground and the
+stand, and of a held object with the ground. Each contact that begins is an event
+``collision: ... touches ...`` (counted by ``collisions``); its end is an event ``... no longer
+touches ...``. The object on its stand and the fingers on the object are not looked up.
 
 Pushes
 ------
@@ -47,7 +78,8 @@ it, about the sensor origin in ``ft_sensor``: f = R^T F, tau = R^T (T + (c - o) 
 (F, T) in the world, R = R_world_sensor, c the object's COM, o the sensor origin. The held arm
 gives way to a push and recovers within ~0.1 s (its joints are position controlled); from then
 on the reading changes by ``applied_wrench`` to 1.2e-5 N and 1.8e-6 N m in rigid mode, and
-within 0.1 s of the push's end it is back to 4e-10 N (measured by ``test/test_sim_physics.py``).
+within 0.1 s of the push's end it is back to 4e-10 N (measured by ``test/test_sim_physics.py``
+on the Panda).
 """
 
 from __future__ import annotations
@@ -55,18 +87,26 @@ from __future__ import annotations
 import functools
 import math
 import os
-import re
 import tempfile
+import xml.etree.ElementTree as ET
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
+import pinocchio
 import pybullet
 import pybullet_data
 from numpy.typing import NDArray
 from pybullet_utils.bullet_client import BulletClient
 
-from com_core.contract import ARM_JOINTS, FINGER_JOINTS, FINGER_OPEN
+from com_core.kinematics import KinematicsError, RobotModel
+from com_core.robot_config import (
+    RobotConfig,
+    grasp_point,
+    read_robot_config,
+    robot_problems,
+    urdf_file,
+)
 from com_core.wrench_model import STANDARD_GRAVITY
 from wrench_sim.objects import SHAPES, ObjectSpec, create_object_body, object_spec
 from wrench_sim.sensor import random_streams
@@ -74,14 +114,12 @@ from wrench_sim.trajectory import JointLimits, QuinticTrajectory, trajectory_fro
 
 __all__ = [
     "GRASP_MODES",
-    "HOME_JOINTS",
-    "PICK_JOINTS",
     "PUSH_FRAMES",
     "SENSOR_FRAME",
     "STEP_NS",
     "TIME_STEP",
     "WORLD_FRAME",
-    "PandaWorld",
+    "ArmWorld",
     "SimConfig",
 ]
 
@@ -89,33 +127,23 @@ TIME_STEP = 1e-3
 """s; physics step (1 kHz)."""
 STEP_NS = 1_000_000
 GRASP_MODES = ("rigid", "friction")
-HOME_JOINTS = (0.0, -0.1559, 0.0, -2.1983, 0.0, 2.0424, 0.7854)
-"""rad; hand at (0.5, 0, 0.45) m in the world, pointing down (hand z = -world z, hand x =
-world x), 0.2 m above the pick pose. At this pose joint 5 tilts about hand x, joint 6 about hand
-y (the finger axis) and joint 7 turns about hand z."""
-PICK_JOINTS = (0.0, 0.1591, 0.0, -2.3988, 0.0, 2.5578, 0.7854)
-"""rad; hand at (0.5, 0, 0.25) m, pointing down: the object on the stand is between the
-fingers, its top 0.075 m below the flange; closing the fingers grasps it."""
 WORLD_FRAME = "world"
 SENSOR_FRAME = "ft_sensor"
 PUSH_FRAMES = (WORLD_FRAME, SENSOR_FRAME)
-"""The frames a push (``PandaWorld.apply_wrench``) may be given in."""
+"""The frames a push (``ArmWorld.apply_wrench``) may be given in."""
 
-_ARM = list(range(7))
-_HAND = 8  # joint panda_hand_joint and link panda_hand
-_FINGERS = (9, 10)
-_LOAD_LINKS = (8, 9, 10, 11)  # hand, fingers, grasp target: everything beyond the sensor
-_PICK_POSITION = np.array([0.5, 0.0, 0.25])
-_OBJECT_TOP_BELOW_FLANGE = 0.075  # m along hand z
+_MOVABLE = ("revolute", "continuous", "prismatic")
+_OBJECT_TOP = -0.04  # m along sensor z from the grasp centre: the object's top at pick
+_PAD_SPAN = (-0.03, -0.005)  # m along sensor z from the grasp centre: the finger pads
 _STAND_HALF_WIDTH = 0.03
 _SOLVER_ITERATIONS = {"rigid": 20, "friction": 50}  # finger contacts need more
 _POSITION_GAIN = 0.1
 _VELOCITY_GAIN = 1.0
-_FINGER_SPEED = 0.1  # m/s
+_GRIPPER_STROKE_TIME = 0.4  # s from open to closed
 _GEAR_FORCE = 50.0  # N
-_FINGER_PAD_Z = (0.085, 0.11)  # m; span of the finger pads along hand z
-_GRASP_CENTRE_TOLERANCE = 0.02  # m; object centre off the hand axis still grasped
-_BOOKKEEPING_STEPS = 10  # grasp, settle and slip checks every 10 ms
+_GRASP_CENTRE_TOLERANCE = 0.02  # m; object centre off the grasp centre across sensor z
+_RELEASE_GAP = 1e-3  # m; pads this far beyond the object's half width release it
+_BOOKKEEPING_STEPS = 10  # grasp, settle, slip and collision checks every 10 ms
 _SETTLE_SPEED = 2e-3  # rad/s; arm at rest below this joint speed...
 _SETTLE_STEPS = 20  # ...for this many steps
 _NEW_TILT_ANGLE = 0.02  # rad; hand rotation since the last shift that makes a new tilt
@@ -138,28 +166,31 @@ class _Push:
 
 @dataclass(frozen=True)
 class SimConfig:
-    """The scene: object, grasp mode and hand.
+    """The scene: robot, object, grasp mode and hand.
 
     Attributes
     ----------
+    robot : the arm (``com_core.robot_config``); default the Panda's configuration.
     object_shape : 'box', 'cylinder' or 'mug'.
     object_mass : kg.
     object_com_offset : m, object frame, COM minus geometric centre, inside
-        ``objects.holdable_com_range(object_shape)`` (``PandaWorld`` refuses others with a
+        ``objects.holdable_com_range(object_shape)`` (``ArmWorld`` refuses others with a
         ValueError stating the range); None draws it from ``seed`` (uniform inside the body's
         inner half, which lies in that range).
     seed : seeds the COM draw, the sensor noise and the grasp shifts (separate streams).
     grasp_mode : 'rigid' (a fixed constraint; the paper's immobilised object) or 'friction'
-        (finger contact; the object may slip).
+        (finger contact; the object may slip; two prismatic fingers only, the Panda's).
     slip_sigma : m; rigid mode only: at each new tilt the object is re-attached shifted by a
         N(0, slip_sigma^2 I) vector in ``ft_sensor`` (the paper's reconfiguration).
-    hand_mass : kg; total mass of hand and fingers, 0 = the URDF's 1.01 kg. Scales the masses
-        of the hand and both fingers alike, so the hand's COM is unchanged.
+    hand_mass : kg; total mass of the links beyond the sensor (hand or gripper, fingers),
+        0 = the URDF's (Panda 1.01 kg). Scales their masses alike, so their COM is unchanged.
     grip_force : N; friction mode: force limit of each finger's position controller.
-    home_joints : rad; the arm's initial joint positions (panda_joint1..7).
+    home_joints : rad; the arm's initial joint positions, one per ``robot.arm_joints``;
+        None = ``robot.home_joints``.
     gui : open pybullet's window instead of running headless (DIRECT).
     """
 
+    robot: RobotConfig = field(default_factory=lambda: read_robot_config("panda"))
     object_shape: str = "box"
     object_mass: float = 0.1
     object_com_offset: tuple[float, float, float] | None = None
@@ -168,10 +199,12 @@ class SimConfig:
     slip_sigma: float = 0.0
     hand_mass: float = 0.0
     grip_force: float = 5.0
-    home_joints: tuple[float, ...] = HOME_JOINTS
+    home_joints: tuple[float, ...] | None = None
     gui: bool = False
 
     def __post_init__(self) -> None:
+        if not isinstance(self.robot, RobotConfig):
+            raise ValueError(f"robot must be a RobotConfig, got {type(self.robot).__name__}")
         if self.object_shape not in SHAPES:
             raise ValueError(f"object must be one of {sorted(SHAPES)}, got {self.object_shape!r}")
         if self.grasp_mode not in GRASP_MODES:
@@ -186,53 +219,130 @@ class SimConfig:
             )
         if not (np.isfinite(self.grip_force) and self.grip_force > 0.0):
             raise ValueError(f"grip_force must be > 0 N, got {self.grip_force}")
-        if len(self.home_joints) != 7 or not np.all(np.isfinite(self.home_joints)):
-            raise ValueError(f"home_joints must be 7 finite values (rad), got {self.home_joints}")
+        joints = len(self.robot.arm_joints)
+        if self.home_joints is not None and (
+            len(self.home_joints) != joints or not np.all(np.isfinite(self.home_joints))
+        ):
+            raise ValueError(
+                f"home_joints must be {joints} finite values (rad, "
+                f"{', '.join(self.robot.arm_joints)}), got {self.home_joints}"
+            )
         if self.seed < 0:
             raise ValueError(f"seed must be >= 0, got {self.seed}")
 
-
-def _panda_urdf_with_fixed_fingers(opening: float) -> str:
-    """Text of pybullet_data's panda.urdf with the finger joints fixed at ``opening`` (m)."""
-    directory = os.path.join(pybullet_data.getDataPath(), "franka_panda")
-    with open(os.path.join(directory, "panda.urdf"), encoding="utf-8") as stream:
-        text = stream.read()
-    text = text.replace("package://meshes/", os.path.join(directory, "meshes") + "/")
-
-    def fixed_joint(match: re.Match[str]) -> str:
-        name, child = match.group(1), match.group(2)
-        side = 1.0 if name.endswith("1") else -1.0
-        return (
-            f'<joint name="{name}" type="fixed"><parent link="panda_hand"/>'
-            f'<child link="{child}"/><origin rpy="0 0 0" xyz="0 {side * opening} 0.0584"/>'
-            "</joint>"
-        )
-
-    pattern = (
-        r'<joint name="(panda_finger_joint[12])" type="prismatic">.*?'
-        r'<child link="(\w+)"/>.*?</joint>'
-    )
-    text, count = re.subn(pattern, fixed_joint, text, flags=re.S)
-    if count != 2:
-        raise RuntimeError("panda.urdf changed: could not find the two prismatic finger joints")
-    return text
+    @property
+    def home(self) -> tuple[float, ...]:
+        """rad; the arm's initial joint positions (``home_joints`` or the robot's)."""
+        return self.robot.home_joints if self.home_joints is None else tuple(self.home_joints)
 
 
-class PandaWorld:
-    """A Panda on a fixed base, a stand with an object, stepped at 1 kHz.
+# ----------------------------------------------------------------- the URDF
+def _read_urdf(robot: RobotConfig) -> ET.Element:
+    """The root element of the configuration's URDF (``robot_config.urdf_file``), its mesh
+    files made absolute: ``package://<path>`` and relative paths are taken from the URDF's
+    directory, where pybullet looks for them."""
+    path = urdf_file(robot)
+    try:
+        root = ET.parse(path).getroot()
+    except (OSError, ET.ParseError) as error:
+        raise ValueError(f"urdf {robot.urdf!r}: cannot read it ({error})") from error
+    directory = os.path.dirname(os.path.abspath(path))
+    for mesh in root.iter("mesh"):
+        filename = mesh.get("filename", "").removeprefix("package://")
+        if filename and not os.path.isabs(filename) and "://" not in filename:
+            mesh.set("filename", os.path.join(directory, filename))
+    return root
+
+
+def _joints_beyond(root: ET.Element, sensor_frame: str) -> tuple[ET.Element, list[ET.Element]]:
+    """The joint whose child link is ``sensor_frame`` (the sensor's) and every joint beyond
+    it, parents before children."""
+    children: dict[str, list[ET.Element]] = {}
+    sensor = None
+    for joint in root.iter("joint"):
+        parent, child = joint.find("parent"), joint.find("child")
+        if parent is None or child is None:  # a transmission's joint reference
+            continue
+        children.setdefault(parent.get("link", ""), []).append(joint)
+        if child.get("link") == sensor_frame:
+            sensor = joint
+    if sensor is None:
+        raise ValueError(f"sensor_frame {sensor_frame!r} is no joint's child link in the URDF")
+    beyond, links = [], [sensor_frame]
+    while links:
+        for joint in children.get(links.pop(), []):
+            beyond.append(joint)
+            links.append(joint.find("child").get("link"))
+    return sensor, beyond
+
+
+def _open_positions(joints: list[ET.Element], robot: RobotConfig) -> dict[str, float]:
+    """Positions (rad, m) of the open gripper by joint name: the gripper joints at
+    ``gripper_open``, a mimic joint at multiplier * position + offset of the one it mimics."""
+    positions = {
+        joint.get("name"): robot.gripper_open
+        for joint in joints
+        if joint.get("name") in robot.gripper_joints
+    }
+    for joint in joints:
+        mimic = joint.find("mimic")
+        if mimic is not None and joint.get("name") not in positions:
+            source = positions.get(mimic.get("joint"), 0.0)
+            positions[joint.get("name")] = float(mimic.get("multiplier", 1.0)) * source + float(
+                mimic.get("offset", 0.0)
+            )
+    return positions
+
+
+def _fix_joint(joint: ET.Element, position: float) -> None:
+    """Make a movable joint a fixed joint at ``position`` (rad or m): its origin moves by the
+    joint's motion at that position (along or about its axis, given in the joint's frame)."""
+    origin = joint.find("origin")
+    if origin is None:
+        origin = ET.SubElement(joint, "origin")
+    axis_element = joint.find("axis")
+    axis = _numbers(axis_element.get("xyz") if axis_element is not None else None, (1.0, 0, 0))
+    axis /= np.linalg.norm(axis)
+    rotation = pinocchio.rpy.rpyToMatrix(*_numbers(origin.get("rpy"), (0.0, 0, 0)))
+    if joint.get("type") == "prismatic":
+        xyz = _numbers(origin.get("xyz"), (0.0, 0, 0)) + rotation @ axis * position
+        origin.set("xyz", " ".join(repr(float(v)) for v in xyz))
+    else:
+        rotation = rotation @ pinocchio.exp3(axis * position)
+        origin.set("rpy", " ".join(repr(float(v)) for v in pinocchio.rpy.matrixToRpy(rotation)))
+    joint.set("type", "fixed")
+    for tag in ("axis", "limit", "dynamics", "mimic", "calibration", "safety_controller"):
+        for element in joint.findall(tag):
+            joint.remove(element)
+
+
+def _numbers(text: str | None, default: tuple[float, ...]) -> NDArray[np.float64]:
+    return np.array([float(v) for v in text.split()] if text else default, dtype=np.float64)
+
+
+class ArmWorld:
+    """An arm on a fixed base with its gripper, a stand with an object, stepped at 1 kHz.
 
     Parameters
     ----------
     config : the scene.
 
+    Raises
+    ------
+    ValueError naming what does not serve: a URDF that cannot be read, a frame or joint of
+    the robot configuration it lacks, home (or pick) joints outside the joint limits,
+    ``friction`` mode with a gripper other than two prismatic fingers, a COM offset the stand
+    cannot hold.
+
     Notes
     -----
     After construction the world has run 0.2 s of warm-up (not counted in ``time_ns``) so the
-    arm holds ``home_joints`` and the object rests on its stand.
+    arm holds its home joints and the object rests on its stand.
     """
 
     def __init__(self, config: SimConfig | None = None) -> None:
         self.config = config or SimConfig()
+        robot = self.config.robot
         streams = random_streams(self.config.seed)
         self.object: ObjectSpec = object_spec(
             self.config.object_shape,
@@ -243,6 +353,8 @@ class PandaWorld:
         self._slip_rng = streams["slip"]
         self._slip_sigma = self.config.slip_sigma
         self._rigid = self.config.grasp_mode == "rigid"
+        home = np.asarray(self.config.home, dtype=np.float64)
+        urdf = self._checked_urdf(home)
         self._client = BulletClient(pybullet.GUI if self.config.gui else pybullet.DIRECT)
         c = self._client
         # Bound once: BulletClient looks the function up on every call (~2 us), hot paths here.
@@ -266,57 +378,63 @@ class PandaWorld:
         if self.config.gui:
             c.configureDebugVisualizer(pybullet.COV_ENABLE_GUI, 0)
             c.resetDebugVisualizerCamera(1.2, 60.0, -25.0, [0.4, 0.0, 0.3])
-        self.robot = self._load_robot()
+        self.robot_body = self._load_robot(urdf)
         self._limits = JointLimits(
-            ARM_JOINTS,
-            np.array([c.getJointInfo(self.robot, j)[8] for j in _ARM]),
-            np.array([c.getJointInfo(self.robot, j)[9] for j in _ARM]),
-            np.array([c.getJointInfo(self.robot, j)[11] for j in _ARM]),
+            robot.arm_joints,
+            np.array([c.getJointInfo(self.robot_body, j)[8] for j in self._arm]),
+            np.array([c.getJointInfo(self.robot_body, j)[9] for j in self._arm]),
+            np.array([c.getJointInfo(self.robot_body, j)[11] for j in self._arm]),
         )
-        self._efforts = [c.getJointInfo(self.robot, j)[10] for j in _ARM]
-        home = np.asarray(self.config.home_joints, dtype=np.float64)
-        if np.any(home < self._limits.lower) or np.any(home > self._limits.upper):
-            raise ValueError(f"home_joints {home.tolist()} outside the joint limits")
+        self._efforts = [c.getJointInfo(self.robot_body, j)[10] for j in self._arm]
         self._scale_hand_mass()
-        c.loadURDF("plane.urdf")
-        self.object_body = self._load_stand_and_object()
+        self._plane = c.loadURDF("plane.urdf")
+        self._stand, self.object_body = self._load_stand_and_object()
         self._constraint: int | None = None
         self._hand_truth: tuple[float, NDArray[np.float64]] | None = None
         self.events: list[str] = []
+        self._touching: set[tuple[str, str]] = set()  # (what, obstacle) in contact
+        self._collisions = 0
         self._steps = 0
         self._trajectory: QuinticTrajectory | None = None
         self._queued: QuinticTrajectory | None = None  # starts later (command_arm)
-        self._set_point = (home.copy(), np.zeros(7), np.zeros(7))
-        self._finger_target = FINGER_OPEN
-        self._finger_opening = FINGER_OPEN  # rigid mode: the virtual fingers
+        zeros = np.zeros(len(self._arm))
+        self._set_point = (home.copy(), zeros, zeros)
+        # the virtual gripper (rigid mode): 0 open .. 1 closed
+        self._closure = self._closure_target = 0.0
+        self._closure_step = TIME_STEP / _GRIPPER_STROKE_TIME
+        gap_open, gap_closed = robot.finger_gap
+        self._held_closure = (gap_open - self.object.geometry.grasp_half_width) / (
+            gap_open - gap_closed
+        )  # the pads on the object
         self._held = False
+        self._joint_names = robot.arm_joints + robot.gripper_joints
         self._pushes: list[_Push] = []
         # the last step's pushes: world force and torque, then ft_sensor force and torque
         self._applied: tuple[NDArray[np.float64], ...] | None = None
         self._still_steps = 0
         self._R_at_shift: NDArray[np.float64] | None = None
-        for joint, q in zip(_ARM, home, strict=True):
-            c.resetJointState(self.robot, joint, q)
-        self._hold_arm(home, np.zeros(7))
+        for joint, q in zip(self._arm, home, strict=True):
+            c.resetJointState(self.robot_body, joint, q)
+        self._hold_arm(home, zeros)
         if not self._rigid:
-            for joint in _FINGERS:
-                c.resetJointState(self.robot, joint, FINGER_OPEN)
+            for joint in self._fingers:
+                c.resetJointState(self.robot_body, joint, robot.gripper_open)
             # The real gripper's fingers are coupled (the URDF's mimic tag, which pybullet
             # ignores): without the gear, both fingers pushing at their force limit would let
             # fingers and object slide together along the finger axis to one finger's limit.
             gear = c.createConstraint(
-                self.robot,
-                _FINGERS[0],
-                self.robot,
-                _FINGERS[1],
+                self.robot_body,
+                self._fingers[0],
+                self.robot_body,
+                self._fingers[1],
                 pybullet.JOINT_GEAR,
-                [0.0, 1.0, 0.0],
+                c.getJointInfo(self.robot_body, self._fingers[0])[13],
                 [0.0, 0.0, 0.0],
                 [0.0, 0.0, 0.0],
             )
             c.changeConstraint(gear, gearRatio=-1.0, erp=0.1, maxForce=_GEAR_FORCE)
-            self._drive_fingers([FINGER_OPEN] * 2)
-        c.enableJointForceTorqueSensor(self.robot, _HAND, True)
+            self._drive_fingers(robot.gripper_open)
+        c.enableJointForceTorqueSensor(self.robot_body, self._sensor, True)
         self._raw = np.zeros(6)
         self._previous_raw = np.zeros(6)
         for _ in range(_WARM_UP_STEPS):
@@ -325,54 +443,105 @@ class PandaWorld:
         self.events.clear()
 
     # ----------------------------------------------------------------- construction
-    def _load_robot(self) -> int:
-        """Load the Panda (rigid mode: the fixed-finger copy); ``urdf_text`` is what was
-        loaded, as ``/robot_description`` publishes it."""
-        c = self._client
+    def _checked_urdf(self, home: NDArray[np.float64]) -> ET.Element:
+        """The configuration's URDF, checked against it: its frames and joints, home and pick
+        within the joint limits, and in friction mode two prismatic fingers. Sets the grasp
+        centre ``_grasp`` (m, ft_sensor), the sensor joint ``_sensor_joint`` and the joints
+        beyond it ``_beyond``."""
+        robot = self.config.robot
+        root = _read_urdf(robot)
+        try:
+            model = RobotModel(ET.tostring(root, encoding="unicode"), robot.sensor_frame)
+            problems = robot_problems(replace(robot, home_joints=tuple(home.tolist())), model)
+        except KinematicsError as error:
+            problems = [str(error)]
+        if problems:
+            raise ValueError(f"robot {robot.robot} ({robot.urdf}): {'; '.join(problems)}")
+        self._grasp = grasp_point(robot, model)
+        self._sensor_joint, self._beyond = _joints_beyond(root, robot.sensor_frame)
         if not self._rigid:
-            path = os.path.join(pybullet_data.getDataPath(), "franka_panda", "panda.urdf")
-            with open(path, encoding="utf-8") as stream:
-                self.urdf_text = stream.read()
-            return c.loadURDF(path, useFixedBase=True)
-        text = self.urdf_text = _panda_urdf_with_fixed_fingers(FINGER_OPEN)
+            types = {j.get("name"): j.get("type") for j in self._beyond}
+            fingers = [types.get(name) for name in robot.gripper_joints]
+            if fingers != ["prismatic", "prismatic"]:
+                raise ValueError(
+                    f"grasp_mode 'friction' needs two prismatic finger joints (the Panda's "
+                    f"hand); robot {robot.robot} has gripper_joints "
+                    f"{', '.join(robot.gripper_joints)}: use grasp_mode 'rigid'"
+                )
+        return root
+
+    def _load_robot(self, root: ET.Element) -> int:
+        """Load the robot (rigid mode: the movable joints beyond the sensor fixed open);
+        ``urdf_text`` is what was loaded, as ``/robot_description`` publishes it."""
+        c, robot = self._client, self.config.robot
+        if self._rigid:
+            positions = _open_positions(self._beyond, robot)
+            for joint in self._beyond:
+                if joint.get("type") in _MOVABLE:
+                    _fix_joint(joint, positions.get(joint.get("name"), 0.0))
+        self.urdf_text = ET.tostring(root, encoding="unicode")
         with tempfile.TemporaryDirectory(prefix="wrench_sim_") as directory:
-            path = os.path.join(directory, "panda_fixed_fingers.urdf")
+            path = os.path.join(directory, f"{robot.robot}.urdf")
             with open(path, "w", encoding="utf-8") as stream:
-                stream.write(text)
-            return c.loadURDF(path, useFixedBase=True)
+                stream.write(self.urdf_text)
+            body = c.loadURDF(path, useFixedBase=True)
+        infos = [c.getJointInfo(body, j) for j in range(c.getNumJoints(body))]
+        joints = {info[1].decode(): info[0] for info in infos}
+        links = {info[12].decode(): info[0] for info in infos}
+        self._link_names = {index: name for name, index in links.items()}
+        self._arm = [joints[name] for name in robot.arm_joints]
+        self._sensor = joints[self._sensor_joint.get("name")]  # also its child link's index
+        beyond = [links[j.find("child").get("link")] for j in self._beyond]
+        self._load_links = (self._sensor, *beyond)
+        self._fingers = () if self._rigid else tuple(joints[n] for n in robot.gripper_joints)
+        # links fixed to the base: they never move, their contact with the ground is expected
+        self._base_links = {-1}
+        for info in infos:
+            if info[2] == pybullet.JOINT_FIXED and info[16] in self._base_links:
+                self._base_links.add(info[0])
+        return body
 
     def _scale_hand_mass(self) -> None:
         if self.config.hand_mass <= 0.0:
             return
-        c = self._client
-        urdf_mass = sum(c.getDynamicsInfo(self.robot, link)[0] for link in _LOAD_LINKS)
+        c, body = self._client, self.robot_body
+        urdf_mass = sum(c.getDynamicsInfo(body, link)[0] for link in self._load_links)
         factor = self.config.hand_mass / urdf_mass
-        for link in _LOAD_LINKS:
-            info = c.getDynamicsInfo(self.robot, link)
+        for link in self._load_links:
+            info = c.getDynamicsInfo(body, link)
             if info[0] > 0.0:
                 c.changeDynamics(
-                    self.robot,
+                    body,
                     link,
                     mass=info[0] * factor,
                     localInertiaDiagonal=[i * factor for i in info[2]],
                 )
 
-    def _load_stand_and_object(self) -> int:
+    def _load_stand_and_object(self) -> tuple[int, int]:
+        """The stand and the object on it (see module, Scene); the arm is at pick_joints
+        meanwhile. Returns their pybullet body ids."""
         c = self._client
+        for joint, q in zip(self._arm, self.config.robot.pick_joints, strict=True):
+            c.resetJointState(self.robot_body, joint, q)
+        origin, R = self.sensor_pose()
+        grasp = origin + R @ self._grasp  # m, world
+        top_z = (
+            grasp[2] + _OBJECT_TOP * R[2, 2]
+        )  # the top on the sensor's z through the grasp centre
         height = self.object.geometry.height
-        top = _PICK_POSITION[2] - _OBJECT_TOP_BELOW_FLANGE - height
-        half = [_STAND_HALF_WIDTH, _STAND_HALF_WIDTH, top / 2.0]
+        bottom_z = top_z - height
+        half = [_STAND_HALF_WIDTH, _STAND_HALF_WIDTH, bottom_z / 2.0]
         stand = c.createMultiBody(
             baseMass=0.0,
             baseCollisionShapeIndex=c.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half),
             baseVisualShapeIndex=c.createVisualShape(
                 pybullet.GEOM_BOX, halfExtents=half, rgbaColor=[0.5, 0.5, 0.55, 1.0]
             ),
-            basePosition=[_PICK_POSITION[0], _PICK_POSITION[1], top / 2.0],
+            basePosition=[grasp[0], grasp[1], bottom_z / 2.0],
         )
         c.changeDynamics(stand, -1, lateralFriction=1.0)
-        centre = [_PICK_POSITION[0], _PICK_POSITION[1], top + height / 2.0]
-        return create_object_body(c, self.object, centre)
+        centre = [grasp[0], grasp[1], bottom_z + height / 2.0]
+        return stand, create_object_body(c, self.object, centre)
 
     # ----------------------------------------------------------------- stepping
     @property
@@ -391,8 +560,8 @@ class PandaWorld:
             self._trajectory, self._queued = self._queued, None
         if self._trajectory is not None:
             self._follow_trajectory()
-        if self._finger_opening != self._finger_target and self._rigid:
-            self._move_virtual_fingers()
+        if self._rigid and self._closure != self._closure_target:
+            self._move_virtual_gripper()
         if self._pushes:
             self._apply_pushes()
         self._physics_step()
@@ -409,7 +578,7 @@ class PandaWorld:
         self._step_simulation()
         self._previous_raw = self._raw
         # (F, M): the flange's wrench on the hand, hand axes, M about the joint origin.
-        self._raw = np.negative(self._get_joint_state(self.robot, _HAND)[2])
+        self._raw = np.negative(self._get_joint_state(self.robot_body, self._sensor)[2])
 
     @property
     def wrench(self) -> NDArray[np.float64]:
@@ -434,7 +603,7 @@ class PandaWorld:
 
         Parameters
         ----------
-        joint_names : subset of panda_joint1..7, any order.
+        joint_names : a subset of the robot's ``arm_joints``, any order.
         times : s from the start, strictly increasing.
         positions : rad, one row per time, one value per name.
         start_time : s, simulated; now if earlier than now (the JointTrajectory header
@@ -463,8 +632,9 @@ class PandaWorld:
         return trajectory.end_time
 
     def move_arm(self, positions: Sequence[float], duration: float) -> None:
-        """Move all 7 joints to ``positions`` (rad) in ``duration`` s and wait until settled."""
-        self.command_arm(ARM_JOINTS, [duration], [positions])
+        """Move every arm joint to ``positions`` (rad, ``arm_joints`` order) in ``duration`` s
+        and wait until settled."""
+        self.command_arm(self.config.robot.arm_joints, [duration], [positions])
         self.run(duration)
         while not self.arm_settled:
             self.step()
@@ -490,77 +660,93 @@ class PandaWorld:
 
     def _hold_arm(self, position: NDArray[np.float64], velocity: NDArray[np.float64]) -> None:
         self._set_motors(
-            self.robot,
-            _ARM,
+            self.robot_body,
+            self._arm,
             pybullet.POSITION_CONTROL,
             targetPositions=position.tolist(),
             targetVelocities=velocity.tolist(),
             forces=self._efforts,
-            positionGains=[_POSITION_GAIN] * 7,
-            velocityGains=[_VELOCITY_GAIN] * 7,
+            positionGains=[_POSITION_GAIN] * len(self._arm),
+            velocityGains=[_VELOCITY_GAIN] * len(self._arm),
         )
 
     # ----------------------------------------------------------------- gripper
-    def command_gripper(self, opening: float) -> None:
-        """Move each finger to ``opening`` m from the hand's centre line (0 closed, 0.04 open).
+    def command_gripper(self, position: float) -> None:
+        """Move the gripper to ``position``, in its command's units (m or rad): from the
+        configuration's ``gripper_open`` to ``gripper_closed``.
 
         Closing on the object grasps it; opening releases it. Raises ValueError for a value
-        outside [0, 0.04] or not finite.
+        outside that range or not finite.
         """
-        if not (np.isfinite(opening) and 0.0 <= opening <= FINGER_OPEN):
-            raise ValueError(f"finger opening must be in [0, {FINGER_OPEN}] m, got {opening}")
-        self._finger_target = float(opening)
+        robot = self.config.robot
+        low, high = sorted((robot.gripper_open, robot.gripper_closed))
+        if not (np.isfinite(position) and low <= position <= high):
+            raise ValueError(
+                f"gripper position must be in [{low}, {high}] (open {robot.gripper_open}, "
+                f"closed {robot.gripper_closed}), got {position}"
+            )
+        self._closure_target = robot.gripper_closed_fraction(float(position))
         if not self._rigid:
-            self._drive_fingers([self._finger_target] * 2)
+            self._drive_fingers(float(position))
 
-    def _drive_fingers(self, openings: Sequence[float]) -> None:
-        for joint, opening in zip(_FINGERS, openings, strict=True):
+    def _drive_fingers(self, position: float) -> None:
+        """Friction mode: both finger joints to ``position`` (m) at the gripper's speed."""
+        robot = self.config.robot
+        speed = abs(robot.gripper_closed - robot.gripper_open) / _GRIPPER_STROKE_TIME
+        for joint in self._fingers:
             self._client.setJointMotorControl2(
-                self.robot,
+                self.robot_body,
                 joint,
                 pybullet.POSITION_CONTROL,
-                targetPosition=opening,
+                targetPosition=position,
                 force=self.config.grip_force,
-                maxVelocity=_FINGER_SPEED,
+                maxVelocity=speed,
             )
 
-    def _move_virtual_fingers(self) -> None:
-        """Rigid mode: the fingers are drawn, not simulated; grasp when they reach the object."""
-        step = _FINGER_SPEED * TIME_STEP
-        target, opening = self._finger_target, self._finger_opening
-        opening = min(target, opening + step) if target > opening else max(target, opening - step)
+    def _gap(self, closure: float) -> float:
+        """m; each pad's distance from the grasp centre at ``closure`` (0 open, 1 closed)."""
+        gap_open, gap_closed = self.config.robot.finger_gap
+        return gap_open + closure * (gap_closed - gap_open)
+
+    def _move_virtual_gripper(self) -> None:
+        """Rigid mode: the gripper is drawn, not simulated; grasp when its pads reach the
+        object, release when they open beyond it."""
+        step, target, closure = self._closure_step, self._closure_target, self._closure
+        closure = min(target, closure + step) if target > closure else max(target, closure - step)
         width = self.object.geometry.grasp_half_width
         if self._held:
-            if opening > width + 1e-3:
+            if self._gap(closure) > width + _RELEASE_GAP:
                 self._release()
             else:
-                opening = max(opening, width)
-        elif self._finger_opening > width >= opening and self._object_between_fingers():
-            opening = width
+                closure = min(closure, self._held_closure)
+        elif (
+            self._gap(self._closure) > width >= self._gap(closure) and self._object_between_pads()
+        ):
+            closure = self._held_closure
             self._attach()
-        self._finger_opening = opening
+        self._closure = closure
 
-    def _object_between_fingers(self) -> bool:
-        centre = self._object_centre_in_sensor()
+    def _object_between_pads(self) -> bool:
+        centre = self._object_centre_in_sensor() - self._grasp
         z_half = self.object.geometry.half_extents[2]
         return (
             abs(centre[0]) <= _GRASP_CENTRE_TOLERANCE
             and abs(centre[1]) <= _GRASP_CENTRE_TOLERANCE
-            and centre[2] - z_half < _FINGER_PAD_Z[1]
-            and centre[2] + z_half > _FINGER_PAD_Z[0]
+            and centre[2] - z_half < _PAD_SPAN[1]
+            and centre[2] + z_half > _PAD_SPAN[0]
         )
 
     def _attach(self) -> None:
         c = self._client
-        hand_position, hand_orientation = c.getLinkState(self.robot, _HAND)[:2]
+        hand_position, hand_orientation = c.getLinkState(self.robot_body, self._sensor)[:2]
         object_position, object_orientation = c.getBasePositionAndOrientation(self.object_body)
         inverse = c.invertTransform(hand_position, hand_orientation)
         relative = c.multiplyTransforms(*inverse, object_position, object_orientation)
-        for link in _LOAD_LINKS:
-            c.setCollisionFilterPair(self.robot, self.object_body, link, -1, 0)
+        for link in self._load_links:
+            c.setCollisionFilterPair(self.robot_body, self.object_body, link, -1, 0)
         self._constraint = c.createConstraint(
-            self.robot,
-            _HAND,
+            self.robot_body,
+            self._sensor,
             self.object_body,
             -1,
             pybullet.JOINT_FIXED,
@@ -580,8 +766,8 @@ class PandaWorld:
         if self._constraint is not None:
             c.removeConstraint(self._constraint)
             self._constraint = None
-        for link in _LOAD_LINKS:
-            c.setCollisionFilterPair(self.robot, self.object_body, link, -1, 1)
+        for link in self._load_links:
+            c.setCollisionFilterPair(self.robot_body, self.object_body, link, -1, 1)
         self._held = False
         self._event(f"released the {self.object.shape}")
 
@@ -599,7 +785,8 @@ class PandaWorld:
 
     @property
     def object_held(self) -> bool:
-        """The object is in the hand (rigid: attached; friction: touched by both fingers)."""
+        """The object is in the gripper (rigid: attached; friction: touched by both
+        fingers)."""
         return self._held
 
     # ----------------------------------------------------------------- pushes
@@ -620,7 +807,7 @@ class PandaWorld:
         force : N, shape (3,); applied at the object's COM.
         torque : N m, shape (3,); a pure couple on the object.
         frame : 'world' (the push keeps its direction in the world) or 'ft_sensor' (the push
-            turns with the hand; the URDF's sensor frame ``panda_hand``).
+            turns with the hand; the configuration's ``sensor_frame``).
         start_time : s, simulated; now if earlier than now (0 = now), else the first 1 ms step
             starting at or after it.
         duration : s, > 0; rounded to whole 1 ms steps (at least one).
@@ -724,17 +911,19 @@ class PandaWorld:
 
     # ----------------------------------------------------------------- bookkeeping
     def _bookkeeping(self) -> None:
-        """Every 10 ms: friction grasp state, arm settling and the rigid grasp's shifts."""
+        """Every 10 ms: friction grasp state, arm settling, the rigid grasp's shifts and
+        collisions."""
         c = self._client
         if not self._rigid:
             touching = all(
-                c.getContactPoints(self.robot, self.object_body, finger, -1) for finger in _FINGERS
+                c.getContactPoints(self.robot_body, self.object_body, finger, -1)
+                for finger in self._fingers
             )
             if touching != self._held:
                 self._held = touching
                 state = "grasped (finger contact)" if touching else "released (no finger contact)"
                 self._event(f"{self.object.shape} {state}")
-        speeds = [abs(state[1]) for state in c.getJointStates(self.robot, _ARM)]
+        speeds = [abs(state[1]) for state in c.getJointStates(self.robot_body, self._arm)]
         if self._trajectory is None and max(speeds) < _SETTLE_SPEED:
             self._still_steps += _BOOKKEEPING_STEPS
         else:
@@ -745,6 +934,33 @@ class PandaWorld:
             cos_angle = (np.trace(self._R_at_shift.T @ R) - 1.0) / 2.0
             if np.arccos(np.clip(cos_angle, -1.0, 1.0)) > _NEW_TILT_ANGLE:
                 self._shift_object(R)
+        self._look_for_collisions()
+
+    def _look_for_collisions(self) -> None:
+        """Record each contact of a moving arm link with the ground or the stand, and of the
+        held object with the ground, when it begins and when it ends (see module)."""
+        c, body = self._client, self.robot_body
+        touching = set()
+        for obstacle, name in ((self._plane, "the ground"), (self._stand, "the stand")):
+            for point in c.getContactPoints(body, obstacle):
+                if point[3] not in self._base_links:
+                    touching.add((f"link {self._link_names[point[3]]}", name))
+        if self._held and c.getContactPoints(self.object_body, self._plane):
+            touching.add((f"the held {self.object.shape}", "the ground"))
+        if touching == self._touching:
+            return
+        for what, obstacle in sorted(touching - self._touching):
+            self._collisions += 1
+            self._event(f"collision: {what} touches {obstacle}")
+        for what, obstacle in sorted(self._touching - touching):
+            self._event(f"{what} no longer touches {obstacle}")
+        self._touching = touching
+
+    @property
+    def collisions(self) -> int:
+        """How many contacts of the arm with the ground or the stand, or of the held object
+        with the ground, have begun since the start (see module, Collisions)."""
+        return self._collisions
 
     def _shift_object(self, R_world_sensor: NDArray[np.float64]) -> None:
         """Re-attach the object shifted by N(0, slip_sigma^2 I) in ft_sensor (a new tilt)."""
@@ -766,7 +982,9 @@ class PandaWorld:
     # ----------------------------------------------------------------- state and truth
     def sensor_pose(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Origin (3,) in m and rotation R_world_sensor (3, 3) of ``ft_sensor`` in the world."""
-        state = self._client.getLinkState(self.robot, _HAND, computeForwardKinematics=True)
+        state = self._client.getLinkState(
+            self.robot_body, self._sensor, computeForwardKinematics=True
+        )
         R = np.array(self._client.getMatrixFromQuaternion(state[5])).reshape(3, 3)
         return np.array(state[4]), R
 
@@ -775,7 +993,8 @@ class PandaWorld:
         return self.sensor_pose()[1].T @ np.array([0.0, 0.0, -STANDARD_GRAVITY])
 
     def hand_ground_truth(self) -> tuple[float, NDArray[np.float64]]:
-        """Mass (kg) and COM (3,) in m, ``ft_sensor``, of hand and fingers (URDF inertials).
+        """Mass (kg) and COM (3,) in m, ``ft_sensor``, of the links beyond the sensor (hand or
+        gripper, fingers; URDF inertials, scaled by ``hand_mass``).
 
         Constant in rigid mode (fixed fingers); in friction mode it follows the fingers.
         """
@@ -787,10 +1006,10 @@ class PandaWorld:
         c = self._client
         origin, R = self.sensor_pose()
         mass, moment = 0.0, np.zeros(3)
-        for link in _LOAD_LINKS:
-            link_mass = c.getDynamicsInfo(self.robot, link)[0]
+        for link in self._load_links:
+            link_mass = c.getDynamicsInfo(self.robot_body, link)[0]
             com_world = np.array(
-                c.getLinkState(self.robot, link, computeForwardKinematics=True)[0]
+                c.getLinkState(self.robot_body, link, computeForwardKinematics=True)[0]
             )
             mass += link_mass
             moment += link_mass * (R.T @ (com_world - origin))
@@ -812,27 +1031,32 @@ class PandaWorld:
     def joint_state(
         self,
     ) -> tuple[tuple[str, ...], list[float], list[float], list[float]]:
-        """Names, positions (rad, m), velocities and efforts (N m, N) of arm and fingers.
+        """Names (the configuration's ``arm_joints`` then ``gripper_joints``), positions
+        (rad, m), velocities and efforts (N m, N) of arm and gripper.
 
-        In rigid mode the fingers are fixed links; their reported position is the virtual
-        opening (stopping at the object's half width when it is grasped).
+        In rigid mode the gripper's links are fixed; each gripper joint reports the virtual
+        gripper's position (stopping where the pads meet the object when it is grasped).
         """
-        states = self._client.getJointStates(self.robot, _ARM)
+        states = self._client.getJointStates(self.robot_body, self._arm)
         positions = [s[0] for s in states]
         velocities = [s[1] for s in states]
         efforts = [s[3] for s in states]
         if self._rigid:
-            moving = self._finger_opening != self._finger_target
-            speed = np.sign(self._finger_target - self._finger_opening) * _FINGER_SPEED
-            positions += [self._finger_opening] * 2
-            velocities += [float(speed) if moving else 0.0] * 2
-            efforts += [0.0, 0.0]
+            robot = self.config.robot
+            stroke = robot.gripper_closed - robot.gripper_open
+            count = len(robot.gripper_joints)
+            target, closure = self._closure_target, self._closure
+            on_object = self._held and closure == self._held_closure < target
+            speed = float(np.sign(target - closure)) * stroke / _GRIPPER_STROKE_TIME
+            positions += [robot.gripper_open + closure * stroke] * count
+            velocities += [0.0 if closure == target or on_object else speed] * count
+            efforts += [0.0] * count
         else:
-            fingers = self._client.getJointStates(self.robot, list(_FINGERS))
+            fingers = self._client.getJointStates(self.robot_body, list(self._fingers))
             positions += [s[0] for s in fingers]
             velocities += [s[1] for s in fingers]
             efforts += [s[3] for s in fingers]
-        return ARM_JOINTS + FINGER_JOINTS, positions, velocities, efforts
+        return self._joint_names, positions, velocities, efforts
 
     def close(self) -> None:
         """Disconnect from pybullet."""

@@ -1,4 +1,9 @@
-"""ROS 2 node around ``physics.PandaWorld``: sim time, wrenches, joint states, ground truth.
+"""ROS 2 node around ``physics.ArmWorld``: sim time, wrenches, joint states, ground truth.
+
+The arm is the robot configuration in its parameters (``com_core.robot_config.KEYS``, the
+Panda's by default; ``--ros-args --params-file <com_core>/config/xarm6.yaml`` runs the xArm6).
+A configuration that does not serve (a bad value, a frame or joint its URDF lacks, home
+joints outside the limits) is an ERROR log naming it, and the node exits with code 1.
 
 The node does not spin on a timer: ``run`` steps the physics at 1 kHz as fast as it can (or at
 ``real_time_factor``), publishes /clock every ``1000 / clock_rate`` steps (4 ms by default:
@@ -12,10 +17,11 @@ Publishes (names in ``com_core.contract``; stamps in sim time):
 - WRENCH_TOPIC (geometry_msgs/WrenchStamped): the sensor reading, frame ``ft_sensor`` (the
   mounted sensor's, ``sensor_mount_rpy``), ``rate`` Hz.
 - APPLIED_WRENCH_TOPIC (geometry_msgs/WrenchStamped): while a push acts, the push as the
-  sensor reads it (``PandaWorld.applied_wrench``, about the sensor origin, frame
+  sensor reads it (``ArmWorld.applied_wrench``, about the sensor origin, frame
   ``ft_sensor`` as the readings), one per wrench sample with the same stamp; then one zero
   wrench, at the first wrench sample after the last push ended.
-- JOINT_STATES_TOPIC (sensor_msgs/JointState): arm and finger joints, 100 Hz.
+- JOINT_STATES_TOPIC (sensor_msgs/JointState): the configuration's ``arm_joints`` and
+  ``gripper_joints``, 100 Hz.
 - TRUTH_TOPIC, HAND_TRUTH_TOPIC (geometry_msgs/InertiaStamped, latched): the object's and the
   hand's mass and COM in ``ft_sensor``, republished when they change.
 - OBJECT_TOPIC (std_msgs/String, latched): shape, mass, grasp mode and held state.
@@ -23,13 +29,18 @@ Publishes (names in ``com_core.contract``; stamps in sim time):
 
 Subscribes:
 
-- ARM_COMMAND_TOPIC (trajectory_msgs/JointTrajectory): a move from ``header.stamp``.
-- HAND_COMMAND_TOPIC (std_msgs/Float64MultiArray): the opening per finger, m.
+- ARM_COMMAND_TOPIC (trajectory_msgs/JointTrajectory): a move of the configuration's
+  ``arm_joints`` (any subset, any order) from ``header.stamp``.
+- HAND_COMMAND_TOPIC (std_msgs/Float64MultiArray): one value, the gripper's position from
+  ``gripper_open`` to ``gripper_closed`` (m per finger on the Panda, rad on the xArm6).
 - APPLY_WRENCH_TOPIC (geometry_msgs/WrenchStamped): a push on the held object, force (N) at
   its COM and a pure couple (N m), ``header.frame_id`` ``world`` or ``ft_sensor`` (the
   mounted sensor's axes; the push then turns with the hand), from ``header.stamp`` (sim
   time; zero or past: now) for ``push_duration`` s. Pushes add up. Refused with an ERROR log
   for another frame, a non-finite value or no object held; the start and end are logged.
+
+The world's events (grasp, release, pushes, grasp shifts) are logged as INFO; a collision
+(``ArmWorld.collisions``) as a WARN.
 """
 
 from __future__ import annotations
@@ -66,10 +77,11 @@ from com_core.contract import (
     TRUTH_TOPIC,
     WRENCH_TOPIC,
 )
+from com_core.robot_config import KEYS, RobotConfig
 from com_core.rosenv import keep_dds_local
 from com_core.wrench_model import SensorModel, rotation_about
 from wrench_sim.parameters import SENSOR_PARAMETERS, check_parameter, declare_parameters
-from wrench_sim.physics import SENSOR_FRAME, TIME_STEP, PandaWorld, SimConfig
+from wrench_sim.physics import SENSOR_FRAME, TIME_STEP, ArmWorld, SimConfig
 from wrench_sim.sensor import WrenchSensor, random_streams
 
 _SPIN_EVERY = 50  # steps between spin_once calls (50 ms of sim time; one costs ~0.2 ms)
@@ -79,7 +91,7 @@ _LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 class SimNode(Node):
-    """The simulated Panda: publishes what a real arm with a wrist F/T sensor would."""
+    """The simulated arm: publishes what a real arm with a wrist F/T sensor would."""
 
     def __init__(self) -> None:
         super().__init__("wrench_sim")
@@ -90,8 +102,10 @@ class SimNode(Node):
             offset = parameter("object_com_offset").value
         except ParameterUninitializedException:
             offset = None  # drawn from the seed
-        self.world = PandaWorld(
+        robot = RobotConfig.from_parameters({key: _plain(parameter(key).value) for key in KEYS})
+        self.world = ArmWorld(
             SimConfig(
+                robot=robot,
                 object_shape=parameter("object").value,
                 object_mass=parameter("object_mass").value,
                 object_com_offset=tuple(offset) if offset is not None else None,
@@ -100,7 +114,6 @@ class SimNode(Node):
                 slip_sigma=parameter("slip_sigma").value,
                 hand_mass=parameter("hand_mass").value,
                 grip_force=parameter("grip_force").value,
-                home_joints=tuple(parameter("home_joints").value),
                 gui=parameter("gui").value,
             )
         )
@@ -151,8 +164,9 @@ class SimNode(Node):
         spec = self.world.object
         offset_mm = ", ".join(f"{1e3 * v:.1f}" for v in spec.com_offset)
         self.get_logger().info(
-            f"ready: {spec.shape} {spec.mass:.3f} kg, COM offset ({offset_mm}) mm, grasp "
-            f"{self.world.config.grasp_mode}, seed {self.world.config.seed}, wrench at "
+            f"ready: robot {robot.robot}, {spec.shape} {spec.mass:.3f} kg, COM offset "
+            f"({offset_mm}) mm, grasp {self.world.config.grasp_mode}, seed "
+            f"{self.world.config.seed}, wrench at "
             f"{1.0 / (self._publish_every * TIME_STEP):.0f} Hz, real-time factor "
             f"{self._real_time_factor or 'max'}"
         )
@@ -209,15 +223,16 @@ class SimNode(Node):
         )
 
     def gripper_callback(self, msg: Float64MultiArray) -> None:
-        """Move the fingers: one value, the opening per finger in m (0 closed, 0.04 open)."""
+        """Move the gripper: one value, its position from ``gripper_open`` to
+        ``gripper_closed`` (m or rad)."""
         try:
             if len(msg.data) != 1:
-                raise ValueError(f"expected 1 value (opening per finger, m), got {len(msg.data)}")
+                raise ValueError(f"expected 1 value (the gripper's position), got {len(msg.data)}")
             self.world.command_gripper(float(msg.data[0]))
         except Exception as error:
             self.get_logger().error(f"rejected gripper command: {error}")
             return
-        self.get_logger().info(f"gripper to {msg.data[0]:.4f} m per finger")
+        self.get_logger().info(f"gripper to {msg.data[0]:.4f}")
 
     def push_callback(self, msg: WrenchStamped) -> None:
         """Push the held object from the header stamp (sim time; zero or past: now) for
@@ -324,7 +339,8 @@ class SimNode(Node):
     def _report(self) -> None:
         """Log the world's events and saturation; republish ground truth that moved."""
         for event in self.world.events:
-            self.get_logger().info(event)
+            log = self.get_logger().warning if "collision:" in event else self.get_logger().info
+            log(event)
         self.world.events.clear()
         saturated, self._saturated_readings = self._saturated_readings, 0
         if saturated and not self._saturated:
@@ -376,6 +392,11 @@ class SimNode(Node):
         self.world.close()
 
 
+def _plain(value):
+    """A parameter's value as RobotConfig takes it: an array as a list."""
+    return value if isinstance(value, (str, bool, int, float)) else list(value)
+
+
 def _filled(msg: WrenchStamped, now: int, wrench: np.ndarray) -> WrenchStamped:
     """``msg`` (reused: no allocation per sample) stamped ``now`` (ns) with ``wrench`` (6,)."""
     msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(now, 1_000_000_000)
@@ -403,8 +424,8 @@ def main(args: list[str] | None = None) -> int:
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = SimNode()
-    except Exception as error:  # report a bad parameter, exit cleanly
-        rclpy.logging.get_logger("wrench_sim").fatal(f"cannot start: {error}")
+    except Exception as error:  # report a bad parameter or robot configuration, exit cleanly
+        rclpy.logging.get_logger("wrench_sim").error(f"cannot start: {error}")
         rclpy.try_shutdown()
         return 1
     try:

@@ -180,16 +180,16 @@ def urdf_file(config: RobotConfig) -> Path:
 
 def robot_problems(config: RobotConfig, robot: RobotModel) -> list[str]:
     """What keeps ``robot`` (the URDF's model) from serving ``config``, each naming the
-    key and the frame, joint or value: frames and joints the URDF lacks, home and pick
-    poses outside the joint limits. Empty when it serves."""
+    key and the frame, joint or value: frames and arm joints the URDF lacks, home and pick
+    poses outside the joint limits. Empty when it serves. The gripper's joints may be
+    missing: a URDF may draw the gripper fixed (the sim's rigid mode does)."""
     model, problems = robot.model, []
     for key in ("base_frame", "sensor_frame", "grasp_frame"):
         if not model.existFrame(getattr(config, key)):
             problems.append(f"{key} {getattr(config, key)!r} is not a frame of the URDF")
-    for key in ("arm_joints", "gripper_joints"):
-        missing = [name for name in getattr(config, key) if not model.existJointName(name)]
-        if missing:
-            problems.append(f"{key}: the URDF has no joint {', '.join(map(repr, missing))}")
+    missing = [name for name in config.arm_joints if not model.existJointName(name)]
+    if missing:
+        problems.append(f"arm_joints: the URDF has no joint {', '.join(map(repr, missing))}")
     if problems:
         return problems
     limits = robot.joint_limits()
