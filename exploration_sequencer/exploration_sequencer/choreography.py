@@ -37,6 +37,7 @@ from com_core.robot_config import RobotConfig, RobotConfigError, grasp_point, ro
 from com_core.wrench_model import rotation_about
 
 __all__ = [
+    "AXES",
     "MAX_PIVOT_SHIFT",
     "QUINTIC_PEAK",
     "VERIFY_AXIS",
@@ -53,7 +54,8 @@ MAX_PIVOT_SHIFT = 1e-3
 """m; how far the grasp centre may end from its home position at a pose."""
 QUINTIC_PEAK = 1.875
 """Peak over mean speed of a quintic (rest-to-rest) profile."""
-_AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
+AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0)}
+"""The sensor's axes a plan tilts about, in its home axes."""
 
 
 class PoseUnreachable(ValueError):  # noqa: N818 (a pose, refused)
@@ -133,7 +135,7 @@ class Choreography:
             if name == HOME:
                 out.append((name, list(self.home)))
                 continue
-            axis = np.asarray(_AXES[name[-2]]) * (1.0 if name[-1] == "+" else -1.0)
+            axis = np.asarray(AXES[name[-2]]) * (1.0 if name[-1] == "+" else -1.0)
             joints, reason = self.turned(axis, plan.tilt)
             if joints is None:
                 largest = largest_reachable_tilt(

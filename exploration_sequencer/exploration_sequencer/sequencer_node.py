@@ -82,7 +82,12 @@ from com_core.tare_cache import (
 from com_core.windows import Window
 from com_core.wrench_model import STANDARD_GRAVITY, SensorModel
 from exploration_sequencer.arm import Arm
-from exploration_sequencer.choreography import VERIFY_POSE, Choreography, PoseUnreachable
+from exploration_sequencer.choreography import (
+    AXES,
+    VERIFY_POSE,
+    Choreography,
+    PoseUnreachable,
+)
 from exploration_sequencer.io_node import IoNode, RunError, TimeoutRunError
 
 PARAMETERS: dict[str, tuple[object, str]] = {
@@ -327,8 +332,7 @@ class SequencerNode(Node):
     def _move_time(self, motion: Choreography, tilt: float) -> float:
         """s of one move from home to a tilt of ``tilt`` rad about the first axis at
         ``speed`` (the floor if the arm cannot take it)."""
-        axis = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0)}[self.p("tilt_axes")[0]]
-        tilted, _ = motion.turned(axis, tilt)
+        tilted, _ = motion.turned(AXES[self.p("tilt_axes")[0]], tilt)
         return motion.motion_time(motion.home, tilted or motion.home, self.p("speed"))
 
     def plan(self, motion: Choreography) -> Plan:
