@@ -105,7 +105,7 @@ def kinematic_stream(rng: np.random.Generator, verify: bool = False):
 
     motion = choreography("panda")
     robot, fingers, arm = motion.robot, motion.others, motion.arm_joints
-    home_g = robot.gravity_in_sensor(dict(zip(arm, motion.home, strict=True)) | fingers)
+    home_g = robot.gravity_in_sensor(motion.home_positions())
     plan = Plan(dwell=0.3, gravity_home=tuple(home_g / np.linalg.norm(home_g)))
     joints = dict(motion.pose_joints(plan))
     directions = {}

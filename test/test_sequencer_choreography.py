@@ -77,8 +77,7 @@ def test_each_pose_turns_the_sensor_by_the_plans_rotation_about_the_grasp_centre
 def test_gravity_at_each_pose_is_the_plans(arm):
     """The plan's gravity directions (R_rel^T g_home) are what the joints give."""
     motion = arm[1]
-    home = dict(zip(motion.arm_joints, motion.home, strict=True)) | motion.others
-    g = motion.robot.gravity_in_sensor(home)
+    g = motion.robot.gravity_in_sensor(motion.home_positions())
     plan = Plan(tilt=TILT, gravity_home=tuple(g / np.linalg.norm(g)))
     planned = dict(zip([n for n, _ in plan.poses()], plan.gravity_directions(), strict=True))
     for name, joints in motion.pose_joints(plan):

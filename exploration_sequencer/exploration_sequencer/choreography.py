@@ -104,7 +104,8 @@ class Choreography:
             robot, config.arm_joints, config.home_joints, grasp_point(config, robot), others
         )
 
-    def _home(self) -> dict[str, float]:
+    def home_positions(self) -> dict[str, float]:
+        """Every joint of the model at home (rad, m), by name."""
         return dict(zip(self.arm_joints, self.home, strict=True)) | self.others
 
     def turned(self, axis: Sequence[float], tilt: float) -> tuple[list[float] | None, str]:
@@ -112,7 +113,7 @@ class Choreography:
         axes) about the grasp centre, or None; the reason when None)."""
         result = solve_pose(
             self.robot,
-            self._home(),
+            self.home_positions(),
             rotation_about(np.asarray(axis, dtype=np.float64), tilt),
             self.pivot,
             joints=self.arm_joints,
@@ -140,7 +141,7 @@ class Choreography:
             if joints is None:
                 largest = largest_reachable_tilt(
                     self.robot,
-                    self._home(),
+                    self.home_positions(),
                     axis,
                     self.pivot,
                     max_tilt=plan.tilt,

@@ -339,8 +339,7 @@ class SequencerNode(Node):
         """The plan the parameters ask for, as set, its move time that of one tilt from
         home at ``speed``; the COM guess ([0.0]: the grasp centre) and the gravity at home
         from the arm's model."""
-        home = dict(zip(motion.arm_joints, motion.home, strict=True)) | motion.others
-        gravity = motion.robot.gravity_in_sensor(home)
+        gravity = motion.robot.gravity_in_sensor(motion.home_positions())
         guess = self.p("com_guess")
         return Plan(
             tilt=self.p("tilt"),
