@@ -26,7 +26,7 @@ from com_core.contract import (
     TRUTH_TOPIC,
     WRENCH_TOPIC,
 )
-from com_core.robot_config import robot_config_path
+from com_core.robot_config import BAG_ROBOT_FILE, read_robot_config, robot_config_path
 
 pytestmark = pytest.mark.system
 
@@ -168,9 +168,10 @@ def numbers(message: str, name: str) -> np.ndarray:
     [("panda", "box", 1), ("panda", "cylinder", 2), ("panda", "mug", 3), ("xarm6", "box", 4)],
 )
 def test_rigid_grasp_estimate_is_within_tolerance_of_ground_truth(
-    start_node, client, tmp_path, robot, shape, seed
+    start_node, client, tmp_path, ros_env, robot, shape, seed
 ):
-    """The reference exploration on each arm of the robot configurations."""
+    """The reference exploration on each arm of the robot configurations; its bag holds
+    the run's robot configuration and replays to the node's estimate with its frames."""
     start_system(start_node, tmp_path, {"object": shape, "seed": seed}, robot=robot)
     first = client.call()
     time.sleep(1.0)
@@ -193,6 +194,10 @@ def test_rigid_grasp_estimate_is_within_tolerance_of_ground_truth(
     assert (bag / "metadata.yaml").is_file() and (bag / "report.png").is_file()
     topics = {t for t, *_ in read_raw(bag, (WRENCH_TOPIC, POSE_TOPIC))}
     assert topics == {WRENCH_TOPIC, POSE_TOPIC}
+    assert read_robot_config(str(bag / BAG_ROBOT_FILE)).robot == robot
+    offline = replay_json(bag, ros_env)
+    assert offline["status"] == "OK" and offline["information"] == "kinematics+mount", offline
+    np.testing.assert_allclose(offline["com"], com, atol=0.006e-3)  # 2 decimals in mm
 
 
 def test_the_papers_reconfiguration_is_flagged(start_node, client, tmp_path):

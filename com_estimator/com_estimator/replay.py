@@ -17,6 +17,10 @@ estimate is of the whole load beyond the sensor (hand + object), untared. The ou
 says which it did. Tare windows of poses the bag has no fresh tare for come from the
 run's cached tare, BAG/tare.json (``--tare``).
 
+The robot model of a kinematic fit is the bag's /robot_description with the sensor and
+base frames of the run's robot configuration, BAG/robot.yaml (``--robot``), unless
+``--sensor-frame`` or ``--base-frame`` set them.
+
 A bag whose MCAP file was cut short (no Footer) is read up to the cut; a labelled run
 without its ``done`` label, or cut before the end of its last window, is reported WARN
 with the reason (its estimate is kept); ``--json`` gives what was read under ``bag``.
@@ -48,6 +52,7 @@ from com_core.exploration import (
     Solution,
     format_solution,
 )
+from com_core.robot_config import BAG_ROBOT_FILE, RobotConfigError, read_robot_config
 from com_core.static_windows import find_static_windows, split_load_levels
 from com_core.tare_cache import BAG_TARE_FILE
 
@@ -74,6 +79,13 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help=f"cached tare windows (default: BAG/{BAG_TARE_FILE} if present)",
     )
+    parser.add_argument(
+        "--robot",
+        type=Path,
+        default=None,
+        help=f"robot configuration whose frames the fit takes (default: BAG/{BAG_ROBOT_FILE} "
+        "if present)",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     return parser
 
@@ -84,6 +96,16 @@ def main(argv: list[str] | None = None) -> int:
         print(f"replay: {args.bag} is not a rosbag2 directory", file=sys.stderr)
         return 2
     settings = {name: getattr(args, name) for name in SETTINGS if name != "tare_cache"}
+    robot_file = args.robot or args.bag / BAG_ROBOT_FILE
+    if args.robot is not None or robot_file.is_file():
+        try:
+            robot = read_robot_config(str(robot_file))
+        except RobotConfigError as error:
+            print(f"replay: {error}", file=sys.stderr)
+            return 2
+        for name in ("sensor_frame", "base_frame"):
+            if settings[name] == SETTINGS[name][0]:  # not set by an option
+                settings[name] = getattr(robot, name)
     problems = [p for name, v in settings.items() if (p := setting_problem(name, v))]
     if problems:
         print(f"replay: {'; '.join(problems)}", file=sys.stderr)

@@ -67,7 +67,14 @@ from com_core.contract import (
 )
 from com_core.exploration import WRENCHES, Exploration, vector_value, verification_lines
 from com_core.planner import Plan, dwell_for_target, predict, within_max_tilt
-from com_core.robot_config import KEYS, RobotConfig, RobotConfigError, read_robot_config
+from com_core.robot_config import (
+    BAG_ROBOT_FILE,
+    KEYS,
+    RobotConfig,
+    RobotConfigError,
+    read_robot_config,
+    write_robot_config,
+)
 from com_core.rosenv import keep_dds_local, stop_on_signals
 from com_core.tare_cache import (
     BAG_TARE_FILE,
@@ -421,6 +428,7 @@ class SequencerNode(Node):
         bag = Path(self.p("bag_dir")).resolve() / run_id
         self._labels = []
         self.io.recorder.start(bag)
+        write_robot_config(config, bag / BAG_ROBOT_FILE)  # the replay's frames
 
         self._to_known_state(home, pick)
         self.arm.gripper(close=False)

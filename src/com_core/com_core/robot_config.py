@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 from .kinematics import RobotModel
 
 __all__ = [
+    "BAG_ROBOT_FILE",
     "CONFIG_DIR",
     "ROBOTS",
     "RobotConfig",
@@ -47,9 +48,12 @@ __all__ = [
     "robot_config_path",
     "robot_problems",
     "urdf_file",
+    "write_robot_config",
 ]
 
 CONFIG_DIR = Path(__file__).resolve().parent / "config"
+BAG_ROBOT_FILE = "robot.yaml"
+"""The robot configuration of a run, beside its bag (the replay reads its frames)."""
 ROBOTS = ("panda", "xarm6")
 """The arms whose files ship in CONFIG_DIR; ``panda`` is every node's default."""
 
@@ -165,6 +169,13 @@ def read_robot_config(robot: str) -> RobotConfig:
         ) from error
     except RobotConfigError as error:
         raise RobotConfigError(f"{path}: {error}") from error
+
+
+def write_robot_config(config: RobotConfig, path: Path) -> None:
+    """Write ``config`` as a ROS 2 parameters file (``/**`` section) that
+    ``read_robot_config`` reads back to the same values."""
+    document = {"/**": {"ros__parameters": config.parameters()}}
+    path.write_text(f"# robot configuration {config.robot}\n" + yaml.safe_dump(document))
 
 
 def urdf_file(config: RobotConfig) -> Path:
