@@ -11,6 +11,7 @@ import yaml
 
 from com_core.kinematics import RobotModel
 from com_core.robot_config import (
+    BAG_ROBOT_FILE,
     CONFIG_DIR,
     KEYS,
     ROBOTS,
@@ -21,6 +22,7 @@ from com_core.robot_config import (
     robot_config_path,
     robot_problems,
     urdf_file,
+    write_robot_config,
 )
 
 
@@ -38,9 +40,16 @@ def test_each_shipped_configuration_serves_its_urdf(robot):
     others = {name: 0.0 for name in model.joint_names if name not in home}
     gravity = model.gravity_in_sensor(home | others)
     np.testing.assert_allclose(gravity / np.linalg.norm(gravity), [0, 0, 1], atol=1e-3)
-    # the parameters round trip
+    # the parameters and the file beside a bag round trip
     assert RobotConfig.from_parameters(config.parameters()) == config
     assert list(config.parameters()) == list(KEYS)
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_the_file_beside_a_bag_reads_back_to_the_same_configuration(tmp_path, robot):
+    config = read_robot_config(robot)
+    write_robot_config(config, tmp_path / BAG_ROBOT_FILE)
+    assert read_robot_config(str(tmp_path / BAG_ROBOT_FILE)) == config
 
 
 def write(tmp_path: Path, values: dict) -> Path:
