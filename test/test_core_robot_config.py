@@ -40,7 +40,7 @@ def test_each_shipped_configuration_serves_its_urdf(robot):
     others = {name: 0.0 for name in model.joint_names if name not in home}
     gravity = model.gravity_in_sensor(home | others)
     np.testing.assert_allclose(gravity / np.linalg.norm(gravity), [0, 0, 1], atol=1e-3)
-    # the parameters and the file beside a bag round trip
+    # the parameters round trip
     assert RobotConfig.from_parameters(config.parameters()) == config
     assert list(config.parameters()) == list(KEYS)
 
