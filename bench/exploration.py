@@ -176,19 +176,27 @@ def run_batch(robot: str, args: argparse.Namespace, bags: Path) -> list[dict]:
 
 def compare(results: dict[str, list[dict]]) -> None:
     """Each arm after the first against the first: the median object pass time and COM
-    sigma per axis of the node's model, as ratios."""
+    sigma per axis of the node's model, as ratios; and the sigma over the planner's
+    prediction for the run (the bound of the object where that arm holds it), whose
+    ratio takes out where the grasp puts the COM."""
     (first, reference), *others = results.items()
 
     def medians(rows: list[dict]) -> np.ndarray:
-        sigma = np.nanmedian([r[r["node"]]["sigma"] for r in rows], axis=0)
-        return np.array([np.nanmedian([r["pass_s"] for r in rows]), *sigma])
+        sigma = np.array([r[r["node"]]["sigma"] for r in rows])
+        bound = sigma / np.array([r["predicted"] for r in rows])
+        pass_s = np.nanmedian([r["pass_s"] for r in rows])
+        return np.array([pass_s, *np.nanmedian(sigma, axis=0), *np.nanmedian(bound, axis=0)])
 
     base = medians(reference)
-    print(f"\n{'':>8} {'object pass s':>14} {'sigma x, y, z mm (median)':>28}  ratio to {first}")
+    print(
+        f"\n{'':>8} {'object pass s':>14} {'sigma x, y, z mm':>26} {'sigma / predicted':>19}"
+        f"  ratio to {first}: pass, sigma x y z, sigma / predicted x y z"
+    )
     for robot, rows in [(first, reference), *others]:
         m = medians(rows)
         print(
-            f"{robot:>8} {m[0]:14.2f} {' '.join(f'{v:8.3f}' for v in m[1:]):>28}  "
+            f"{robot:>8} {m[0]:14.2f} {' '.join(f'{v:8.3f}' for v in m[1:4]):>26} "
+            f"{' '.join(f'{v:5.2f}' for v in m[4:]):>19}  "
             + " ".join(f"{v:5.2f}" for v in m / base)
         )
     print("target: object pass and sigma within 20 % of the first arm's (ratios 0.8 .. 1.2)")
@@ -200,6 +208,7 @@ def evaluate(i: int, shape: str, seed: int, message: str) -> dict:
     node's status and information model."""
     nan = float("nan")
     row: dict = {"run": i, "shape": shape, "seed": seed, "pass_s": nan, "node": "wrenches"}
+    row["predicted"] = [nan] * 3
     row["status"] = message.split("]")[0] + "]" if message.startswith("[") else message[:40]
     blank = {
         "com_err": nan,
@@ -216,8 +225,11 @@ def evaluate(i: int, shape: str, seed: int, message: str) -> dict:
     bag = Path(m.group(1))
     t = re.search(r"object pass ([\d.]+) s", message)
     row["pass_s"] = float(t.group(1)) if t else nan
-    node = re.search(r"predicted ml \(([a-z+]+)\)", message)
+    node = re.search(
+        r"predicted ml \(([a-z+]+)\): .*?COM \(([\d.]+), ([\d.]+), ([\d.]+)\)", message
+    )
     row["node"] = node.group(1) if node else "wrenches"
+    row["predicted"] = [float(v) for v in node.groups()[1:]] if node else [nan] * 3
     truth = read_run(bag).truth
     if truth is None:
         return row
