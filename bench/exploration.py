@@ -2,7 +2,7 @@
 
     source ./env.sh && python bench/exploration.py [--runs 50] [--seed 0]
         [--robots panda,xarm6] [--information NAME] [--target-com-sigma M --fewer-poses]
-        [--bias-drift N_PER_S]
+        [--bias-drift N_PER_S] [--tare-max-age S]
 
 docs/design.md's reference: a 0.1 kg object (the paper's), sensor noise sigma_f 0.1 N and
 sigma_tau 0.005 N m per sample at 1 kHz, tilt at most pi/6, rigid grasp. The estimator
@@ -84,6 +84,12 @@ def main() -> int:
     parser.add_argument("--fewer-poses", action="store_true", help="the planner may drop poses")
     parser.add_argument("--max-object-time", type=float, default=20.0, help="s (sequencer)")
     parser.add_argument(
+        "--tare-max-age",
+        type=float,
+        default=3600.0,
+        help="s (sequencer); 0: a tare pass in every run (independent runs)",
+    )
+    parser.add_argument(
         "--bias-drift", type=float, default=0.0, help="N/s of sensor drift per force axis (sim)"
     )
     args = parser.parse_args()
@@ -120,6 +126,7 @@ def run_batch(robot: str, args: argparse.Namespace, bags: Path) -> list[dict]:
         "target_com_sigma": args.target_com_sigma,
         "fewer_poses": args.fewer_poses,
         "max_object_time": args.max_object_time,
+        "tare_max_age": args.tare_max_age,
     }
     services = [
         node(
