@@ -36,10 +36,10 @@ from com_core.contract import (
     SIM_PARAMETERS_SERVICE,
 )
 from com_core.processes import stop
-from com_core.robot_config import read_robot_config
+from com_core.robot_config import default_robot_config
 from com_core.rosenv import keep_dds_local
 
-ARM_JOINTS = read_robot_config("panda").arm_joints  # the sim's default robot
+ARM_JOINTS = default_robot_config().arm_joints  # the sim's default robot
 NOISE = {"sigma_f": 0.1, "sigma_tau": 0.005}
 TURNS = ((0.35, 0.6), (-0.45, -0.9), (0.25, 1.9))
 """(joint 6, joint 7) rad from home: three orientations no fit used."""

@@ -67,6 +67,9 @@ def test_files_that_cannot_serve_are_refused_naming_the_file_and_the_key(tmp_pat
         (values | {"sensor_frame": ""}, "sensor_frame must be a non-empty string"),
         (values | {"gripper_closed": 0.0}, "gripper_open and gripper_closed must differ"),
         (values | {"arm_joints": []}, "arm_joints must be a non-empty list"),
+        (values | {"gripper_joints": "drive_joint"}, "gripper_joints must be a list"),
+        (values | {"gripper_joints": ["joint6"]}, "joint6 in both arm_joints and gripper_"),
+        (values | {"arm_joints": ["joint1"] * 6}, "arm_joints names a joint twice"),
     ]
     for changed, named in cases:
         path = write(tmp_path, changed)
@@ -79,6 +82,16 @@ def test_files_that_cannot_serve_are_refused_naming_the_file_and_the_key(tmp_pat
         read_robot_config(str(path))
     with pytest.raises(RobotConfigError, match="known robots: panda, xarm6"):
         read_robot_config("ur5e")
+
+
+def test_a_grasp_frame_that_moves_relative_to_the_sensor_is_refused():
+    config = read_robot_config("panda")
+    model = RobotModel(urdf_file(config).read_text(), config.sensor_frame, config.base_frame)
+    finger = RobotConfig.from_parameters(config.parameters() | {"grasp_frame": "panda_leftfinger"})
+    assert robot_problems(finger, model) == [
+        "grasp_frame 'panda_leftfinger' moves relative to sensor_frame 'panda_hand' (a joint "
+        "between them): the grasp centre must be rigid"
+    ]
 
 
 def test_a_home_outside_the_joint_limits_is_named_with_the_limits():

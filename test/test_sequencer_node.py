@@ -370,7 +370,8 @@ def test_a_configuration_the_urdf_does_not_serve_is_an_error_that_names_it(
 ):
     """The sequencer checks its robot configuration against /robot_description when it
     comes: an ERROR naming the frame, and a run refused with it before anything moves."""
-    config = PANDA.parameters() | {"sensor_frame": "ft_link"}
+    # integers where the Panda's file has floats are taken as numbers
+    config = PANDA.parameters() | {"sensor_frame": "ft_link", "gripper_closed": 0}
     path = tmp_path / "my_arm.yaml"
     path.write_text(yaml.safe_dump({"/**": {"ros__parameters": config}}))
     start_node("sim_node", "wrench_sim", params={"real_time_factor": 1.0})
@@ -386,6 +387,19 @@ def test_a_configuration_the_urdf_does_not_serve_is_an_error_that_names_it(
     result = client.wait(client.call(), timeout=30.0)
     assert not result.success and named in result.message, result.message
     assert not client.labels
+
+
+def test_a_robot_file_that_does_not_parse_stops_the_sequencer_with_an_error(start_node, tmp_path):
+    config = PANDA.parameters() | {"gripper_joints": "panda_finger_joint1"}  # not a list
+    path = tmp_path / "my_arm.yaml"
+    path.write_text(yaml.safe_dump({"/**": {"ros__parameters": config}}))
+    sequencer = start_node(
+        "sequencer_node", "exploration_sequencer", args=["--ros-args", "--params-file", str(path)]
+    )
+    assert sequencer.wait(timeout=30.0) == 1
+    log = sequencer.log_path.read_text()
+    assert "[ERROR]" in log and "gripper_joints must be a list" in log, log
+    assert "Traceback" not in log
 
 
 def test_a_sequencer_without_a_sim_says_the_sim_never_published(start_node, client, tmp_path):

@@ -767,6 +767,14 @@ def test_xarm_configurations_that_do_not_serve_are_refused():
         SimConfig(robot=XARM, home_joints=PANDA.home_joints)
     with pytest.raises(ValueError, match="grasp_mode 'friction' needs two prismatic finger"):
         ArmWorld(SimConfig(robot=XARM, grasp_mode="friction"))
+    with pytest.raises(ValueError, match=r"the joint before sensor_frame 'link6' .* revolute"):
+        ArmWorld(SimConfig(robot=replace(XARM, sensor_frame="link6", grasp_frame="link6")))
+    low = (0.0, 0.1402, -0.6366, 0.0, 0.4965, 0.0)  # the flange 0.18 m up, pointing down
+    with pytest.raises(ValueError, match=r"grasp centre is 0\.020 m above the ground, too low"):
+        ArmWorld(SimConfig(robot=replace(XARM, pick_joints=low)))
+    tilted = (0.0, 0.1402, -0.6366, 0.0, 0.9, 0.0)
+    with pytest.raises(ValueError, match="the sensor's z must point down at pick"):
+        ArmWorld(SimConfig(robot=replace(XARM, pick_joints=tilted)))
     with pytest.raises(ValueError, match="gripper position must be in"):
         world = ArmWorld(SimConfig(robot=XARM))
         try:

@@ -96,7 +96,7 @@ from com_core.payload import (
     read_payload,
     write_payload_files,
 )
-from com_core.robot_config import read_robot_config
+from com_core.robot_config import default_robot_config
 from com_core.rosenv import keep_dds_local, stop_on_signals
 
 MAX_MESSAGE_LENGTH = 1000  # characters of a diagnostic message
@@ -109,7 +109,7 @@ PARAMETERS = SETTINGS | {
     ),
     "payload_save_dir": ("", "directory ~/save_payload writes the payload files to"),
     "hand_id": (
-        read_robot_config("panda").hand_id,
+        default_robot_config().hand_id,
         "names the hand; a payload file of another hand is refused (robot configuration)",
     ),
     "max_joint_state_age": (

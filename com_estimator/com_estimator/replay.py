@@ -56,6 +56,9 @@ from com_core.robot_config import BAG_ROBOT_FILE, RobotConfigError, read_robot_c
 from com_core.static_windows import find_static_windows, split_load_levels
 from com_core.tare_cache import BAG_TARE_FILE
 
+ROBOT_FRAMES = ("sensor_frame", "base_frame")
+"""The settings a run's robot configuration gives the replay."""
+
 
 def build_parser() -> argparse.ArgumentParser:
     """The bag, the estimator's settings as options (``--sigma-f`` for ``sigma_f``, with
@@ -69,6 +72,8 @@ def build_parser() -> argparse.ArgumentParser:
                 parser.add_argument(
                     option, type=float, nargs=len(default), default=default, help=text
                 )
+            elif name in ROBOT_FRAMES:  # unset: the run's robot configuration's
+                parser.add_argument(option, type=str, default=None, help=text)
             else:
                 parser.add_argument(option, type=type(default), default=default, help=text)
     parser.add_argument("--wrench-topic", default=WRENCH_TOPIC)
@@ -97,15 +102,16 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     settings = {name: getattr(args, name) for name in SETTINGS if name != "tare_cache"}
     robot_file = args.robot or args.bag / BAG_ROBOT_FILE
+    robot = None
     if args.robot is not None or robot_file.is_file():
         try:
             robot = read_robot_config(str(robot_file))
         except RobotConfigError as error:
             print(f"replay: {error}", file=sys.stderr)
             return 2
-        for name in ("sensor_frame", "base_frame"):
-            if settings[name] == SETTINGS[name][0]:  # not set by an option
-                settings[name] = getattr(robot, name)
+    for name in ROBOT_FRAMES:  # an option, else the run's configuration, else the default
+        if settings[name] is None:
+            settings[name] = getattr(robot, name) if robot else SETTINGS[name][0]
     problems = [p for name, v in settings.items() if (p := setting_problem(name, v))]
     if problems:
         print(f"replay: {'; '.join(problems)}", file=sys.stderr)

@@ -26,11 +26,13 @@ motion is ``arm``; the estimation is the estimator's (and ``com_core``'s).
 from __future__ import annotations
 
 import math
+import sys
 import threading
 import traceback
 from collections.abc import Callable
 from dataclasses import replace
 from datetime import datetime
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +40,7 @@ import rclpy
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
@@ -55,6 +58,7 @@ from com_core.contract import (
     ESTIMATOR_SAVE_PAYLOAD_SERVICE,
     ESTIMATOR_SET_PARAMETERS_SERVICE,
     EXPLORE_SERVICE,
+    JOINT_STATES_TOPIC,
     MOVING,
     OBJECT_PREFIX,
     OK,
@@ -72,7 +76,7 @@ from com_core.robot_config import (
     KEYS,
     RobotConfig,
     RobotConfigError,
-    read_robot_config,
+    default_robot_config,
     write_robot_config,
 )
 from com_core.rosenv import keep_dds_local, stop_on_signals
@@ -90,7 +94,6 @@ from com_core.windows import Window
 from com_core.wrench_model import STANDARD_GRAVITY, SensorModel
 from exploration_sequencer.arm import Arm
 from exploration_sequencer.choreography import (
-    AXES,
     VERIFY_POSE,
     Choreography,
     PoseUnreachable,
@@ -99,7 +102,7 @@ from exploration_sequencer.io_node import IoNode, RunError, TimeoutRunError
 
 PARAMETERS: dict[str, tuple[object, str]] = {
     "tilt": (math.pi / 6, "rad; wrist tilt from home about each axis"),
-    "tilt_axes": (["y", "x"], "sensor axes to tilt about (y and/or x), in the pass's order"),
+    "tilt_axes": (["y", "x"], "sensor axes to tilt about (y and/or x; the pass visits y first)"),
     "both_directions": (True, "tilt +tilt and -tilt about each axis (false: the paper's one)"),
     "dwell": (0.9, "s of samples per object window"),
     "tare_dwell": (5.0, "s of samples per tare window (empty hand; cached per hand)"),
@@ -139,6 +142,9 @@ PARAMETERS: dict[str, tuple[object, str]] = {
     "min_load": (0.005, "kg; the grasp must hold at least this before the object pass"),
     "grasp_check_dwell": (0.2, "s of samples at home after lifting that check the grasp"),
 }
+GRIPPER_HOLDING = 0.025
+"""A gripper closed beyond this fraction of its stroke may hold an object (a run that
+stopped): it is put back on the stand before a run."""
 BIAS_WINDOW_SUFFIX = "_check"  # the empty-hand window of a run with a cached tare
 BIAS_AFTER_SUFFIX = "_after"  # the empty-hand window after the pass (kinematic information)
 
@@ -155,8 +161,12 @@ class SequencerNode(Node):
         )
         for name, (default, text) in PARAMETERS.items():
             self.declare_parameter(name, default, ParameterDescriptor(description=text))
-        robot = ParameterDescriptor(description="robot configuration (robot_config)")
-        for name, default in read_robot_config("panda").parameters().items():
+        robot = ParameterDescriptor(
+            description="robot configuration (robot_config; read at start-up)",
+            read_only=True,
+            dynamic_typing=True,  # a file's 0 for 0.0
+        )
+        for name, default in default_robot_config().parameters().items():
             self.declare_parameter(name, default, robot)
         self.add_on_set_parameters_callback(self.validate_parameters)
         self.io = io
@@ -204,7 +214,7 @@ class SequencerNode(Node):
                 bad = "must be in (0, pi/2) rad"
             elif prm.name == "tilt_axes" and (not v or any(a not in ("x", "y") for a in v)):
                 bad = "must be a non-empty list of 'x' and 'y'"
-            elif prm.name == "com_guess" and len(v) not in (1, 3):
+            elif prm.name == "com_guess" and len(v) != 3 and list(v) != [0.0]:
                 bad = "must be 3 values (m) or [0.0] for the grasp centre"
             elif (
                 prm.name
@@ -227,15 +237,6 @@ class SequencerNode(Node):
                 bad = "must be >= 0"
             if bad:
                 reason = f"{prm.name}={v!r} refused: {bad}"
-                self.get_logger().error(reason)
-                return SetParametersResult(successful=False, reason=reason)
-        if any(prm.name in KEYS for prm in params):
-            values = {name: self.p(name) for name in KEYS}
-            values |= {prm.name: prm.value for prm in params if prm.name in KEYS}
-            try:
-                RobotConfig.from_parameters(values)
-            except RobotConfigError as exc:
-                reason = f"robot configuration refused: {exc}"
                 self.get_logger().error(reason)
                 return SetParametersResult(successful=False, reason=reason)
         return SetParametersResult(successful=True)
@@ -281,22 +282,37 @@ class SequencerNode(Node):
     ) -> tuple[Plan, list[tuple[str, list[float]]]]:
         """The plan of the parameters and the joints of its poses: within ``max_tilt`` and
         the arm's reach (a pose no joint solution reaches is refused and the tilt lowered
-        to the largest the arm reaches there) and, with ``target_com_sigma``, its dwell
-        (and with ``raise_tilt`` its tilt) set by the planner for the estimator's
-        ``method`` and ``information``; every change is logged with its reason. RunError
-        when no plan is feasible (the reason says what would be)."""
+        to the largest the arm reaches) and, with ``target_com_sigma``, its dwell (and
+        with ``raise_tilt`` its tilt, up to what the arm reaches) set by the planner for
+        the estimator's ``method`` and ``information``; its move time the longest move of
+        the pass. Every change is logged with its reason. RunError when no plan is
+        feasible (the reason says what would be)."""
         plan = self.plan(motion)
         if len(bias_drift_rate) == 2:  # the estimator's (kinematic information)
             plan = replace(plan, bias_drift_rate=bias_drift_rate)
         plan, lowered = within_max_tilt(plan, self.p("max_tilt"))
         changes = list(lowered)
-        plan, reach = self._within_reach(plan, motion, changes)
+        refusals: list[PoseUnreachable] = []
+        reach = self._reachable_tilt(plan, motion, refusals)
+        for refusal in refusals:
+            self.get_logger().warning(f"refused before moving: {refusal}")
+        if refusals:
+            last = refusals[-1]
+            changes.append(
+                f"tilt {plan.tilt:.3f} -> {reach:.3f} rad (the largest the arm reaches at "
+                f"{last.pose}: {last.reason})"
+            )
+            plan = replace(plan, tilt=reach)
+        plan, poses = self._timed(plan, motion)
         target = self.p("target_com_sigma")
         if target > 0:
+            ceiling = self.p("max_tilt")
+            if self.p("raise_tilt") and ceiling > plan.tilt:  # no higher than the arm reaches
+                ceiling = self._reachable_tilt(replace(plan, tilt=ceiling), motion, [])
             advice = dwell_for_target(
                 plan,
                 target,
-                max_tilt=min(self.p("max_tilt"), reach),
+                max_tilt=ceiling,
                 max_time=self.p("max_object_time"),
                 raise_tilt=self.p("raise_tilt"),
                 method=method,
@@ -306,46 +322,45 @@ class SequencerNode(Node):
             if not advice.feasible:
                 raise RunError(f"target COM sigma cannot be met: {advice.reason}")
             plan, changes = advice.plan, changes + list(advice.changes)
+            plan, poses = self._timed(plan, motion)
         for change in changes:
             self.get_logger().warning(f"plan changed: {change}")
-        try:
-            return plan, motion.pose_joints(plan)
-        except PoseUnreachable as exc:
-            raise RunError(f"no exploration is feasible: {exc}") from exc
+        return plan, poses
 
-    def _within_reach(
-        self, plan: Plan, motion: Choreography, changes: list[str]
-    ) -> tuple[Plan, float]:
-        """(``plan`` with its tilt lowered until the arm reaches every pose, the largest
-        tilt it reaches: rad, inf when it reaches the plan's); each lowering is refused
-        with its reason (WARN) and appended to ``changes``. RunError when a pose is out
-        of reach at any tilt."""
-        reach = math.inf
+    def _reachable_tilt(
+        self, plan: Plan, motion: Choreography, refusals: list[PoseUnreachable]
+    ) -> float:
+        """The largest tilt (rad, up to ``plan.tilt``) at which the arm reaches every pose
+        of ``plan``'s tare pass (which holds the object pass's); each pose refused on the
+        way is appended to ``refusals``. RunError when a pose is out of reach at any
+        tilt."""
         while True:
             try:
-                motion.pose_joints(plan)
-                return plan, reach
+                motion.pose_joints(plan.tare_plan())
+                return plan.tilt
             except PoseUnreachable as exc:
-                self.get_logger().warning(f"refused before moving: {exc}")
                 if exc.largest <= 0.0:
                     raise RunError(f"no exploration is feasible: {exc}") from exc
-                reach = exc.largest
-                changes.append(
-                    f"tilt {plan.tilt:.3f} -> {reach:.3f} rad (the largest the arm reaches "
-                    f"at {exc.pose}: {exc.reason})"
-                )
-                plan = replace(plan, tilt=reach, move_time=self._move_time(motion, reach))
+                refusals.append(exc)
+                plan = replace(plan, tilt=exc.largest)
 
-    def _move_time(self, motion: Choreography, tilt: float) -> float:
-        """s of one move from home to a tilt of ``tilt`` rad about the first axis at
-        ``speed`` (the floor if the arm cannot take it)."""
-        tilted, _ = motion.turned(AXES[self.p("tilt_axes")[0]], tilt)
-        return motion.motion_time(motion.home, tilted or motion.home, self.p("speed"))
+    def _timed(
+        self, plan: Plan, motion: Choreography
+    ) -> tuple[Plan, list[tuple[str, list[float]]]]:
+        """(``plan`` with its move time the longest move of its pass at ``speed``, the
+        joints of its poses)."""
+        try:
+            poses = motion.pose_joints(plan)
+        except PoseUnreachable as exc:  # checked with the tare's poses: not expected
+            raise RunError(f"no exploration is feasible: {exc}") from exc
+        speed = self.p("speed")
+        moves = [motion.motion_time(a, b, speed) for (_, a), (_, b) in pairwise(poses)]
+        return replace(plan, move_time=max(moves, default=plan.move_time)), poses
 
     def plan(self, motion: Choreography) -> Plan:
-        """The plan the parameters ask for, as set, its move time that of one tilt from
-        home at ``speed``; the COM guess ([0.0]: the grasp centre) and the gravity at home
-        from the arm's model."""
+        """The plan the parameters ask for, as set; the COM guess ([0.0]: the grasp
+        centre) and the gravity at home from the arm's model (its move time is set when
+        its poses are solved: ``_timed``)."""
         gravity = motion.robot.gravity_in_sensor(motion.home_positions())
         guess = self.p("com_guess")
         return Plan(
@@ -355,7 +370,6 @@ class SequencerNode(Node):
             dwell=self.p("dwell"),
             tare_dwell=self.p("tare_dwell"),
             settle=self.p("settle"),
-            move_time=self._move_time(motion, self.p("tilt")),
             sensor=SensorModel.from_scalars(
                 self.p("sigma_f"), self.p("sigma_tau"), rate_hz=self.p("rate")
             ),
@@ -397,6 +411,12 @@ class SequencerNode(Node):
         self.io.wait(lambda: self.io.joints, "waiting for the joint states", wall_timeout=None)
         config, motion = self.robot_config(), self._choreography()
         self.arm.config, self.arm.motion = config, motion
+        missing = [name for name in config.arm_joints if name not in self.io.joints]
+        if missing:
+            raise RunError(
+                f"{JOINT_STATES_TOPIC} has no {', '.join(missing)} of the robot configuration's "
+                f"arm_joints (it names {', '.join(self.io.joints)})"
+            )
         # The estimator hears the sensor on this clock (not a sensor that was restarted),
         # and this node's labels: a "moving" now, which begins no window, must come back
         # in its input status (a subscriber can match a publisher seconds after the
@@ -553,7 +573,7 @@ class SequencerNode(Node):
         from home goes home."""
         log = self.get_logger()
         closed = self.arm.gripper_closed()
-        if closed > 0.025:
+        if closed > GRIPPER_HOLDING:
             log.warning(
                 f"the gripper is {closed:.0%} closed: the hand may hold an object; putting "
                 "it back on the stand before the run"
@@ -740,12 +760,18 @@ def _spin_until_shutdown(executor: MultiThreadedExecutor) -> None:
             raise
 
 
-def main(args: list[str] | None = None) -> None:
+def main(args: list[str] | None = None) -> int:
     keep_dds_local()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     stopping = stop_on_signals()
     io = IoNode()
-    node = SequencerNode(io)
+    try:
+        node = SequencerNode(io)
+    except (RobotConfigError, ParameterException) as error:  # a robot file that cannot serve
+        io.get_logger().error(f"exploration_sequencer cannot start: {error}")
+        io.destroy_node()
+        rclpy.try_shutdown()
+        return 1
     io_executor = EventsExecutor()
     io_executor.add_node(io)
     executor = MultiThreadedExecutor(num_threads=3)
@@ -771,7 +797,8 @@ def main(args: list[str] | None = None) -> None:
         node.destroy_node()
         io.destroy_node()
         rclpy.try_shutdown()
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

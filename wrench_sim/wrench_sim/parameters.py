@@ -14,7 +14,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from com_core.contract import APPLY_WRENCH_TOPIC
-from com_core.robot_config import read_robot_config
+from com_core.robot_config import KEYS, default_robot_config
 from wrench_sim.objects import SHAPES, com_offset_problem
 from wrench_sim.physics import GRASP_MODES
 
@@ -57,7 +57,7 @@ PARAMETERS = [  # name, default, description, read-only, lower bound of a float
      "then on", False, 0.0),
 ] + [
     (key, value, f"robot configuration (com_core.robot_config); {_START}", True, None)
-    for key, value in read_robot_config("panda").parameters().items()
+    for key, value in default_robot_config().parameters().items()
 ]  # fmt: skip
 SENSOR_PARAMETERS = tuple(
     entry[0]
@@ -104,6 +104,9 @@ def declare_parameters(node: Node) -> None:
     for name, default, description, read_only, low in PARAMETERS:
         ranges = [FloatingPointRange(from_value=low, to_value=math.inf)] if low is not None else []
         descriptor = ParameterDescriptor(
-            description=description, read_only=read_only, floating_point_range=ranges
+            description=description,
+            read_only=read_only,
+            floating_point_range=ranges,
+            dynamic_typing=name in KEYS,  # a robot file's 0 for 0.0
         )
         node.declare_parameter(name, default, descriptor)

@@ -102,8 +102,8 @@ from pybullet_utils.bullet_client import BulletClient
 from com_core.kinematics import KinematicsError, RobotModel
 from com_core.robot_config import (
     RobotConfig,
+    default_robot_config,
     grasp_point,
-    read_robot_config,
     robot_problems,
     urdf_file,
 )
@@ -190,7 +190,7 @@ class SimConfig:
     gui : open pybullet's window instead of running headless (DIRECT).
     """
 
-    robot: RobotConfig = field(default_factory=lambda: read_robot_config("panda"))
+    robot: RobotConfig = field(default_factory=default_robot_config)
     object_shape: str = "box"
     object_mass: float = 0.1
     object_com_offset: tuple[float, float, float] | None = None
@@ -459,6 +459,17 @@ class ArmWorld:
             raise ValueError(f"robot {robot.robot} ({robot.urdf}): {'; '.join(problems)}")
         self._grasp = grasp_point(robot, model)
         self._sensor_joint, self._beyond = _joints_beyond(root, robot.sensor_frame)
+        if self._sensor_joint.get("type") != "fixed":
+            raise ValueError(
+                f"robot {robot.robot}: the joint before sensor_frame {robot.sensor_frame!r} "
+                f"({self._sensor_joint.get('name')}) is {self._sensor_joint.get('type')}: the "
+                "sensor reads a fixed joint"
+            )
+        if beyond := set(robot.arm_joints) & {j.get("name") for j in self._beyond}:
+            raise ValueError(
+                f"robot {robot.robot}: arm_joints {', '.join(sorted(beyond))} lie beyond "
+                f"sensor_frame {robot.sensor_frame!r}"
+            )
         if not self._rigid:
             types = {j.get("name"): j.get("type") for j in self._beyond}
             fingers = [types.get(name) for name in robot.gripper_joints]
@@ -525,11 +536,21 @@ class ArmWorld:
             c.resetJointState(self.robot_body, joint, q)
         origin, R = self.sensor_pose()
         grasp = origin + R @ self._grasp  # m, world
+        if R[2, 2] > -0.99:
+            raise ValueError(
+                f"pick_joints {list(self.config.robot.pick_joints)}: the sensor's z must point "
+                f"down at pick (it is {np.degrees(np.arccos(-R[2, 2])):.1f} deg off)"
+            )
         top_z = (
             grasp[2] + _OBJECT_TOP * R[2, 2]
         )  # the top on the sensor's z through the grasp centre
         height = self.object.geometry.height
         bottom_z = top_z - height
+        if bottom_z <= 0.0:
+            raise ValueError(
+                f"pick_joints {list(self.config.robot.pick_joints)}: the grasp centre is "
+                f"{grasp[2]:.3f} m above the ground, too low for a {height:.3f} m object"
+            )
         half = [_STAND_HALF_WIDTH, _STAND_HALF_WIDTH, bottom_z / 2.0]
         stand = c.createMultiBody(
             baseMass=0.0,

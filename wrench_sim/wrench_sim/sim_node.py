@@ -102,7 +102,7 @@ class SimNode(Node):
             offset = parameter("object_com_offset").value
         except ParameterUninitializedException:
             offset = None  # drawn from the seed
-        robot = RobotConfig.from_parameters({key: _plain(parameter(key).value) for key in KEYS})
+        robot = RobotConfig.from_parameters({key: parameter(key).value for key in KEYS})
         self.world = ArmWorld(
             SimConfig(
                 robot=robot,
@@ -390,11 +390,6 @@ class SimNode(Node):
         """Release pybullet and the executor."""
         self.executor_.shutdown(timeout_sec=0.0)
         self.world.close()
-
-
-def _plain(value):
-    """A parameter's value as RobotConfig takes it: an array as a list."""
-    return value if isinstance(value, (str, bool, int, float)) else list(value)
 
 
 def _filled(msg: WrenchStamped, now: int, wrench: np.ndarray) -> WrenchStamped:

@@ -28,7 +28,7 @@ from .exploration import (
 )
 from .kinematics import DEFAULT_GRAVITY, KinematicsError, RobotModel
 from .known_gravity import BIAS_DRIFT_RATE
-from .robot_config import read_robot_config
+from .robot_config import default_robot_config
 from .tare_cache import TareCache, load_tares
 from .wrench_model import SensorModel
 
@@ -63,7 +63,7 @@ SETTINGS: dict[str, tuple[Any, str]] = {
     ),
     "robot_description": ("", "URDF text or file for 'kinematics' ('': /robot_description)"),
     "sensor_frame": (
-        read_robot_config("panda").sensor_frame,
+        default_robot_config().sensor_frame,
         "URDF frame of the F/T sensor (the wrenches' frame; robot configuration)",
     ),
     "base_frame": ("", "URDF frame gravity is given in ('': the URDF's root)"),

@@ -25,6 +25,7 @@ in its URDF, home and pick within the joint limits) and says what is wrong by na
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass
@@ -43,6 +44,7 @@ __all__ = [
     "ROBOTS",
     "RobotConfig",
     "RobotConfigError",
+    "default_robot_config",
     "grasp_point",
     "read_robot_config",
     "robot_config_path",
@@ -54,8 +56,10 @@ __all__ = [
 CONFIG_DIR = Path(__file__).resolve().parent / "config"
 BAG_ROBOT_FILE = "robot.yaml"
 """The robot configuration of a run, beside its bag (the replay reads its frames)."""
-ROBOTS = ("panda", "xarm6")
-"""The arms whose files ship in CONFIG_DIR; ``panda`` is every node's default."""
+ROBOTS = tuple(sorted(path.stem for path in CONFIG_DIR.glob("*.yaml")))
+"""The arms whose files ship in CONFIG_DIR."""
+DEFAULT_ROBOT = "panda"
+"""Every node's arm when no configuration file is given."""
 
 
 class RobotConfigError(ValueError):
@@ -89,6 +93,12 @@ class RobotConfig:
             names = getattr(self, key)
             if not names or not all(isinstance(n, str) and n for n in names):
                 raise RobotConfigError(f"{key} must be a non-empty list of joint names")
+            if len(set(names)) != len(names):
+                raise RobotConfigError(f"{key} names a joint twice: {list(names)}")
+        if shared := set(self.arm_joints) & set(self.gripper_joints):
+            raise RobotConfigError(
+                f"{', '.join(sorted(shared))} in both arm_joints and gripper_joints"
+            )
         for key, size in (
             ("grasp_offset", 3),
             ("finger_gap", 2),
@@ -112,9 +122,11 @@ class RobotConfig:
         if missing:
             raise RobotConfigError(f"missing key(s) {', '.join(missing)}")
         fields = {}
-        for key in KEYS:
+        for key, field in cls.__dataclass_fields__.items():
             value = values[key]
-            if isinstance(value, (list, tuple)):
+            if str(field.type).startswith("tuple"):  # a list, or rclpy's array.array
+                if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+                    raise RobotConfigError(f"{key} must be a list, got {value!r}")
                 value = tuple(value)
             elif isinstance(value, int) and not isinstance(value, bool):
                 value = float(value)
@@ -139,6 +151,12 @@ KEYS = tuple(RobotConfig.__dataclass_fields__)
 
 def _finite(value: object) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+@functools.cache
+def default_robot_config() -> RobotConfig:
+    """The configuration of DEFAULT_ROBOT: every node's defaults."""
+    return read_robot_config(DEFAULT_ROBOT)
 
 
 def robot_config_path(robot: str) -> Path:
@@ -203,6 +221,13 @@ def robot_problems(config: RobotConfig, robot: RobotModel) -> list[str]:
         problems.append(f"arm_joints: the URDF has no joint {', '.join(map(repr, missing))}")
     if problems:
         return problems
+    sensor, grasp = (model.frames[model.getFrameId(config.sensor_frame)],
+                     model.frames[model.getFrameId(config.grasp_frame)])  # fmt: skip
+    if grasp.parentJoint != sensor.parentJoint:
+        problems.append(
+            f"grasp_frame {config.grasp_frame!r} moves relative to sensor_frame "
+            f"{config.sensor_frame!r} (a joint between them): the grasp centre must be rigid"
+        )
     limits = robot.joint_limits()
     for key in ("home_joints", "pick_joints"):
         for name, value in zip(config.arm_joints, getattr(config, key), strict=True):
