@@ -397,9 +397,10 @@ def test_a_push_changes_the_wrench_by_what_the_sim_reports_it_applied(start_node
             back = np.array(after) - before
             assert np.abs(back[:, :3]).max() < PUSH_FORCE_TOL, back
             assert np.abs(back[:, 3:]).max() < PUSH_TORQUE_TOL, back
-        # the later push starts at its stamp; in ft_sensor (the mounted frame) its force reads
-        # as given, its torque about the sensor origin adds p x F (p: the object's COM)
-        assert pushes[1][0][0] == start_ns + period
+        # the later push starts at its stamp (the first wrench sample after it carries it);
+        # in ft_sensor (the mounted frame) its force reads as given, its torque about the
+        # sensor origin adds p x F (p: the object's COM)
+        assert pushes[1][0][0] == (start_ns // period + 1) * period
         force, torque = np.array(SENSOR_PUSH[0]), np.array(SENSOR_PUSH[1])
         com = client.truth[-1].inertia.com
         p = np.array([com.x, com.y, com.z])
