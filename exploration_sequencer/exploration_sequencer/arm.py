@@ -37,9 +37,9 @@ def resting(
 
 
 class Arm:
-    """Moves the arm and the gripper; ``config``, ``motion``, ``speed`` (rad/s, mean joint
-    speed) and ``settle`` (s to wait after arriving) are set by the sequencer for each
-    run."""
+    """Moves the arm and the gripper of the robot configuration ``config``; ``motion``
+    (the choreography), ``speed`` (rad/s, mean joint speed) and ``settle`` (s to wait
+    after arriving) are set by the sequencer for each run."""
 
     def __init__(self, node: Node, io: IoNode, config: RobotConfig) -> None:
         self._log = node.get_logger()

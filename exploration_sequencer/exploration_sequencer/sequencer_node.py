@@ -172,8 +172,11 @@ class SequencerNode(Node):
         self.io = io
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.pose_pub = self.create_publisher(Header, POSE_TOPIC, latched)  # the current label
-        self.arm = Arm(self, io, self.robot_config())
-        self._urdf = ""  # the latest /robot_description
+        # read-only: one configuration for the node's life
+        self.config = RobotConfig.from_parameters({name: self.p(name) for name in KEYS})
+        self.arm = Arm(self, io, self.config)
+        # the choreography on the latest /robot_description, or why there is none
+        self._motion: Choreography | str = ""
         self.create_subscription(
             String,
             ROBOT_DESCRIPTION_TOPIC,
@@ -241,19 +244,16 @@ class SequencerNode(Node):
                 return SetParametersResult(successful=False, reason=reason)
         return SetParametersResult(successful=True)
 
-    def robot_config(self) -> RobotConfig:
-        """The robot configuration of the parameters."""
-        return RobotConfig.from_parameters({name: self.p(name) for name in KEYS})
-
     def robot_description_callback(self, msg: String) -> None:
         """The URDF (latched): checked against the robot configuration at once, so a
         frame or joint it lacks is an ERROR when the robot comes up, not at a run."""
-        self._urdf = msg.data
         try:
-            motion = Choreography.of(self.robot_config(), msg.data)
+            motion = Choreography.of(self.config, msg.data)
         except (RobotConfigError, ValueError) as exc:
-            self.get_logger().error(f"the robot cannot run an exploration: {exc}")
+            self._motion = f"the robot cannot run an exploration: {exc}"
+            self.get_logger().error(self._motion)
             return
+        self._motion = motion
         self.get_logger().info(
             f"robot {motion.robot.model.name!r}: sensor {motion.robot.sensor_frame}, grasp "
             f"centre ({', '.join(f'{1e3 * v:.1f}' for v in motion.pivot)}) mm, "
@@ -264,14 +264,13 @@ class SequencerNode(Node):
         """The arm's choreography on the latest /robot_description; RunError naming what
         does not serve."""
         self.io.wait(
-            lambda: self._urdf,
+            lambda: self._motion,
             f"waiting for {ROBOT_DESCRIPTION_TOPIC}",
             wall_timeout=self.p("sim_timeout"),
         )
-        try:
-            return Choreography.of(self.robot_config(), self._urdf)
-        except (RobotConfigError, ValueError) as exc:
-            raise RunError(f"the robot cannot run an exploration: {exc}") from exc
+        if isinstance(self._motion, str):
+            raise RunError(self._motion)
+        return self._motion
 
     def _planned(
         self,
@@ -409,8 +408,8 @@ class SequencerNode(Node):
         self.io.sim_timeout = self.p("sim_timeout")
         self.arm.speed, self.arm.settle = self.p("speed"), self.p("settle")
         self.io.wait(lambda: self.io.joints, "waiting for the joint states", wall_timeout=None)
-        config, motion = self.robot_config(), self._choreography()
-        self.arm.config, self.arm.motion = config, motion
+        config, motion = self.config, self._choreography()
+        self.arm.motion = motion
         missing = [name for name in config.arm_joints if name not in self.io.joints]
         if missing:
             raise RunError(
