@@ -15,6 +15,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from .calibration import Calibration
 from .estimators import DEFAULT_ALPHA, MIN_TILT_SIGMAS
 from .exploration import (
     INFORMATION,
@@ -41,12 +42,28 @@ __all__ = [
     "use_cached_tares",
 ]
 
+CALIBRATION_ACCURACY, FULL_SCALE = 0.01, (290.0, 10.0)
+
 SETTINGS: dict[str, tuple[Any, str]] = {
     "method": ("ml", "'ml' (multi-pose maximum likelihood) or 'two_pose' (the paper)"),
     "alpha": (DEFAULT_ALPHA, "false-alarm rate of the object-moved test, in (0, 0.5)"),
     "expected_frame": ("ft_sensor", "frame_id wrenches must carry; others are dropped"),
-    "sigma_f": (0.0, "sensor force noise per sample, N (0: unknown; motion test by drift)"),
-    "sigma_tau": (0.0, "sensor torque noise per sample, N m (0: unknown)"),
+    "sigma_f": (
+        0.0,
+        "sensor force noise per sample, N, for windows too few to learn the noise from "
+        "(0: unknown; the noise is learnt from the static windows, com_core.noise)",
+    ),
+    "sigma_tau": (0.0, "sensor torque noise per sample, N m (as sigma_f)"),
+    "accuracy": (
+        CALIBRATION_ACCURACY,
+        "the sensor's calibration accuracy, a fraction of full scale (95 %): a systematic "
+        "term of the kinematic fit's covariance (com_core.calibration); 0: exact",
+    ),
+    "full_scale": (
+        list(FULL_SCALE),
+        "N, N m: the sensor's full scale in force and torque (weighs the calibration's "
+        "cross-talk)",
+    ),
     "limit_f": (0.0, "sensor force range, N (0: no saturation check)"),
     "limit_tau": (0.0, "sensor torque range, N m (0: no saturation check)"),
     "min_tilt_sigmas": (MIN_TILT_SIGMAS, "refuse tilts below this many sigma of noise"),
@@ -87,6 +104,8 @@ _CHECKS = {
     "gravity": lambda v: len(v) == 3 and 0 < math.hypot(*v) < math.inf,
     "bias_drift_rate": lambda v: len(v) == 2 and all(0 <= r < math.inf for r in v),
     "alpha": lambda v: 0.0 < v < 0.5,
+    "accuracy": lambda v: isinstance(v, float) and 0.0 <= v < 1.0,
+    "full_scale": lambda v: len(v) == 2 and all(0 < x < math.inf for x in v),
     "expected_frame": lambda v: isinstance(v, str),
     "tare_cache": lambda v: isinstance(v, str),
 }
@@ -130,6 +149,9 @@ def exploration_from(settings: Mapping[str, Any], urdf: str = "") -> Exploration
         bias_drift_rate=tuple(value["bias_drift_rate"]),
         max_drift_f=value["max_drift_f"],
         max_drift_tau=value["max_drift_tau"],
+        calibration=(
+            Calibration(value["accuracy"], *value["full_scale"]) if value["accuracy"] > 0 else None
+        ),
     )
     if value["information"] != WRENCHES:
         exploration.robot, exploration.robot_problem = robot_from(value, urdf)

@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .calibration import Calibration
 from .contract import DONE, ERROR, OBJECT_PREFIX, OK, TARE_PREFIX, VERIFY_PREFIX, WARN
 from .errors import EstimationError, MissingTareError, NonPositiveMassError, WindowError
 from .estimators import (
@@ -59,6 +60,7 @@ from .known_gravity import (
     locate_move,
     mount_rpy,
 )
+from .noise import NoiseModel, learn_noise
 from .stats import chi2_isf, chi2_sf
 from .windows import Window, reduce_window, subtract_tare
 from .wrench_model import STANDARD_GRAVITY, SensorModel
@@ -186,6 +188,7 @@ class Solution:
     wrenches_sigma_com: NDArray[np.float64] | None = None
     verifications: tuple[Verification, ...] = ()
     unverified: str = ""
+    noise: NoiseModel | None = None
 
     @property
     def usable(self) -> bool:
@@ -250,6 +253,8 @@ class Solution:
             out[f"verify_distance {v.pose}"] = [*v.distance, v.allowed]
         if self.unverified:
             out["unverified"] = self.unverified
+        if self.noise is not None:
+            out |= _noise_dict(self.noise)
         if self.consistency is not None:
             c = self.consistency
             out |= {
@@ -270,6 +275,9 @@ class Exploration:
     method : 'ml' or 'two_pose'.
     expected_frame : frame_id the samples must carry ('' accepts any).
     sensor : sensor model for saturation and motion tests; None uses the samples alone.
+    noise : the sensor's noise known from before (a cached tare pass's,
+        ``com_core.noise``): used when this exploration's own static windows are too few
+        to learn it, and compared with what they give (a changed noise is named).
     tares : tare windows known from before (a cached tare pass), by pose; this
         exploration's own tare windows take precedence.
     untared : estimate the whole load beyond the sensor (hand + object) without any
@@ -286,11 +294,15 @@ class Exploration:
     bias_drift_rate : N/s, N m/s; the sensor bias's drift rate to allow for within a
         run (1 sigma; (0, 0): a constant bias within a run).
     max_drift_f, max_drift_tau : N, N m; a larger bias drift since a cached tare is a WARN.
+    calibration : the sensor's stated accuracy and full scales: the kinematic fit weighs
+        its windows with the calibration's common error too (``com_core.calibration``);
+        None: a perfect calibration.
     """
 
     method: str = "ml"
     expected_frame: str = "ft_sensor"
     sensor: SensorModel | None = None
+    noise: NoiseModel | None = None
     alpha: float = DEFAULT_ALPHA
     min_tilt_sigmas: float = MIN_TILT_SIGMAS
     g: float = STANDARD_GRAVITY
@@ -305,6 +317,7 @@ class Exploration:
     bias_drift_rate: tuple[float, float] = BIAS_DRIFT_RATE
     max_drift_f: float = MAX_DRIFT_F
     max_drift_tau: float = MAX_DRIFT_TAU
+    calibration: Calibration | None = None
     _joint_states: list[tuple[int, dict[str, float]]] = field(default_factory=list, repr=False)
     _stamps: list[NDArray[np.int64]] = field(default_factory=list, repr=False)
     _wrenches: list[NDArray[np.float64]] = field(default_factory=list, repr=False)
@@ -530,23 +543,37 @@ class Exploration:
             inside |= (stamps >= a) & (stamps < b)
         return float(np.mean(stamps[inside])) * 1e-9
 
+    def noise_model(self, until_ns: int | None = None) -> NoiseModel | None:
+        """The sensor's noise learnt from the second halves of every static window (the
+        arm's ringing has settled there; ``com_core.noise``), at the rate of the kept
+        samples' stamps; ``noise`` when they are too few; None without either."""
+        segments = self.segments(until_ns)
+        stamps = self.samples()[0]
+        steps = np.diff(stamps)
+        steps = steps[steps > 0]
+        rate = 1e9 / float(np.median(steps)) if len(steps) else 1000.0
+        learnt = learn_noise([x[len(x) // 2 :] for _, x in segments], rate)
+        return learnt if learnt is not None else self.noise
+
     def reduced_windows(
-        self, until_ns: int | None = None
+        self, until_ns: int | None = None, noise: NoiseModel | None = None
     ) -> tuple[dict[str, Window], list[Window], list[Window], list[str]]:
-        """Every window of ``segments`` reduced to its mean: (tare windows by pose, object
-        windows, verify windows, notes on the windows refused: empty, motion, NaN,
-        saturation)."""
+        """Every window of ``segments`` reduced to its mean with the sensor's ``noise``
+        (default: ``noise_model``): (tare windows by pose, object windows, verify
+        windows, notes on the windows refused: empty, motion, NaN, saturation)."""
         tares: dict[str, Window] = {}
         objects: list[Window] = []
         verifies: list[Window] = []
         notes: list[str] = []
+        if noise is None:
+            noise = self.noise_model(until_ns)
         for label, samples in self.segments(until_ns):
             kind, pose = label.split("/", 1)
             if len(samples) == 0:
                 notes.append(f"window {shorten(label)!r} has no samples")
                 continue
             try:
-                window = reduce_window(pose, samples, self.sensor)
+                window = reduce_window(pose, samples, self.sensor, noise)
             except (WindowError, ValueError) as exc:
                 notes.append(f"{kind} {exc}")
                 continue
@@ -564,7 +591,11 @@ class Exploration:
         notes += [f"dropped {n} labels {what}" for what, n in self.dropped_labels.items()]
         segments = self.segments(until_ns)
         counts = {label: len(samples) for label, samples in segments}
-        fresh_tares, objects, verifies, refused = self.reduced_windows(until_ns)
+        noise = self.noise_model(until_ns)
+        if noise is not None and self.noise is not None and noise is not self.noise:
+            changed = noise.changed_from(self.noise)
+            notes += [changed] if changed else []
+        fresh_tares, objects, verifies, refused = self.reduced_windows(until_ns, noise)
         tares = dict(self.tares) | fresh_tares
         notes += refused
         try:
@@ -610,7 +641,9 @@ class Exploration:
             verifications, unverified = self._verifications(verifies, fit, until_ns, notes)
         except EstimationError as exc:
             reason = str(exc) + ("; " + "; ".join(notes) if notes else "")
-            return Solution(ERROR, reason, self.method, notes=tuple(notes), window_samples=counts)
+            return Solution(
+                ERROR, reason, self.method, notes=tuple(notes), window_samples=counts, noise=noise
+            )
         status, reason = OK, _summary(estimate)
         failed = [v.summary() for v in verifications if not v.passed]
         if not consistency.consistent:
@@ -634,6 +667,7 @@ class Exploration:
             wrenches_sigma_com=wrenches_sigma,
             verifications=verifications,
             unverified=unverified,
+            noise=noise,
         )
 
     def _verifications(
@@ -664,7 +698,8 @@ class Exploration:
             except WindowError as exc:
                 notes.append(f"verification left out: {exc}")
                 continue
-            predicted, cov = fit.predict(rotation, self.window_time(label, stamps, until_ns))
+            time = self.window_time(label, stamps, until_ns)
+            predicted, cov = fit.predict(rotation, time, measured=window.mean)
             out.append(verify(window, predicted, cov, self.alpha))
         return tuple(out), ""
 
@@ -714,6 +749,7 @@ class Exploration:
             robot.gravity,
             information == KINEMATICS_MOUNT,
             self.bias_drift_rate,
+            self.calibration,
         )
         loads = [o.window.pose for o in observations if o.load]
         if found is not None and chi2_sf(found[1], e.dof - 4) >= self.alpha:
@@ -803,6 +839,7 @@ class Exploration:
             robot.gravity,
             fit_mount=information == KINEMATICS_MOUNT,
             drift_rate_sigma=self.bias_drift_rate,
+            calibration=self.calibration,
         )
         e = fit.estimate
         if not self.untared and e.mass < LOAD_SIGMAS * e.sigma_mass:
@@ -918,6 +955,17 @@ def _fit_dict(fit: KinematicFit) -> dict:
         out["base_tilt"] = fit.base_tilt.tolist()
         out["sigma_base_tilt"] = np.sqrt(np.diag(fit.base_tilt_cov)).tolist()
     return out
+
+
+def _noise_dict(noise: NoiseModel) -> dict:
+    """The learnt noise for ``Solution.as_dict``: sigma per sample (N, N m), the
+    integrated correlation time (s) and the AR order per axis, the samples learnt from."""
+    return {
+        "noise_sigma": np.sqrt(noise.variance).tolist(),
+        "noise_correlation_time": noise.correlation_time.tolist(),
+        "noise_ar_order": list(noise.orders),
+        "noise_samples": noise.samples,
+    }
 
 
 def _summary(e: Estimate) -> str:

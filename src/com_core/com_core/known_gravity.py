@@ -48,6 +48,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .calibration import Calibration
 from .errors import NonPositiveMassError, TooFewPosesError
 from .estimators import Estimate
 from .kinematics import DEFAULT_GRAVITY
@@ -128,15 +129,22 @@ class KinematicFit:
     _x: NDArray[np.float64] = field(repr=False, compare=False)
 
     def predict(
-        self, rotation: ArrayLike, time: float, load: bool = True
+        self,
+        rotation: ArrayLike,
+        time: float,
+        load: bool = True,
+        measured: ArrayLike | None = None,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The wrench (6,; N, N m) the sensor reads in this run (bias epoch 0) at
         R_base_sensor ``rotation`` (3, 3) of its URDF frame and ``time`` (s, the windows'
         clock): the bias then, the hand's gravity wrench and, with ``load``, the
         object's; with its covariance (6, 6) from the fit's (mounting and tilt
-        included). The wrench at a pose no window saw: a verification's prediction."""
+        included). The wrench at a pose no window saw: a verification's prediction.
+        With the wrench ``measured`` there (6,) and a calibration, the covariance also
+        holds what the calibration's common error adds to measured less predicted
+        (``_Model.calibration_term``)."""
         rotation = np.asarray(rotation, dtype=np.float64)
-        return self._model.predict(self._x, self.cov, rotation, time, load)
+        return self._model.predict(self._x, self.cov, rotation, time, load, measured)
 
     def latest_bias(self) -> NDArray[np.float64]:
         """This run's bias (6,; N, N m) at its latest window: the bias of epoch 0 carried
@@ -202,8 +210,10 @@ class _Model:
         gravity: NDArray[np.float64],
         fit_mount: bool,
         drift_rate_sigma: tuple[float, float] | None,
+        calibration: Calibration | None = None,
     ) -> None:
         self.obs = list(observations)
+        self.calibration = calibration
         self.gravity = gravity
         empty = [o for o in self.obs if not o.load]
         self.epochs = 1 + max((o.epoch for o in self.obs), default=0) if empty else 0
@@ -228,11 +238,23 @@ class _Model:
         self.mount = slice(start, start + 5) if fit_mount else slice(start, start)
         self.size = self.mount.stop
         self.tilt_axes = _across(gravity)
-        self.whiten = [np.linalg.cholesky(np.linalg.inv(o.window.cov)).T for o in self.obs]
+        self.means = np.concatenate([o.window.mean for o in self.obs]) if self.obs else None
+        self.whiten = self._whitening()
         self.epoch_time = [
             float(np.mean([o.time for o in self.obs if o.epoch == e] or [0.0]))
             for e in range(self.epochs)
         ]
+
+    def _whitening(self) -> NDArray[np.float64]:
+        """(6n, 6n) W with W^T W the inverse of the windows' joint covariance: each
+        window's noise, plus the calibration's common error (``com_core.calibration``)."""
+        n = len(self.obs)
+        cov = np.zeros((6 * n, 6 * n))
+        for i, o in enumerate(self.obs):
+            cov[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] = o.window.cov
+        if self.calibration is not None and n:
+            cov += self.calibration.cov(self.means.reshape(n, 6))
+        return np.linalg.inv(np.linalg.cholesky(cov)) if n else np.zeros((0, 0))
 
     def gravities(
         self, x: NDArray[np.float64], rotations: Sequence[NDArray[np.float64]] | None = None
@@ -283,10 +305,12 @@ class _Model:
         rotation: NDArray[np.float64],
         time: float,
         load: bool,
+        measured: ArrayLike | None = None,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The wrench (6,) the unknowns ``x`` give at R_base_sensor ``rotation`` and
         ``time`` in epoch 0 (with the object if ``load``), and its covariance (6, 6) from
-        ``cov``; the mounting and the tilt enter by central differences."""
+        ``cov`` (and the calibration's, ``calibration_term``, for a ``measured`` wrench);
+        the mounting and the tilt enter by central differences."""
 
         def rows(at: NDArray[np.float64]) -> NDArray[np.float64]:
             return self.design_rows(self.gravities(at, [rotation])[0], 0, time, load)
@@ -299,28 +323,24 @@ class _Model:
             step = np.zeros(self.size)
             step[k] = 1e-6
             jac[:, k] = (wrench(x + step) - wrench(x - step)) / 2e-6
-        return wrench(x), jac @ cov @ jac.T
+        out = jac @ cov @ jac.T
+        if measured is not None:
+            out = out + self.calibration_term(x, cov, jac, np.asarray(measured, dtype=float))
+        return wrench(x), out
 
     def residuals(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """Whitened residuals at the unknowns ``x``: 6 per window, then 6 per epoch for
         the rate prior."""
         predicted = self.linear_design(self.gravities(x)) @ x
-        data = [
-            wh @ (o.window.mean - predicted[6 * i : 6 * i + 6])
-            for i, (wh, o) in enumerate(zip(self.whiten, self.obs, strict=True))
-        ]
         prior = [-x[r] / self.rate_sigma for r in self.rate]
-        return np.concatenate(data + prior)
+        return np.concatenate([self.whiten @ (self.means - predicted), *prior])
 
     def jacobian(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """d residuals / d x: exact for the linear unknowns, central differences for the
         mounting and the tilt."""
         n = 6 * len(self.obs)
         whitened = np.zeros((n + 6 * len(self.rate), self.size))
-        design = self.linear_design(self.gravities(x))
-        for i, wh in enumerate(self.whiten):
-            r = slice(6 * i, 6 * i + 6)
-            whitened[r] = -wh @ design[r]
+        whitened[:n] = -self.whiten @ self.linear_design(self.gravities(x))
         for e, r in enumerate(self.rate):
             whitened[n + 6 * e : n + 6 * e + 6, r] = -np.diag(1.0 / self.rate_sigma)
         for k in range(self.mount.start, self.mount.stop):
@@ -328,6 +348,34 @@ class _Model:
             step[k] = 1e-6
             whitened[:, k] = (self.residuals(x + step) - self.residuals(x - step)) / 2e-6
         return whitened
+
+    def calibration_term(
+        self,
+        x: NDArray[np.float64],
+        cov: NDArray[np.float64],
+        predicted_jacobian: NDArray[np.float64],
+        measured: NDArray[np.float64],
+    ) -> NDArray[np.float64]:
+        """(6, 6): what the calibration's common error adds to the covariance of a window
+        ``measured`` (6,) that no fit used less the prediction there (whose derivative by
+        the unknowns is ``predicted_jacobian``, (6, size)): its own share, less its
+        correlation with the fit's windows through the unknowns (``com_core.calibration``).
+        Zero without a calibration."""
+        if self.calibration is None:
+            return np.zeros((6, 6))
+        n = 6 * len(self.obs)
+        jac = self.jacobian(x)[:n]
+        gain = -cov @ jac.T @ self.whiten  # d x / d (window means)
+        own = self.calibration.jacobian(measured)
+        through = (
+            predicted_jacobian
+            @ gain
+            @ self.calibration.stacked_jacobian(self.means.reshape(-1, 6))
+        )
+        diff = own - through
+        return self.calibration.sigma**2 * diff @ diff.T - self.calibration.sigma**2 * (
+            through @ through.T
+        )
 
 
 def _estimate(
@@ -360,12 +408,14 @@ def kinematic_ml(
     fit_mount: bool = False,
     drift_rate_sigma: tuple[float, float] | None = None,
     iterations: int = 30,
+    calibration: Calibration | None = None,
 ) -> KinematicFit:
     """The ML fit of bias, hand and object to ``observations`` (see module), with
     ``gravity`` (m/s^2) in the base frame; ``fit_mount`` also fits the sensor's mounting
     and the base's tilt; ``drift_rate_sigma`` (N/s, N m/s) lets each epoch's bias drift
-    (see module). The covariance is the CRLB; chi2 has 6n (+ 6 per epoch with a rate
-    prior) - (unknowns) dof.
+    (see module); ``calibration`` weighs the windows with the calibration's common error
+    too (``com_core.calibration``). The covariance is the CRLB; chi2 has 6n (+ 6 per
+    epoch with a rate prior) - (unknowns) dof.
 
     Raises TooFewPosesError when the windows' orientations do not resolve the unknowns
     (a COM needs two gravity directions; a bias beside the load needs its gravity to
@@ -373,7 +423,7 @@ def kinematic_ml(
     NonPositiveMassError for an object mass at or below zero.
     """
     g = np.asarray(gravity, dtype=np.float64).reshape(3)
-    model = _Model(observations, g, fit_mount, drift_rate_sigma)
+    model = _Model(observations, g, fit_mount, drift_rate_sigma, calibration)
     if not model.obs:
         raise TooFewPosesError("no windows to fit")
     x = np.zeros(model.size)
@@ -432,6 +482,7 @@ def locate_move(
     gravity: ArrayLike = DEFAULT_GRAVITY,
     fit_mount: bool = False,
     drift_rate_sigma: tuple[float, float] | None = None,
+    calibration: Calibration | None = None,
 ) -> tuple[int, float] | None:
     """Where the object moved in the grasp, for a fit that failed its chi-square test:
     (index of the load window, in the order given, and the chi-square of the best
@@ -449,7 +500,9 @@ def locate_move(
                 for i, o in enumerate(observations)
             ]
             try:
-                chi2 = kinematic_ml(split, gravity, fit_mount, drift_rate_sigma).estimate.chi2
+                chi2 = kinematic_ml(
+                    split, gravity, fit_mount, drift_rate_sigma, calibration=calibration
+                ).estimate.chi2
             except (TooFewPosesError, NonPositiveMassError):
                 continue
             if best is None or chi2 < best[1]:

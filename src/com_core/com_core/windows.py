@@ -18,12 +18,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import MissingTareError, MotionError, NonFiniteError, SaturationError
+from .noise import COV_FLOOR, NoiseModel
 from .wrench_model import AXES, SensorModel
 
 __all__ = [
     "MIN_SAMPLES_FOR_COVARIANCE",
     "Window",
     "reduce_window",
+    "settled_start",
     "subtract_tare",
     "window_from_mean",
 ]
@@ -33,6 +35,10 @@ MIN_SAMPLES_FOR_COVARIANCE = 30
 
 _MOTION_Z = 6.0
 """Threshold (standard scores) of the motion tests; a false alarm < 1e-8 per axis."""
+SETTLE_PROBE = 0.1
+"""s: the length of the pieces ``settled_start`` tests for the arm's ringing."""
+_SETTLE_Z = 5.0
+"""Threshold (standard scores) of the settling test per probe and axis."""
 
 
 @dataclass(frozen=True)
@@ -80,6 +86,7 @@ def reduce_window(
     pose: str,
     samples: ArrayLike,
     sensor: SensorModel | None = None,
+    noise: NoiseModel | None = None,
 ) -> Window:
     """Reduce samples of one static pose to their mean wrench and its covariance.
 
@@ -87,14 +94,19 @@ def reduce_window(
     ----------
     pose : pose name.
     samples : shape (n, 6); N and N m; sensor frame, in time order.
-    sensor : the sensor's model. Its range finds saturated samples; its noise is the
-        covariance when there are fewer than ``MIN_SAMPLES_FOR_COVARIANCE`` samples and
-        the reference of the motion test on the variance.
+    sensor : the sensor's model. Its range finds saturated samples; without ``noise``,
+        its noise is the covariance when there are fewer than
+        ``MIN_SAMPLES_FOR_COVARIANCE`` samples and the reference of the motion test on
+        the variance.
+    noise : the sensor's learnt noise (``com_core.noise``): the window starts where the
+        arm's ringing has settled (``settled_start``), the covariance of its mean is the
+        model's for that many samples (correlated noise: var(mean) = sigma^2 f(n) / n),
+        and the motion tests use it.
 
     Returns
     -------
-    Window whose ``cov`` is the sample covariance / n (or the sensor's / n). Samples
-    are taken as white noise; correlated noise would make ``cov`` too small.
+    Window whose ``cov`` is the covariance of the mean. Without ``noise`` the samples are
+    taken as white (the sample covariance / n).
 
     Raises
     ------
@@ -118,6 +130,11 @@ def reduce_window(
                 f"window {pose!r}: {int(sat.any(axis=1).sum())} samples at the sensor's range "
                 f"on {axis} (limit {sensor.limit[AXES.index(axis)]:g})"
             )
+    if noise is not None:
+        x = x[settled_start(x, noise) :]
+        n = x.shape[0]
+        _check_static_correlated(pose, x, noise)
+        return Window(pose, x.mean(axis=0), noise.mean_cov(n), n)
     mean = x.mean(axis=0)
     if n >= MIN_SAMPLES_FOR_COVARIANCE:
         sample_cov = np.cov(x, rowvar=False)
@@ -132,10 +149,89 @@ def reduce_window(
     return Window(pose, mean, sample_cov / n, n)
 
 
+def _quiet(noise: NoiseModel) -> NDArray[np.bool_]:
+    """(6,) axes whose noise is below ``COV_FLOOR``: a noise-free sensor, nothing to test."""
+    return noise.variance <= COV_FLOOR**2
+
+
+def settled_start(x: NDArray[np.float64], noise: NoiseModel) -> int:
+    """The first sample (index) of ``x`` (n, 6) after the arm's ringing has settled.
+
+    The first half of the window is cut into probes of ``SETTLE_PROBE`` s; a probe is
+    still ringing when, on any axis, the variance of its AR prediction errors exceeds the
+    noise's (``NoiseModel.innovation``; white, so a probe of L samples has L degrees of
+    freedom) or its mean is off the second half's, each by more than ``_SETTLE_Z``
+    standard scores. The window starts after the last probe that rings (0 when none
+    does). Depends on the samples and the model only, so the node and the replay of its
+    bag cut the same windows."""
+    n = len(x)
+    probe = max(10, round(SETTLE_PROBE * noise.rate_hz))
+    if n < 4 * probe or _quiet(noise).all():
+        return 0
+    p = max(noise.orders, default=0)
+    tail = x[n // 2 :]
+    errors = noise.prediction_errors(x)  # errors[t - p] belongs to sample t
+    innovation = np.where(_quiet(noise), np.inf, noise.innovation)
+    variance = noise.variance
+    var_limit = 1.0 + _SETTLE_Z * math.sqrt(2.0 / probe)
+    offset_sd = np.sqrt(
+        variance * noise.mean_factor(probe) / probe
+        + variance * noise.mean_factor(len(tail)) / len(tail)
+        + 2.0 * COV_FLOOR**2
+    )
+    start = 0
+    for a in range(p, n // 2 - probe + 1, probe):
+        piece = errors[a - p : a - p + probe]
+        ringing = (piece**2).mean(axis=0) / innovation > var_limit
+        offset = np.abs(x[a : a + probe].mean(axis=0) - tail.mean(axis=0)) > _SETTLE_Z * offset_sd
+        if (ringing | offset).any():
+            start = a + probe
+    return start
+
+
+def _check_static_correlated(pose: str, x: NDArray[np.float64], noise: NoiseModel) -> None:
+    """Raise MotionError if the window's samples show motion, under correlated noise.
+
+    Two tests per axis, each at ``_MOTION_Z`` standard scores:
+    - drift: the means of the first and second half differ by more than the model's
+      noise of the two means (``NoiseModel.mean_factor``);
+    - excess variance: the AR prediction errors' variance exceeds the noise's
+      innovation variance by more than the chi-square spread, 1 + z sqrt(2 / n).
+    """
+    n = x.shape[0]
+    if n < 2 * MIN_SAMPLES_FOR_COVARIANCE:
+        return
+    half = n // 2
+    var = noise.variance
+    drift = x[half:].mean(axis=0) - x[:half].mean(axis=0)
+    drift_sd = np.sqrt(
+        var * noise.mean_factor(half) / half
+        + var * noise.mean_factor(n - half) / (n - half)
+        + 2.0 * COV_FLOOR**2
+    )
+    drift_z = np.abs(drift) / drift_sd
+    worst = int(np.argmax(drift_z))
+    if drift_z[worst] > _MOTION_Z:
+        raise MotionError(
+            f"window {pose!r}: motion, {AXES[worst]} drifts by {drift[worst]:.4g} between "
+            f"the halves of the window ({drift_z[worst]:.1f} sigma of the correlated noise)"
+        )
+    errors = noise.prediction_errors(x)
+    quiet = _quiet(noise)
+    ratio = np.where(quiet, 0.0, (errors**2).mean(axis=0) / np.where(quiet, 1.0, noise.innovation))
+    limit = 1.0 + _MOTION_Z * math.sqrt(2.0 / len(errors))
+    worst = int(np.argmax(ratio))
+    if ratio[worst] > limit:
+        raise MotionError(
+            f"window {pose!r}: motion, variance of {AXES[worst]} is {ratio[worst]:.1f}x the "
+            f"sensor noise's (limit {limit:.2f}x)"
+        )
+
+
 def _check_static(
     pose: str, x: NDArray[np.float64], sample_cov: NDArray[np.float64], sensor: SensorModel | None
 ) -> None:
-    """Raise MotionError if the window's samples show motion.
+    """Raise MotionError if the window's samples show motion (white noise).
 
     Two tests per axis, each at ``_MOTION_Z`` standard scores:
     - drift: the means of the first and second half differ by more than their noise;

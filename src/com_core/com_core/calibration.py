@@ -1,0 +1,72 @@
+"""The sensor's calibration error as a systematic term of the fit's covariance.
+
+A sensor reads C w instead of the wrench w, with C = I + S E S^-1 its calibration's
+error: S = diag(fs_f, fs_f, fs_f, fs_tau, fs_tau, fs_tau) the full scales, and E a fixed
+6 x 6 matrix of gain and cross-talk errors, each element of spread accuracy / 2 (the
+stated accuracy is the 95 % bound of one axis's error as a fraction of full scale;
+``wrench_model.calibration_matrix`` draws one so). E is the same in every window, so it
+is not averaged away: it adds to the windows' means a common error
+
+    dw_i = S E S^-1 w_i = J(w_i) vec(E),    J(w)[a, 6 a + b] = S_a w_b / S_b,
+
+whose covariance couples every pair of windows:
+
+    cov(dw_i, dw_j) = (accuracy / 2)^2 (w~_i . w~_j) S^2,    w~ = S^-1 w.
+
+The kinematic fit (``known_gravity``) weighs its windows with the block-diagonal noise
+covariance plus this term (generalised least squares): the reported covariance then holds
+the calibration's share, the chi-square test is not misled by a misfit the calibration
+explains, and the verification's residual covariance has it too. The true wrenches are
+taken as the measured window means (first order).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["Calibration"]
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """The sensor's stated ``accuracy`` (fraction of full scale, 95 %) and its full
+    scales (N, N m), which weigh the cross-talk between forces and torques."""
+
+    accuracy: float
+    full_scale_f: float
+    full_scale_tau: float
+
+    @property
+    def scale(self) -> NDArray[np.float64]:
+        """(6,) S's diagonal: N, N, N, N m, N m, N m."""
+        return np.array([self.full_scale_f] * 3 + [self.full_scale_tau] * 3)
+
+    @property
+    def sigma(self) -> float:
+        """The spread of each element of E."""
+        return self.accuracy / 2.0
+
+    def jacobian(self, wrench: ArrayLike) -> NDArray[np.float64]:
+        """(6, 36): d(C w) / d vec(E) at the wrench ``wrench`` (6,); row-major vec(E)."""
+        w = np.asarray(wrench, dtype=np.float64)
+        s = self.scale
+        out = np.zeros((6, 36))
+        for a in range(6):
+            out[a, 6 * a : 6 * a + 6] = s[a] * w / s
+        return out
+
+    def stacked_jacobian(self, wrenches: ArrayLike) -> NDArray[np.float64]:
+        """(6 n, 36): ``jacobian`` of each of ``wrenches`` (n, 6), stacked."""
+        w = np.asarray(wrenches, dtype=np.float64).reshape(-1, 6)
+        return np.concatenate([self.jacobian(x) for x in w]) if len(w) else np.zeros((0, 36))
+
+    def cov(self, wrenches: ArrayLike) -> NDArray[np.float64]:
+        """(6 n, 6 n): the covariance of the common error of windows with ``wrenches``
+        (n, 6) as their means (module)."""
+        w = np.asarray(wrenches, dtype=np.float64).reshape(-1, 6)
+        s = self.scale
+        normalised = w / s
+        return self.sigma**2 * np.kron(normalised @ normalised.T, np.diag(s**2))
