@@ -70,6 +70,7 @@ from com_core.contract import (
     status_of,
 )
 from com_core.exploration import WRENCHES, Exploration, vector_value, verification_lines
+from com_core.noise import NoiseModel, ar1_noise
 from com_core.planner import Plan, dwell_for_target, predict, within_max_tilt
 from com_core.robot_config import (
     BAG_ROBOT_FILE,
@@ -113,8 +114,17 @@ PARAMETERS: dict[str, tuple[object, str]] = {
     "target_com_sigma": (0.0, "m; extend dwell until the predicted COM sigma meets it (0: off)"),
     "fewer_poses": (False, "with target_com_sigma: the planner may drop poses for a shorter pass"),
     "max_object_time": (20.0, "s (sim) the object pass may take when meeting target_com_sigma"),
-    "sigma_f": (0.1, "N; the sensor's force noise per sample (for the prediction)"),
-    "sigma_tau": (0.005, "N m; the sensor's torque noise per sample (for the prediction)"),
+    "sigma_f": (
+        0.1,
+        "N; the sensor's force noise per sample, for the prediction until a tare pass of "
+        "the hand in the tare cache has learnt the noise",
+    ),
+    "sigma_tau": (0.005, "N m; the sensor's torque noise per sample (as sigma_f)"),
+    "correlation_time": (
+        0.005,
+        "s; the sensor's noise correlation time (its first-order low-pass), for the "
+        "prediction until a tare pass has learnt the noise (as sigma_f)",
+    ),
     "rate": (1000.0, "Hz; the sensor's rate (for the prediction)"),
     "mass_guess": (0.1, "kg; a guess of the object's mass (for the prediction)"),
     "com_guess": ([0.0], "m; a guess of the COM in ft_sensor ([0.0]: the grasp centre)"),
@@ -356,10 +366,27 @@ class SequencerNode(Node):
         moves = [motion.motion_time(a, b, speed) for (_, a), (_, b) in pairwise(poses)]
         return replace(plan, move_time=max(moves, default=plan.move_time)), poses
 
+    def _cache_path(self) -> Path:
+        return Path(self.p("tare_cache") or Path(self.p("bag_dir")) / "tare_cache.json")
+
+    def planning_noise(self) -> tuple[NoiseModel, str]:
+        """(the sensor's noise to plan for, where it comes from): the noise the newest
+        tare pass of this hand learnt (the tare cache), else assumed from ``sigma_f``,
+        ``sigma_tau``, ``correlation_time`` and ``rate``."""
+        try:
+            cache = latest_hand_model(self._cache_path(), self.p("hand_id"))
+        except (ValueError, KeyError, OSError):
+            cache = None
+        if cache is not None and cache.noise is not None:
+            return cache.noise, "learnt by the cached tare pass"
+        sigma = [self.p("sigma_f")] * 3 + [self.p("sigma_tau")] * 3
+        noise = ar1_noise(sigma, self.p("correlation_time"), self.p("rate"))
+        return noise, "assumed from sigma_f, sigma_tau and correlation_time"
+
     def plan(self, motion: Choreography) -> Plan:
         """The plan the parameters ask for, as set; the COM guess ([0.0]: the grasp
         centre) and the gravity at home from the arm's model (its move time is set when
-        its poses are solved: ``_timed``)."""
+        its poses are solved: ``_timed``); the noise of ``planning_noise``."""
         gravity = motion.robot.gravity_in_sensor(motion.home_positions())
         guess = self.p("com_guess")
         return Plan(
@@ -376,6 +403,7 @@ class SequencerNode(Node):
             com_guess=tuple(motion.pivot if len(guess) == 1 else guess),
             gravity_home=tuple(gravity / np.linalg.norm(gravity)),
             bias_dwell=self.p("bias_dwell"),
+            noise=self.planning_noise()[0],
         )
 
     # --- the service ---------------------------------------------------------------------
@@ -440,6 +468,8 @@ class SequencerNode(Node):
         drift_rate = tuple(answer.values[3].double_array_value)
         plan, poses = self._planned(method, information, drift_rate, motion)
         prediction = predict(plan, method, information)
+        noise, source = self.planning_noise()
+        log.info(f"planned for the sensor's {noise.summary()} ({source})")
         log.info(
             f"run {run_id}: {config.robot}, poses {[n for n, _ in poses]}, "
             f"tilt {plan.tilt:.3f} rad, dwell {plan.dwell:g} s; predicted {prediction}"
@@ -519,7 +549,7 @@ class SequencerNode(Node):
         must read the same file (its ``tare_cache``), else a fresh pass is taken.
         """
         log = self.get_logger()
-        path = Path(self.p("tare_cache") or Path(self.p("bag_dir")) / "tare_cache.json")
+        path = self._cache_path()
         tare_poses = motion.pose_joints(plan.tare_plan())
         home_name, home = tare_poses[0]
         signature = tare_signature(self.p("hand_id"), tare_poses)
@@ -543,7 +573,7 @@ class SequencerNode(Node):
             log.info(f"phase 1/4: {what} ({cache.age():.0f} s old), empty hand at home")
             self.arm.move(home, "home")
             check = f"{home_name}{BIAS_WINDOW_SUFFIX}"  # matches no object window
-            fresh = self._captured_tares([(check, home)], self.p("bias_dwell")).get(check)
+            fresh = self._captured_tares([(check, home)], self.p("bias_dwell"))[0].get(check)
             if hand_model and fresh is not None:
                 reuse, verdict = True, "its hand model; the bias is fitted with the object"
             else:
@@ -556,13 +586,14 @@ class SequencerNode(Node):
                 return fresh if hand_model else cache.windows[home_name]
             log.warning(f"tare not reusable ({verdict}): new tare pass")
         log.info("phase 1/4: tare pass with the empty hand")
-        windows = self._captured_tares(tare_poses, plan.tare_dwell or plan.dwell)
+        windows, noise = self._captured_tares(tare_poses, plan.tare_dwell or plan.dwell)
         if home_name not in windows:
             raise RunError(f"the tare window at {home_name} was not recorded")
         if len(windows) == len(tare_poses):
             seen = {pose: self._window_seen[TARE_PREFIX + pose] for pose in windows}
             times = {pose: time for pose, (time, _) in seen.items()}
-            save_tares(path, signature, windows, {p: j for p, (_, j) in seen.items()}, times)
+            joints = {p: j for p, (_, j) in seen.items()}
+            save_tares(path, signature, windows, joints, times, noise)
             log.info(f"tare: saved to {path}")
         return windows[home_name]
 
@@ -610,8 +641,9 @@ class SequencerNode(Node):
 
     def _captured_tares(
         self, poses: list[tuple[str, list[float]]], dwell: float
-    ) -> dict[str, Window]:
-        """Run a tare pass and reduce its windows from the wrenches the recorder saw."""
+    ) -> tuple[dict[str, Window], NoiseModel | None]:
+        """Run a tare pass and reduce its windows from the wrenches the recorder saw, with
+        the noise they learn (``com_core.noise``); (windows by pose, that noise)."""
 
         def tare_pass() -> int:
             self._pass(TARE_PREFIX, poses, dwell)
@@ -623,11 +655,15 @@ class SequencerNode(Node):
             exploration.add_samples(*decode_wrench_batch(raws))
         for stamp, label in self._labels:
             exploration.add_label(stamp, label)
-        tares, _, _, refused = exploration.reduced_windows(until_ns=end)
+        noise = exploration.noise_model(end)
+        tares, _, _, refused = exploration.reduced_windows(end, noise)
         for note in refused:
             self.get_logger().warning(f"not usable: {note}")
-        self.get_logger().info(f"{TARE_PREFIX}: {len(tares)} windows from {len(raws)} wrenches")
-        return tares
+        learnt = f"; {noise.summary()}" if noise is not None else ""
+        self.get_logger().info(
+            f"{TARE_PREFIX}: {len(tares)} windows from {len(raws)} wrenches{learnt}"
+        )
+        return tares, noise
 
     def _wrenches_during(self, act: Callable[[], int], what: str) -> tuple[list[bytes], int]:
         """(the raw wrenches the recorder saw while ``act`` ran, and up to the sim time

@@ -195,7 +195,8 @@ def load_cached_tares(path: str | Path) -> TareCache | None:
 
 def use_cached_tares(exploration: Exploration, path: str | Path) -> None:
     """Give ``exploration`` the current entry of the cache file ``path``: its tare windows,
-    their joint positions and times (none for '', no file or a broken one)."""
+    their joint positions and times, and the noise learnt from them (none for '', no file
+    or a broken one)."""
     cache = load_cached_tares(path) or TareCache("", 0.0, {})
     exploration.tares, exploration.tare_joints = cache.windows, cache.joints
-    exploration.tare_times = cache.times
+    exploration.tare_times, exploration.noise = cache.times, cache.noise

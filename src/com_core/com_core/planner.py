@@ -2,8 +2,11 @@
 
 ``predict(plan, method)`` is the 1-sigma of the estimate that ``method`` will give,
 evaluated at the plan's guess of the object, for windows whose covariance follows from
-the sensor noise, the rate and the dwell: cov = S (1/N + 1/N_tare) with S the per-sample
-covariance and N = dwell * rate samples (the window mean minus its pose's tare mean).
+the sensor noise, the rate and the dwell: cov = S (1/N + 1/N_tare) with N = dwell * rate
+samples (the window mean minus its pose's tare mean) and S what one sample is worth in a
+long window's mean (``Plan.sample_cov``): the noise's per-sample covariance times its
+long-run factor, so a sensor whose samples are correlated is planned by its effective
+number of samples, N / f (``com_core.noise``).
 
 - ``ml``: the Cramer-Rao bound of the wrench-only model (``estimators.crlb``). The ML
   estimator reaches the bound, so the prediction is the spread a user will see.
@@ -39,6 +42,7 @@ from numpy.typing import NDArray
 from .estimators import crlb, two_pose
 from .kinematics import DEFAULT_GRAVITY
 from .known_gravity import BIAS_DRIFT_RATE, Observation, kinematic_ml
+from .noise import COV_FLOOR, NoiseModel, white_noise
 from .windows import Window
 from .wrench_model import (
     STANDARD_GRAVITY,
@@ -95,6 +99,8 @@ class Plan:
     settle : s waited after each motion before the window starts.
     move_time : s per motion between poses.
     sensor : noise and rate of the F/T sensor (per sample).
+    noise : the sensor's noise as learnt (a tare pass's, ``com_core.noise``) or assumed;
+        None: white at ``sensor``'s sigma.
     mass_guess : kg. com_guess : shape (3,); m; sensor frame.
     gravity_home : shape (3,); gravity direction at home in the sensor frame (measure it
         from the tare's force; the paper's top grasp is (0, 0, -1)).
@@ -121,6 +127,7 @@ class Plan:
     bias_drift_rate: tuple[float, float] = BIAS_DRIFT_RATE
     hand_mass_guess: float = 1.0
     hand_com_guess: tuple[float, float, float] = (0.0, 0.0, 0.04)
+    noise: NoiseModel | None = None
 
     def __post_init__(self) -> None:
         if not 0.0 < self.tilt < math.pi / 2:
@@ -160,9 +167,24 @@ class Plan:
     def samples_per_window(self) -> int:
         return max(1, round(self.dwell * self.sensor.rate_hz))
 
+    def noise_model(self) -> NoiseModel:
+        """The sensor's noise planned for: ``noise``, else white at ``sensor``'s."""
+        if self.noise is not None:
+            return self.noise
+        return white_noise(self.sensor.sample_covariance(), self.sensor.rate_hz)
+
+    def sample_cov(self) -> NDArray[np.float64]:
+        """Covariance (6, 6) of what one sample is worth in a long window's mean: the
+        noise's per-sample covariance scaled per axis pair by sqrt(f_a f_b), f its
+        long-run factor (n correlated samples are worth n / f independent ones), plus
+        ``COV_FLOOR``^2 so that a noise-free sensor plans (its shortest dwell serves)."""
+        noise = self.noise_model()
+        root = np.sqrt(noise.long_run_factor)
+        return noise.cov * np.outer(root, root) + np.diag(COV_FLOOR**2)
+
     def window_cov(self) -> NDArray[np.float64]:
         """Covariance (6, 6) of each tare-subtracted window mean; N, N m."""
-        return self.sensor.sample_covariance() * self._variance_factor(self.dwell)
+        return self.sample_cov() * self._variance_factor(self.dwell)
 
     def _variance_factor(self, dwell: float) -> float:
         """1/N + 1/N_tare for a window of ``dwell`` s."""
@@ -257,7 +279,7 @@ def plan_observations(plan: Plan) -> list[Observation]:
     g_home = as_vector(plan.gravity_home, 3, "gravity_home")
     home = _home_rotation(g_home / np.linalg.norm(g_home))
     base_g = np.asarray(DEFAULT_GRAVITY)
-    sample_cov, rate = plan.sensor.sample_covariance(), plan.sensor.rate_hz
+    sample_cov, rate = plan.sample_cov(), plan.sensor.rate_hz
     tare_dwell = plan.dwell if plan.tare_dwell is None else plan.tare_dwell
     hand_known = math.isinf(tare_dwell)
 
@@ -319,7 +341,7 @@ def _two_pose_cov(plan: Plan, g: float = STANDARD_GRAVITY) -> NDArray[np.float64
     covariance S * eps; two_pose propagates J cov J^T, so dividing by eps gives the
     covariance at c = 1 exactly (the Jacobian does not depend on the covariance).
     """
-    cov = plan.sensor.sample_covariance() * _TWO_POSE_EVAL_FACTOR
+    cov = plan.sample_cov() * _TWO_POSE_EVAL_FACTOR
     windows = [
         Window(name, gravity_wrench(plan.mass_guess, plan.com_guess, g * d), cov, 1)
         for (name, _), d in zip(plan.poses(), plan.gravity_directions(), strict=True)

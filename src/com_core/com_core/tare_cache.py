@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .noise import NoiseModel
 from .stats import chi2_sf
 from .windows import Window, window_from_mean
 
@@ -53,13 +54,15 @@ class TareCache:
     """Tare windows by pose, what they were taken for, and when (unix time, s); with the
     joint positions of each window (rad, m, by joint name), the hand's wrench is known
     at any orientation (``known_gravity``), not only at these poses; ``times`` are the
-    windows' middles (s, the sensor's clock), for a bias that drifts within the pass."""
+    windows' middles (s, the sensor's clock), for a bias that drifts within the pass;
+    ``noise`` the sensor's noise learnt from the pass (``com_core.noise``)."""
 
     signature: str
     created: float
     windows: dict[str, Window]
     joints: dict[str, dict[str, float]] = field(default_factory=dict)
     times: dict[str, float] = field(default_factory=dict)
+    noise: NoiseModel | None = None
 
     def age(self) -> float:
         return time.time() - self.created
@@ -81,7 +84,10 @@ class TareCache:
                 windows[pose]["joints"] = self.joints[pose]
             if pose in self.times:
                 windows[pose]["time"] = self.times[pose]
-        return {"signature": self.signature, "created": self.created, "windows": windows}
+        out = {"signature": self.signature, "created": self.created, "windows": windows}
+        if self.noise is not None:
+            out["noise"] = self.noise.as_dict()
+        return out
 
     @staticmethod
     def from_json(data: dict) -> TareCache:
@@ -95,7 +101,8 @@ class TareCache:
             if "joints" in w
         }
         times = {pose: float(w["time"]) for pose, w in data["windows"].items() if "time" in w}
-        return TareCache(data["signature"], float(data["created"]), windows, joints, times)
+        noise = NoiseModel.from_dict(data["noise"]) if "noise" in data else None
+        return TareCache(data["signature"], float(data["created"]), windows, joints, times, noise)
 
 
 def tare_signature(hand_id: str, poses: Sequence[tuple[str, Sequence[float]]]) -> str:
@@ -141,14 +148,15 @@ def save_tares(
     windows: dict[str, Window],
     joints: dict[str, dict[str, float]] | None = None,
     times: dict[str, float] | None = None,
+    noise: NoiseModel | None = None,
 ) -> None:
     """Add (or replace) the entry for ``signature``, taken now, and make it current;
     ``joints`` and ``times``: each window's joint positions (rad, m, by joint name) and
-    time (s, the middle of the window, the sensor's clock)."""
+    time (s, the middle of the window, the sensor's clock); ``noise``: the sensor's."""
     path = Path(path)
     entries = _read_or_empty(path)
     entries[signature] = TareCache(
-        signature, time.time(), dict(windows), dict(joints or {}), dict(times or {})
+        signature, time.time(), dict(windows), dict(joints or {}), dict(times or {}), noise
     )
     _write(path, entries, signature)
 
