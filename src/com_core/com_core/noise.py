@@ -24,7 +24,7 @@ Used for (``windows.reduce_window``):
   f(n) = 1 + 2 sum_{k=1}^{n-1} (1 - k / n) rho(k) (``mean_factor``; rho the
   autocorrelation); across axes the samples' covariance is scaled by sqrt(f_a f_b);
 - the motion tests: the drift between a window's halves against that covariance, and
-  the excess variance of the AR prediction errors (white, n degrees of freedom);
+  the excess variance against the variance's spread with correlated samples;
 - where a window has settled after the arm's ringing (``settled_start``).
 
 Each window is less its own mean, which biases the pooled autocovariance down by the
@@ -198,8 +198,8 @@ class NoiseModel:
         if not (self.samples and other.samples):
             return ""
         a, b = self.variance, other.variance
-        reach = (1.0 + 2.0 * self._sq_corr_sum()) / self.samples
-        reach += (1.0 + 2.0 * other._sq_corr_sum()) / other.samples
+        reach = self.variance_dof_factor / self.samples
+        reach += other.variance_dof_factor / other.samples
         with np.errstate(divide="ignore", invalid="ignore"):
             score = np.abs(np.log(a / b)) / np.sqrt(2.0 * reach)
         score = np.where((a > COV_FLOOR**2) | (b > COV_FLOOR**2), score, 0.0)
@@ -211,9 +211,11 @@ class NoiseModel:
             f"{math.sqrt(b[worst]):.3g} -> {math.sqrt(a[worst]):.3g} per sample"
         )
 
-    def _sq_corr_sum(self) -> NDArray[np.float64]:
-        """(6,) sum_{k>=1} rho(k)^2 (to 500 lags): how many samples a variance is worth."""
-        return (self.autocorrelation(500)[1:] ** 2).sum(axis=0)
+    @property
+    def variance_dof_factor(self) -> NDArray[np.float64]:
+        """(6,) k = 1 + 2 sum_{k>=1} rho(k)^2 (to 500 lags): n correlated samples hold
+        n / k degrees of freedom for a variance (1 if white)."""
+        return 1.0 + 2.0 * (self.autocorrelation(500)[1:] ** 2).sum(axis=0)
 
 
 def white_noise(sample_cov: ArrayLike, rate_hz: float = 1000.0) -> NoiseModel:

@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import MissingTareError, MotionError, NonFiniteError, SaturationError
 from .noise import COV_FLOOR, NoiseModel
+from .stats import chi2_isf
 from .wrench_model import AXES, SensorModel
 
 __all__ = [
@@ -38,7 +39,11 @@ _MOTION_Z = 6.0
 SETTLE_PROBE = 0.1
 """s: the length of the pieces ``settled_start`` tests for the arm's ringing."""
 _SETTLE_Z = 5.0
-"""Threshold (standard scores) of the settling test per probe and axis."""
+"""Threshold (standard scores) of the settling test's offset per probe and axis."""
+_SETTLE_ALPHA = 1e-5
+"""False-alarm rate of the settling test's variance per probe and axis."""
+_MOTION_ALPHA = 1e-9
+"""False-alarm rate of the excess-variance motion test per axis (6 standard scores)."""
 
 
 @dataclass(frozen=True)
@@ -154,36 +159,43 @@ def _quiet(noise: NoiseModel) -> NDArray[np.bool_]:
     return noise.variance <= COV_FLOOR**2
 
 
+def _variance_limit(noise: NoiseModel, n: int, alpha: float) -> NDArray[np.float64]:
+    """(6,) the largest ratio of n samples' mean square (about their mean) to the noise's
+    variance that is noise at false-alarm rate ``alpha``: chi-square with the n / k
+    degrees of freedom that correlated samples hold for a variance, k = 1 + 2 sum
+    rho(k)^2 (``NoiseModel.variance_dof_factor``), over its dof."""
+    dof = n / noise.variance_dof_factor
+    return np.array([chi2_isf(alpha, d) / d for d in dof])
+
+
 def settled_start(x: NDArray[np.float64], noise: NoiseModel) -> int:
     """The first sample (index) of ``x`` (n, 6) after the arm's ringing has settled.
 
     The first half of the window is cut into probes of ``SETTLE_PROBE`` s; a probe is
-    still ringing when, on any axis, the variance of its AR prediction errors exceeds the
-    noise's (``NoiseModel.innovation``; white, so a probe of L samples has L degrees of
-    freedom) or its mean is off the second half's, each by more than ``_SETTLE_Z``
-    standard scores. The window starts after the last probe that rings (0 when none
-    does). Depends on the samples and the model only, so the node and the replay of its
-    bag cut the same windows."""
+    still ringing when, on any axis, its mean square about the second half's mean
+    exceeds the noise's variance (``_variance_limit`` at ``_SETTLE_ALPHA``) or its mean
+    is off the second half's by more than ``_SETTLE_Z`` standard scores of the
+    correlated noise. The
+    window starts after the last probe that rings (0 when none does). Depends on the
+    samples and the model only, so the node and the replay of its bag cut the same
+    windows."""
     n = len(x)
     probe = max(10, round(SETTLE_PROBE * noise.rate_hz))
     if n < 4 * probe or _quiet(noise).all():
         return 0
-    p = max(noise.orders, default=0)
-    tail = x[n // 2 :]
-    errors = noise.prediction_errors(x)  # errors[t - p] belongs to sample t
-    innovation = np.where(_quiet(noise), np.inf, noise.innovation)
-    variance = noise.variance
-    var_limit = 1.0 + _SETTLE_Z * math.sqrt(2.0 / probe)
+    tail = x[n // 2 :].mean(axis=0)
+    variance = np.where(_quiet(noise), np.inf, noise.variance)
+    var_limit = _variance_limit(noise, probe, _SETTLE_ALPHA)
     offset_sd = np.sqrt(
-        variance * noise.mean_factor(probe) / probe
-        + variance * noise.mean_factor(len(tail)) / len(tail)
+        noise.variance * noise.mean_factor(probe) / probe
+        + noise.variance * noise.mean_factor(n - n // 2) / (n - n // 2)
         + 2.0 * COV_FLOOR**2
     )
     start = 0
-    for a in range(p, n // 2 - probe + 1, probe):
-        piece = errors[a - p : a - p + probe]
-        ringing = (piece**2).mean(axis=0) / innovation > var_limit
-        offset = np.abs(x[a : a + probe].mean(axis=0) - tail.mean(axis=0)) > _SETTLE_Z * offset_sd
+    for a in range(0, n // 2 - probe + 1, probe):
+        piece = x[a : a + probe] - tail
+        ringing = (piece**2).mean(axis=0) / variance > var_limit
+        offset = np.abs(piece.mean(axis=0)) > _SETTLE_Z * offset_sd
         if (ringing | offset).any():
             start = a + probe
     return start
@@ -192,11 +204,11 @@ def settled_start(x: NDArray[np.float64], noise: NoiseModel) -> int:
 def _check_static_correlated(pose: str, x: NDArray[np.float64], noise: NoiseModel) -> None:
     """Raise MotionError if the window's samples show motion, under correlated noise.
 
-    Two tests per axis, each at ``_MOTION_Z`` standard scores:
-    - drift: the means of the first and second half differ by more than the model's
-      noise of the two means (``NoiseModel.mean_factor``);
-    - excess variance: the AR prediction errors' variance exceeds the noise's
-      innovation variance by more than the chi-square spread, 1 + z sqrt(2 / n).
+    Two tests per axis:
+    - drift: the means of the first and second half differ by more than ``_MOTION_Z``
+      standard scores of the model's noise of the two means (``NoiseModel.mean_factor``);
+    - excess variance: the samples' variance exceeds the noise's beyond its spread with
+      correlated samples at ``_MOTION_ALPHA`` (``_variance_limit``).
     """
     n = x.shape[0]
     if n < 2 * MIN_SAMPLES_FOR_COVARIANCE:
@@ -216,15 +228,14 @@ def _check_static_correlated(pose: str, x: NDArray[np.float64], noise: NoiseMode
             f"window {pose!r}: motion, {AXES[worst]} drifts by {drift[worst]:.4g} between "
             f"the halves of the window ({drift_z[worst]:.1f} sigma of the correlated noise)"
         )
-    errors = noise.prediction_errors(x)
     quiet = _quiet(noise)
-    ratio = np.where(quiet, 0.0, (errors**2).mean(axis=0) / np.where(quiet, 1.0, noise.innovation))
-    limit = 1.0 + _MOTION_Z * math.sqrt(2.0 / len(errors))
-    worst = int(np.argmax(ratio))
-    if ratio[worst] > limit:
+    ratio = np.where(quiet, 0.0, x.var(axis=0) / np.where(quiet, 1.0, var))
+    limit = _variance_limit(noise, n, _MOTION_ALPHA)
+    worst = int(np.argmax(ratio / limit))
+    if ratio[worst] > limit[worst]:
         raise MotionError(
             f"window {pose!r}: motion, variance of {AXES[worst]} is {ratio[worst]:.1f}x the "
-            f"sensor noise's (limit {limit:.2f}x)"
+            f"sensor noise's (limit {limit[worst]:.2f}x)"
         )
 
 
