@@ -51,6 +51,7 @@ from std_msgs.msg import Header, String
 from std_srvs.srv import Trigger
 
 from com_core.bags.cdr import decode_wrench_batch
+from com_core.calibration import Calibration
 from com_core.contract import (
     DONE,
     ESTIMATOR_PARAMETERS_SERVICE,
@@ -288,15 +289,16 @@ class SequencerNode(Node):
         information: str,
         bias_drift_rate: tuple[float, ...],
         motion: Choreography,
+        calibration: Calibration | None = None,
     ) -> tuple[Plan, list[tuple[str, list[float]]]]:
         """The plan of the parameters and the joints of its poses: within ``max_tilt`` and
         the arm's reach (a pose no joint solution reaches is refused and the tilt lowered
         to the largest the arm reaches) and, with ``target_com_sigma``, its dwell (and
         with ``raise_tilt`` its tilt, up to what the arm reaches) set by the planner for
-        the estimator's ``method`` and ``information``; its move time the longest move of
-        the pass. Every change is logged with its reason. RunError when no plan is
+        the estimator's ``method``, ``information`` and ``calibration``; its move time the
+        longest move of the pass. Every change is logged with its reason. RunError when no plan is
         feasible (the reason says what would be)."""
-        plan = self.plan(motion)
+        plan = replace(self.plan(motion), calibration=calibration)
         if len(bias_drift_rate) == 2:  # the estimator's (kinematic information)
             plan = replace(plan, bias_drift_rate=bias_drift_rate)
         plan, lowered = within_max_tilt(plan, self.p("max_tilt"))
@@ -461,12 +463,23 @@ class SequencerNode(Node):
         self._call(self._estimator_reset, Trigger.Request(), "resetting the estimator")
         self.io.diagnostics.clear()  # only this run's answers from here on
         home, pick = list(config.home_joints), list(config.pick_joints)
-        names = ["method", "information", "tare_cache", "bias_drift_rate"]
+        names = [
+            "method",
+            "information",
+            "tare_cache",
+            "bias_drift_rate",
+            "accuracy",
+            "full_scale",
+        ]
         request = GetParameters.Request(names=names)
         answer = self._call(self._estimator_params, request, "reading the estimator's settings")
         method, information, estimator_cache = (value.string_value for value in answer.values[:3])
         drift_rate = tuple(answer.values[3].double_array_value)
-        plan, poses = self._planned(method, information, drift_rate, motion)
+        accuracy, full_scale = answer.values[4].double_value, answer.values[5].double_array_value
+        calibration = (
+            Calibration(accuracy, *full_scale) if accuracy > 0 and len(full_scale) == 2 else None
+        )
+        plan, poses = self._planned(method, information, drift_rate, motion, calibration)
         prediction = predict(plan, method, information)
         noise, source = self.planning_noise()
         log.info(f"planned for the sensor's {noise.summary()} ({source})")

@@ -39,6 +39,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
+from .calibration import Calibration
 from .estimators import crlb, two_pose
 from .kinematics import DEFAULT_GRAVITY
 from .known_gravity import BIAS_DRIFT_RATE, Observation, kinematic_ml
@@ -101,6 +102,8 @@ class Plan:
     sensor : noise and rate of the F/T sensor (per sample).
     noise : the sensor's noise as learnt (a tare pass's, ``com_core.noise``) or assumed;
         None: white at ``sensor``'s sigma.
+    calibration : the sensor's stated accuracy (``com_core.calibration``): the kinematic
+        fit's prediction holds its systematic share, a floor no dwell lowers.
     mass_guess : kg. com_guess : shape (3,); m; sensor frame.
     gravity_home : shape (3,); gravity direction at home in the sensor frame (measure it
         from the tare's force; the paper's top grasp is (0, 0, -1)).
@@ -128,6 +131,7 @@ class Plan:
     hand_mass_guess: float = 1.0
     hand_com_guess: tuple[float, float, float] = (0.0, 0.0, 0.04)
     noise: NoiseModel | None = None
+    calibration: Calibration | None = None
 
     def __post_init__(self) -> None:
         if not 0.0 < self.tilt < math.pi / 2:
@@ -325,7 +329,9 @@ def _kinematic_cov(plan: Plan, fit_mount: bool) -> NDArray[np.float64]:
     covariance at noise-free windows of the guesses is its CRLB."""
     observations = plan_observations(plan)
     rate = None if all(o.load for o in observations) else plan.bias_drift_rate
-    return kinematic_ml(observations, DEFAULT_GRAVITY, fit_mount, rate).estimate.cov
+    return kinematic_ml(
+        observations, DEFAULT_GRAVITY, fit_mount, rate, calibration=plan.calibration
+    ).estimate.cov
 
 
 def _check_method(method: str) -> None:
