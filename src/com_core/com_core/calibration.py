@@ -18,16 +18,26 @@ covariance plus this term (generalised least squares): the reported covariance t
 the calibration's share, the chi-square test is not misled by a misfit the calibration
 explains, and the verification's residual covariance has it too. The true wrenches are
 taken as the measured window means (first order).
+
+The wrenches alone (``estimators``) weigh windows one by one: the tare-subtracted windows'
+common error is E applied to the object's wrench (the hand's cancels in the subtraction),
+its share of the estimate's covariance is propagated through the estimator's Jacobian by
+the window means (``propagated``), and the chi-square test widens each window by its own
+share (``widened``; the correlation across windows is left out of that test).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = ["Calibration"]
+
+_STEP = 1e-3
+"""Central-difference step of ``propagated``, in sigmas of each window mean."""
 
 
 @dataclass(frozen=True)
@@ -70,3 +80,27 @@ class Calibration:
         s = self.scale
         normalised = w / s
         return self.sigma**2 * np.kron(normalised @ normalised.T, np.diag(s**2))
+
+    def widened(self, windows: Sequence) -> list:
+        """``windows`` (``windows.Window``) with each covariance plus its own share of the
+        common error."""
+        return [replace(w, cov=w.cov + self.cov(w.mean)) for w in windows]
+
+    def propagated(
+        self, estimate_of: Callable[[list], NDArray[np.float64]], windows: Sequence
+    ) -> NDArray[np.float64]:
+        """(k, k): the covariance the common error gives the k numbers
+        ``estimate_of(windows)`` computes from ``windows``, through its Jacobian by the
+        windows' means (central differences)."""
+        windows = list(windows)
+        columns = []
+        for i, w in enumerate(windows):
+            for a in range(6):
+                h = _STEP * float(np.sqrt(w.cov[a, a]))
+                step = np.zeros(6)
+                step[a] = h
+                plus, minus = list(windows), list(windows)
+                plus[i], minus[i] = replace(w, mean=w.mean + step), replace(w, mean=w.mean - step)
+                columns.append((estimate_of(plus) - estimate_of(minus)) / (2 * h))
+        jac = np.array(columns).T
+        return jac @ self.cov(np.array([w.mean for w in windows])) @ jac.T

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -625,10 +625,9 @@ class Exploration:
                 _check_load_direction(windows, tares)  # the kinematic fit checks its own
             if information == WRENCHES:
                 fit, wrenches_sigma = None, None
-                estimate = METHODS[self.method](
-                    windows, g=self.g, min_tilt_sigmas=self.min_tilt_sigmas
-                )
-                consistency = check_consistency(windows, alpha=self.alpha, g=self.g)
+                estimate = self._wrenches_estimate(windows)
+                tested = self.calibration.widened(windows) if self.calibration else windows
+                consistency = check_consistency(tested, alpha=self.alpha, g=self.g)
                 used = windows
             else:
                 fit, observations = self._kinematic_fit(
@@ -715,6 +714,24 @@ class Exploration:
             )
             return WRENCHES
         return self.information
+
+    def _wrenches_estimate(self, windows: list[Window]) -> Estimate:
+        """``method``'s estimate from the tare-subtracted ``windows``, its covariance with
+        the calibration's share (``Calibration.propagated``)."""
+
+        def fit(ws: list[Window]) -> Estimate:
+            return METHODS[self.method](ws, g=self.g, min_tilt_sigmas=self.min_tilt_sigmas)
+
+        estimate = fit(windows)
+        if self.calibration is None:
+            return estimate
+
+        def numbers(ws: list[Window]) -> NDArray[np.float64]:
+            e = fit(ws)
+            return np.array([e.mass, *e.com])
+
+        share = self.calibration.propagated(numbers, windows)
+        return replace(estimate, cov=estimate.cov + share)
 
     def _wrenches_sigma(self, windows: list[Window]) -> NDArray[np.float64] | None:
         """For a kinematic fit, the COM sigma (m) the wrenches alone give on the same
