@@ -30,7 +30,7 @@ from com_core.contract import (
     EXPLORE_SERVICE,
     TRUTH_TOPIC,
 )
-from com_core.exploration import INFORMATION, vector_value, verification_lines
+from com_core.exploration import INFORMATION, noise_line, vector_value, verification_lines
 from com_core.payload import PAYLOAD_FILE
 from com_core.processes import executable, ros_args, stop
 from com_core.robot_config import ROBOTS, RobotConfigError, read_robot_config, robot_config_path
@@ -269,6 +269,8 @@ def print_summary(result, estimates, truths, statuses, wall: float) -> None:
             )
         for line in verification_lines(values):
             print(f"          {line}")
+        if noise := noise_line(values):
+            print(f"          {noise}")
         held = [t for t in truths if t.header.stamp.sec * 10**9 + t.header.stamp.nanosec <= stamp]
         if held:
             t = held[-1].inertia

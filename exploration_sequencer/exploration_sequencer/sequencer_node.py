@@ -70,7 +70,13 @@ from com_core.contract import (
     WRENCH_TOPIC,
     status_of,
 )
-from com_core.exploration import WRENCHES, Exploration, vector_value, verification_lines
+from com_core.exploration import (
+    WRENCHES,
+    Exploration,
+    noise_line,
+    vector_value,
+    verification_lines,
+)
 from com_core.noise import NoiseModel, ar1_noise
 from com_core.planner import Plan, dwell_for_target, predict, within_max_tilt
 from com_core.robot_config import (
@@ -796,6 +802,7 @@ def _summary(status, prediction, object_time: float, bag: Path) -> str:
         if alone := vector_value(values, "wrenches_sigma_com", 1e3):
             head += f" (wrenches alone: COM +- ({', '.join(f'{v:.2f}' for v in alone)}) mm)"
         head += "".join(f"; {line}" for line in verification_lines(values))
+        head += f"; {noise}" if (noise := noise_line(values)) else ""
     return f"{head}; predicted {prediction}; object pass {object_time:.1f} s (sim); bag {bag}"
 
 

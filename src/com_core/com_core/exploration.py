@@ -77,6 +77,7 @@ __all__ = [
     "Verification",
     "done_stamp",
     "format_solution",
+    "noise_line",
     "shorten",
     "vector_value",
     "verification_lines",
@@ -906,6 +907,22 @@ def verification_lines(values: Mapping[str, str]) -> list[str]:
             f"sigma ({d[2]:.2f} allowed)"
         )
     return lines
+
+
+def noise_line(values: Mapping[str, str]) -> str | None:
+    """The sensor's noise learnt by a solution, from ``Solution.diagnostic_values`` read
+    back: sigma per sample and correlation time, forces and torques (the largest axis),
+    and what it was learnt from; None when it has none."""
+    sigma = vector_value(values, "noise_sigma")
+    time = vector_value(values, "noise_correlation_time", 1e3)
+    if not sigma or not time or len(sigma) != 6 or len(time) != 6:
+        return None
+    order = max(vector_value(values, "noise_ar_order") or [0])
+    return (
+        f"sensor noise {max(sigma[:3]):.3f} N, {max(sigma[3:]) * 1e3:.2f} mN m per sample, "
+        f"correlation time {max(time[:3]):.1f} ms (forces), {max(time[3:]):.1f} ms (torques), "
+        f"AR order {order:.0f}, learnt from {values.get('noise_samples', '?')} samples"
+    )
 
 
 def done_stamp(labels: Sequence[tuple[int, str]]) -> int | None:

@@ -301,9 +301,9 @@ def learn_noise(
         cov = (cov0 + cov_correction) / total
         ar, innovation = [], np.zeros(6)
         for a in range(6):
-            if not gamma[0, a] > 0:
+            if not gamma[0, a] > COV_FLOOR[a] ** 2:  # below the floor: white, if anything
                 ar.append(())
-                innovation[a] = 0.0
+                innovation[a] = max(gamma[0, a], 0.0)
                 continue
             fits = _levinson(gamma[:, a], MAX_ORDER)
             aic = [total * math.log(err) + 2 * len(phi) for phi, err in fits if err > 0]

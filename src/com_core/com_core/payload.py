@@ -51,6 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 from .exploration import Solution
 from .kinematics import DEFAULT_GRAVITY, RobotModel
 from .known_gravity import _rotation, mount_rpy
+from .noise import NoiseModel
 from .wrench_model import skew
 
 __all__ = [
@@ -117,6 +118,7 @@ class Payload:
     information : the information model of the fit (e.g. 'kinematics+mount').
     time : ISO 8601 (UTC) of the estimate; '' unknown.
     hand_id : names the hand the payload was held by; '' unknown.
+    noise : the sensor's noise the estimate learnt (``com_core.noise``); None unknown.
 
     Keyword arguments only; arrays are kept as read-only copies, and what the compensation
     needs of them (R(mount), R(base_tilt) g, the wrench per unit gravity) is computed
@@ -141,6 +143,7 @@ class Payload:
     information: str
     time: str = ""
     hand_id: str = ""
+    noise: NoiseModel | None = None
     _mount_rotation: NDArray[np.float64] = field(init=False, repr=False)
     _base_gravity: NDArray[np.float64] = field(init=False, repr=False)
     _wrench_map: NDArray[np.float64] = field(init=False, repr=False)
@@ -348,6 +351,7 @@ def payload_from_solution(
         information=solution.information,
         time=_utc_now() if time is None else time,
         hand_id=hand_id,
+        noise=solution.noise,
     )
 
 
@@ -429,6 +433,11 @@ _FILE_NOTES = {
         "R(base_tilt) gravity; gravity: m/s^2 in base_frame\n"
     ),
     "time": "time of the estimate; hand_id: the hand it was held by ('' unknown)\n",
+    "noise": (
+        "the sensor's noise the estimate learnt (com_core.noise.NoiseModel): the covariance\n"
+        "of one sample, per axis its AR coefficients and prediction-error variance, the\n"
+        "samples and the rate it was learnt from\n"
+    ),
     "control_toolbox": _FILTER_NOTE.format(plugin=FILTER_PLUGIN)
     + "The same parameters as gravity_compensation.yaml.\n",
 }
@@ -484,6 +493,7 @@ def _file_fields(payload: Payload) -> dict:
         "gravity": p.gravity.tolist(),
         "time": p.time,
         "hand_id": p.hand_id,
+        **({"noise": p.noise.as_dict()} if p.noise is not None else {}),
         "units": _UNITS,
         "control_toolbox": {"gravity_compensation": _filter_parameters(p)},
     }
@@ -568,7 +578,18 @@ def _payload_of(data: Mapping) -> Payload:
         information=_text(data, "information"),
         time=_text(data, "time"),
         hand_id=_text(data, "hand_id"),
+        noise=_noise(data),
     )
+
+
+def _noise(data: Mapping) -> NoiseModel | None:
+    """payload.yaml's optional ``noise`` (None without it)."""
+    if "noise" not in data:
+        return None
+    try:
+        return NoiseModel.from_dict(data["noise"])
+    except (KeyError, TypeError, ValueError) as error:
+        raise PayloadError(f"is not a noise model: {error!r}", "noise") from None
 
 
 def _get(data: Mapping, name: str) -> object:

@@ -10,7 +10,10 @@
   the mass (g) and each COM axis (mm, ``ft_sensor``) with 1-sigma (thick) and 3-sigma
   (thin) error bars; without ground truth the estimate itself with its error bars; with
   no estimate (ERROR) the reason, large; under it a table of every number, the status,
-  reason, method, chi-square, poses, and which topics the bag lacks.
+  reason, method, chi-square, poses, and which topics the bag lacks;
+- bottom left: the sensor's noise, the autocorrelation of the empty hand's windows (all
+  static windows when there are none) per axis, each window less its mean, against the
+  AR model the estimator learns from them (``com_core.noise``).
 
 Any topic may be missing: the report is still written and says what is missing.
 
@@ -40,7 +43,8 @@ from ..contract import (
     VERIFY_PREFIX,
     WRENCH_TOPIC,
 )
-from ..exploration import vector_value, verification_lines
+from ..exploration import noise_line, vector_value, verification_lines
+from ..noise import learn_noise
 from .run import RunData, read_run
 
 __all__ = ["write_report"]
@@ -256,6 +260,67 @@ def _draw_traces(fig, run: RunData, rect: tuple[float, float, float, float]) -> 
     ax_t.set_xlabel("sim time (s, header stamps)")
     if not times:
         ax_t.tick_params(labelbottom=False)
+
+
+_NOISE_LAGS = 60  # samples shown in the autocorrelation
+
+
+def _noise_segments(run: RunData) -> list[NDArray[np.float64]]:
+    """The second halves (settled) of the empty hand's windows, else of every static
+    window: (n, 6) each, N and N m."""
+    windows = _windows(run)
+    tares = [w for w in windows if w[2].startswith(TARE_PREFIX)] or windows
+    t = run.stamps * 1e-9
+    out = []
+    for start, stop, _ in tares:
+        x = run.wrenches[(t >= start) & (t < stop)]
+        out.append(x[len(x) // 2 :])
+    return out
+
+
+def _draw_noise(fig, run: RunData, rect: tuple[float, float, float, float]) -> None:
+    """The measured autocorrelation of ``_noise_segments`` per axis against the learnt
+    model's (dashed), lags in ms."""
+    ax = fig.add_axes(rect)
+    ax.set_title(
+        "Sensor noise: autocorrelation of the empty hand's windows (dashed: the model learnt)",
+        loc="left",
+        fontsize=11,
+        fontweight="bold",
+    )
+    segments = [x for x in _noise_segments(run) if len(x) > _NOISE_LAGS]
+    steps = np.diff(run.stamps)
+    rate = 1e9 / float(np.median(steps[steps > 0])) if steps.size and (steps > 0).any() else 1e3
+    model = learn_noise(segments, rate) if segments else None
+    if model is None or not np.any(model.variance > 0):
+        _centred_text(ax, "too few static samples to show the noise's correlation", 10)
+        ax.set_xticks([])
+        ax.set_yticks([])
+        return
+    products = np.zeros((_NOISE_LAGS + 1, 6))
+    counts = np.zeros(_NOISE_LAGS + 1)
+    for x in segments:
+        y = x - x.mean(axis=0)
+        for k in range(_NOISE_LAGS + 1):
+            products[k] += (y[: len(y) - k] * y[k:]).sum(axis=0)
+            counts[k] += len(y) - k
+    gamma = products / counts[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        measured = np.where(gamma[0] > 0, gamma / gamma[0], 0.0)
+    lags = np.arange(_NOISE_LAGS + 1) / rate * 1e3
+    names = ("$f_x$", "$f_y$", "$f_z$", r"$\tau_x$", r"$\tau_y$", r"$\tau_z$")
+    learnt = model.autocorrelation(_NOISE_LAGS)
+    for a, name in enumerate(names):
+        colour = _AXIS_COLOURS[a % 3]
+        style = "-" if a < 3 else ":"
+        ax.plot(lags, measured[:, a], color=colour, ls=style, lw=1.1, label=name)
+        ax.plot(lags, learnt[:, a], color=colour, ls="--", lw=0.8, alpha=0.7)
+    ax.axhline(0.0, color="#999999", lw=0.6)
+    ax.set_xlabel("lag (ms)")
+    ax.set_ylabel("autocorrelation")
+    ax.set_xlim(0, lags[-1])
+    ax.grid(True, color="#dddddd", lw=0.6)
+    ax.legend(loc="upper right", ncol=6, fontsize=8.5, framealpha=0.85)
 
 
 def _right_edge(fig, artist, renderer) -> float:
@@ -481,6 +546,8 @@ def _kinematic_lines(values: dict) -> list[str]:
             lines.append(f"{name} ({', '.join(f'{math.degrees(v):.2f}' for v in angles)}) deg")
     for line in verification_lines(values):
         lines += textwrap.wrap(line, 64, subsequent_indent=" " * 11)
+    if noise := noise_line(values):
+        lines += textwrap.wrap(noise, 64, subsequent_indent=" " * 11)
     return lines
 
 
@@ -594,7 +661,8 @@ def write_report(bag: Path | str, png: Path | str | None = None) -> Path:
     fig = Figure(figsize=(16, 11), dpi=100)  # no pyplot: no global figure registry
     FigureCanvasAgg(fig)  # the Agg backend, for this figure only
     _draw_banner(fig, run)
-    _draw_traces(fig, run, (0.055, 0.06, 0.54, 0.8))
+    _draw_traces(fig, run, (0.055, 0.3, 0.54, 0.56))
+    _draw_noise(fig, run, (0.055, 0.06, 0.54, 0.16))
     if rows:
         _draw_bars(fig, rows, (0.69, 0.5, 0.295, 0.3))
     else:
