@@ -20,6 +20,7 @@ from com_core.estimators import Consistency
 from com_core.exploration import KINEMATICS_MOUNT, WRENCHES, Solution
 from com_core.kinematics import RobotModel
 from com_core.known_gravity import Observation, kinematic_ml
+from com_core.noise import ar1_noise
 from com_core.payload import (
     GRAVITY_COMPENSATION_FILE,
     PAYLOAD_FILE,
@@ -516,3 +517,18 @@ def test_write_payload_files_leaves_no_partial_file(tmp_path):
         [PAYLOAD_FILE, GRAVITY_COMPENSATION_FILE, URDF_FILE]
     )
     assert Path(tmp_path / PAYLOAD_FILE).is_dir()
+
+
+def test_payload_yaml_keeps_the_noise_learnt(tmp_path):
+    """The sensor's noise model goes into payload.yaml and reads back to the same doubles."""
+    noise = ar1_noise([0.1, 0.1, 0.1, 0.005, 0.005, 0.005], 0.005, 1000.0)
+    payload = replace(awkward_payload(0), noise=noise)
+    path = tmp_path / PAYLOAD_FILE
+    path.write_text(payload_yaml(payload))
+    back = read_payload(path).noise
+    assert back is not None and back.ar == noise.ar
+    np.testing.assert_array_equal(back.cov, noise.cov)
+    np.testing.assert_array_equal(back.innovation, noise.innovation)
+    path.write_text(payload_yaml(payload).replace("innovation:", "innovations:"))
+    with pytest.raises(PayloadError, match="noise"):
+        read_payload(path)
