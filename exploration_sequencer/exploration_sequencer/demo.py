@@ -35,6 +35,7 @@ from com_core.payload import PAYLOAD_FILE
 from com_core.processes import executable, ros_args, stop
 from com_core.robot_config import ROBOTS, RobotConfigError, read_robot_config, robot_config_path
 from com_core.rosenv import keep_dds_local
+from com_core.sensor_profiles import DEFAULT_PROFILE, PROFILES
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -54,8 +55,14 @@ def build_parser() -> argparse.ArgumentParser:
         default=0.0,
         help="m; random COM shift at each tilt (the paper's reconfiguration)",
     )
-    p.add_argument("--sigma-f", type=float, default=0.1, help="N per sample")
-    p.add_argument("--sigma-tau", type=float, default=0.005, help="N m per sample")
+    p.add_argument(
+        "--sensor-profile",
+        choices=sorted(PROFILES),
+        default=DEFAULT_PROFILE,
+        help="the simulated sensor's parts (com_core.sensor_profiles)",
+    )
+    p.add_argument("--sigma-f", type=float, help="N per published sample (default: the profile's)")
+    p.add_argument("--sigma-tau", type=float, help="N m per published sample (as --sigma-f)")
     p.add_argument("--tilt", type=float, help="rad (default: the sequencer's, pi/6)")
     p.add_argument(
         "--max-tilt", type=float, help="rad; the largest tilt the object allows (default: pi/6)"
@@ -102,36 +109,37 @@ def main(argv: list[str] | None = None) -> int:
     args.bag_dir.mkdir(parents=True, exist_ok=True)
     logs = args.bag_dir / "logs"
     logs.mkdir(exist_ok=True)
+    # the noise per sample when given: the sim's, and the sequencer's for its first plan
+    noise = {
+        k: v
+        for k, v in (("sigma_f", args.sigma_f), ("sigma_tau", args.sigma_tau))
+        if v is not None
+    }
     sim_params = {
         "object": args.object,
         "object_mass": args.mass,
         "seed": args.seed,
         "grasp_mode": args.grasp_mode,
         "slip_sigma": args.slip_sigma,
-        "sigma_f": args.sigma_f,
-        "sigma_tau": args.sigma_tau,
+        "sensor_profile": args.sensor_profile,
         "real_time_factor": args.real_time_factor,
-    }
+    } | noise
     tare_cache = str((args.bag_dir / "tare_cache.json").resolve())  # shared by both nodes
     estimator_params = {
         "use_sim_time": True,
         "method": args.method,
-        "sigma_f": args.sigma_f,
-        "sigma_tau": args.sigma_tau,
         "tare_cache": tare_cache,
     } | ({"information": args.information} if args.information else {})
     sequencer_params = {
         "use_sim_time": True,
         "tilt_axes": args.axes.split(","),
         "both_directions": not args.one_way,
-        "sigma_f": args.sigma_f,
-        "sigma_tau": args.sigma_tau,
         "mass_guess": args.mass,
         "raise_tilt": args.raise_tilt,
         "release": not args.hold,
         "bag_dir": str(args.bag_dir.resolve()),
         "tare_cache": tare_cache,
-    }
+    } | noise
     for key, value in (
         ("tilt", args.tilt),
         ("max_tilt", args.max_tilt),

@@ -111,6 +111,7 @@ from com_core.wrench_model import STANDARD_GRAVITY
 from wrench_sim.objects import SHAPES, ObjectSpec, create_object_body, object_spec
 from wrench_sim.sensor import random_streams
 from wrench_sim.trajectory import JointLimits, QuinticTrajectory, trajectory_from_command
+from wrench_sim.vibration import Vibration
 
 __all__ = [
     "GRASP_MODES",
@@ -188,6 +189,8 @@ class SimConfig:
     home_joints : rad; the arm's initial joint positions, one per ``robot.arm_joints``;
         None = ``robot.home_joints``.
     gui : open pybullet's window instead of running headless (DIRECT).
+    vibration : the arm's structural modes, (frequency Hz, damping ratio) each
+        (``wrench_sim.vibration``); empty: a rigid arm. vibration_gain : their participation.
     """
 
     robot: RobotConfig = field(default_factory=default_robot_config)
@@ -201,6 +204,8 @@ class SimConfig:
     grip_force: float = 5.0
     home_joints: tuple[float, ...] | None = None
     gui: bool = False
+    vibration: tuple[tuple[float, float], ...] = ()
+    vibration_gain: float = 1.0
 
     def __post_init__(self) -> None:
         if not isinstance(self.robot, RobotConfig):
@@ -437,6 +442,10 @@ class ArmWorld:
         c.enableJointForceTorqueSensor(self.robot_body, self._sensor, True)
         self._raw = np.zeros(6)
         self._previous_raw = np.zeros(6)
+        modes = self.config.vibration
+        gain = self.config.vibration_gain
+        self._vibration = Vibration(modes, TIME_STEP, gain) if modes else None
+        self._load = self._load_now() if modes else (0.0, np.zeros(3))
         for _ in range(_WARM_UP_STEPS):
             self._physics_step()
         self._previous_raw = self._raw.copy()
@@ -600,6 +609,22 @@ class ArmWorld:
         self._previous_raw = self._raw
         # (F, M): the flange's wrench on the hand, hand axes, M about the joint origin.
         self._raw = np.negative(self._get_joint_state(self.robot_body, self._sensor)[2])
+        if self._vibration is not None:
+            self._raw = self._raw + self._ringing()
+
+    def _ringing(self) -> NDArray[np.float64]:
+        """The wrench (6,) the load's reaction to the structure's vibration adds to the
+        reading (``wrench_sim.vibration``); N, N m; ft_sensor."""
+        state = self._client.getLinkState(
+            self.robot_body, self._sensor, computeLinkVelocity=1, computeForwardKinematics=1
+        )
+        R = np.array(self._client.getMatrixFromQuaternion(state[5])).reshape(3, 3)
+        assert self._vibration is not None
+        moving = self._trajectory is not None
+        accel = R.T @ self._vibration.step(np.array(state[6]), moving)
+        mass, com = self._load
+        force = -mass * accel
+        return np.concatenate([force, np.cross(com, force)])
 
     @property
     def wrench(self) -> NDArray[np.float64]:
@@ -956,6 +981,17 @@ class ArmWorld:
             if np.arccos(np.clip(cos_angle, -1.0, 1.0)) > _NEW_TILT_ANGLE:
                 self._shift_object(R)
         self._look_for_collisions()
+        if self._vibration is not None:
+            self._load = self._load_now()
+
+    def _load_now(self) -> tuple[float, NDArray[np.float64]]:
+        """Mass (kg) and COM (m, ft_sensor) of everything beyond the sensor: the hand and a
+        held object."""
+        mass, com = self.hand_ground_truth()
+        if self.object_held:
+            m, c = self.object_ground_truth()
+            com, mass = (mass * com + m * c) / (mass + m), mass + m
+        return mass, com
 
     def _look_for_collisions(self) -> None:
         """Record each contact of a moving arm link with the ground or the stand, and of the

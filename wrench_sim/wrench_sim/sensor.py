@@ -1,29 +1,38 @@
-"""The wrist F/T sensor's electronics: com_core's SensorModel with a seeded random stream.
+"""The wrist F/T sensor's electronics: com_core's SensorModel with a seeded random stream,
+one sample per call, with the parts of a real sensor that depend on time.
 
 The physics hands over the true wrench (load on the sensor, frame ``ft_sensor``, already
-through the 2-tap anti-alias filter, see ``physics``); this stage adds bias and Gaussian noise,
-quantises and clips exactly as ``com_core.wrench_model.SensorModel.measure`` does, one sample
-per call, and remembers whether the last reading saturated.
+through the 2-tap anti-alias filter, see ``physics``). This stage filters it with the
+sensor's own first-order low-pass (``SensorModel.correlation_time``; the signal is delayed
+and smoothed as the noise is coloured), adds the bias (the static one, a warm-up toward a
+final offset and a random walk, from sim time 0: the sensor is powered when the sim starts)
+and the noise (AR(1) at the publish rate), calibrates, quantises and clips as
+``com_core.wrench_model.SensorModel.apply`` does, and remembers whether the last reading
+saturated. Figures: ``com_core.sensor_profiles``.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from com_core.wrench_model import SensorModel
 
-__all__ = ["WrenchSensor", "random_streams"]
+__all__ = ["BiasDrift", "WrenchSensor", "random_streams"]
 
-_STREAMS = ("object", "sensor", "slip")
+_STREAMS = ("object", "sensor", "slip", "calibration", "drift")
 _BLOCK = 1000  # samples of unit normals drawn at once
 
 
 def random_streams(seed: int) -> dict[str, np.random.Generator]:
-    """Independent generators for the object draw, the sensor noise and the grasp shifts.
+    """Independent generators for the object draw, the sensor noise, the grasp shifts, the
+    calibration error and the bias's drift.
 
     Separate streams keep the noise sequence of a seed the same whether or not the COM offset
-    is drawn or shifts are on.
+    is drawn, shifts are on or the sensor drifts (later names were appended: SeedSequence's
+    children keep their order).
     """
     children = np.random.SeedSequence(seed).spawn(len(_STREAMS))
     return {
@@ -32,37 +41,92 @@ def random_streams(seed: int) -> dict[str, np.random.Generator]:
     }
 
 
+class BiasDrift:
+    """A bias that warms up and wanders: per axis A (1 - exp(-t / T)) toward a final offset
+    A drawn N(0, ``warmup``^2), plus a random walk of ``random_walk`` per sqrt(s); N, N m.
+
+    ``at(t)`` must be called with non-decreasing times (s)."""
+
+    def __init__(
+        self,
+        warmup: ArrayLike,
+        warmup_time: float,
+        random_walk: ArrayLike,
+        rng: np.random.Generator,
+    ) -> None:
+        self.final = rng.standard_normal(6) * np.asarray(warmup, dtype=np.float64)
+        self.warmup_time = warmup_time
+        self.random_walk = np.asarray(random_walk, dtype=np.float64)
+        self._rng = rng
+        self._walk = np.zeros(6)
+        self._time = 0.0
+
+    def at(self, t: float) -> NDArray[np.float64]:
+        dt = t - self._time
+        if dt > 0 and self.random_walk.any():
+            self._walk += self._rng.standard_normal(6) * self.random_walk * math.sqrt(dt)
+        self._time = max(self._time, t)
+        warm = 1.0 - math.exp(-t / self.warmup_time) if self.warmup_time > 0 else 1.0
+        return self.final * warm + self._walk
+
+
 class WrenchSensor:
     """Turns true wrenches into sensor readings, deterministically for a generator's seed.
 
-    ``read`` gives exactly what ``model.measure(wrench, rng)`` gives call after call (the
-    tests check it), but draws the unit normals in blocks of 1000 samples, which matters
-    at 5 kHz.
+    For a white sensor without drift ``read`` gives exactly what
+    ``model.measure(wrench, rng)`` gives call after call (the tests check it), but draws
+    the unit normals in blocks of 1000 samples, which matters at 5 kHz; a correlated one
+    colours them as ``measure`` does.
 
     Parameters
     ----------
-    model : noise sigma, bias, resolution and range per axis; may be replaced at any time.
+    model : noise sigma, correlation, calibration, bias, resolution and range per axis; may
+        be replaced at any time.
     rng : the noise stream (``random_streams(seed)["sensor"]``).
+    drift : the bias's warm-up and random walk (None: none).
     """
 
-    def __init__(self, model: SensorModel, rng: np.random.Generator) -> None:
+    def __init__(
+        self, model: SensorModel, rng: np.random.Generator, drift: BiasDrift | None = None
+    ) -> None:
         self.model = model
+        self.drift = drift
         self._rng = rng
         self._normals = np.empty((0, 6))
         self._next = 0
+        self._coloured: NDArray[np.float64] | None = None
+        self._signal: NDArray[np.float64] | None = None
         self.saturated = False
 
-    def read(self, true_wrench: ArrayLike) -> NDArray[np.float64]:
-        """One reading (6,) of the true wrench (6,); N and N m; frame ``ft_sensor``.
-
-        ``SensorModel.apply`` with the next block-drawn normals; sets ``saturated`` when any
-        axis reached its range.
-        """
+    def read(self, true_wrench: ArrayLike, t: float = 0.0) -> NDArray[np.float64]:
+        """One reading (6,) of the true wrench (6,) at sim time ``t`` (s); N and N m; frame
+        ``ft_sensor``. Sets ``saturated`` when any axis reached its range."""
         if self._next == len(self._normals):
             self._normals = self._rng.standard_normal((_BLOCK, 6))
             self._next = 0
         normal = self._normals[self._next]
         self._next += 1
-        reading = self.model.apply(true_wrench, normal)
-        self.saturated = bool(self.model.saturated(reading).any())
+        model = self.model
+        signal = np.asarray(true_wrench, dtype=np.float64)
+        phi = model.phi
+        if phi:
+            if self._coloured is None or self._signal is None:
+                self._coloured, self._signal = normal.copy(), signal.copy()
+            else:
+                self._coloured = phi * self._coloured + math.sqrt(1.0 - phi * phi) * normal
+                self._signal = phi * self._signal + (1.0 - phi) * signal
+            normal, signal = self._coloured, self._signal
+        else:
+            self._coloured = self._signal = None
+        if self.drift is not None:
+            signal = signal + _uncalibrated(model, self.drift.at(t))
+        reading = model.apply(signal, normal)
+        self.saturated = bool(model.saturated(reading).any())
         return reading
+
+
+def _uncalibrated(model: SensorModel, bias: NDArray[np.float64]) -> NDArray[np.float64]:
+    """A bias added before ``apply``'s calibration, so that it reaches the reading as is."""
+    if model.calibration is None:
+        return bias
+    return np.linalg.solve(model.calibration, bias)

@@ -79,10 +79,16 @@ from com_core.contract import (
 )
 from com_core.robot_config import KEYS, RobotConfig
 from com_core.rosenv import keep_dds_local
-from com_core.wrench_model import SensorModel, rotation_about
-from wrench_sim.parameters import SENSOR_PARAMETERS, check_parameter, declare_parameters
+from com_core.sensor_profiles import SensorProfile
+from com_core.wrench_model import SensorModel, calibration_matrix, rotation_about
+from wrench_sim.parameters import (
+    SENSOR_PARAMETERS,
+    check_parameter,
+    declare_parameters,
+    sensor_profile,
+)
 from wrench_sim.physics import SENSOR_FRAME, TIME_STEP, ArmWorld, SimConfig
-from wrench_sim.sensor import WrenchSensor, random_streams
+from wrench_sim.sensor import BiasDrift, WrenchSensor, random_streams
 
 _SPIN_EVERY = 50  # steps between spin_once calls (50 ms of sim time; one costs ~0.2 ms)
 _JOINT_STATE_EVERY = 10  # steps: 100 Hz
@@ -103,6 +109,16 @@ class SimNode(Node):
         except ParameterUninitializedException:
             offset = None  # drawn from the seed
         robot = RobotConfig.from_parameters({key: parameter(key).value for key in KEYS})
+        self.profile = self._profile()
+        streams = random_streams(parameter("seed").value)
+        p = self.profile
+        self._calibration = (
+            calibration_matrix(
+                p.calibration_accuracy, p.limit_f, p.limit_tau, streams["calibration"]
+            )
+            if p.calibration_accuracy > 0
+            else None
+        )
         self.world = ArmWorld(
             SimConfig(
                 robot=robot,
@@ -115,6 +131,8 @@ class SimNode(Node):
                 hand_mass=parameter("hand_mass").value,
                 grip_force=parameter("grip_force").value,
                 gui=parameter("gui").value,
+                vibration=p.modes,
+                vibration_gain=p.vibration_gain,
             )
         )
         roll, pitch, yaw = parameter("sensor_mount_rpy").value
@@ -122,9 +140,13 @@ class SimNode(Node):
         self._mount = (
             rotation_about("z", yaw) @ rotation_about("y", pitch) @ rotation_about("x", roll)
         )
-        self.sensor = WrenchSensor(
-            self._sensor_model(), random_streams(self.world.config.seed)["sensor"]
+        drift = BiasDrift(
+            [p.warmup_f] * 3 + [p.warmup_tau] * 3,
+            p.warmup_time,
+            [p.random_walk_f] * 3 + [p.random_walk_tau] * 3,
+            streams["drift"],
         )
+        self.sensor = WrenchSensor(self._sensor_model(), streams["sensor"], drift)
         self._drift = np.array(parameter("bias_drift").value, dtype=np.float64)  # per s
         self._real_time_factor = parameter("real_time_factor").value
         self._publish_every = round(1000.0 / parameter("rate").value)
@@ -163,6 +185,7 @@ class SimNode(Node):
         self._publish_truth(force=True)
         spec = self.world.object
         offset_mm = ", ".join(f"{1e3 * v:.1f}" for v in spec.com_offset)
+        self.get_logger().info(f"sensor: {parameter('sensor_profile').value} profile, {p}")
         self.get_logger().info(
             f"ready: robot {robot.robot}, {spec.shape} {spec.mass:.3f} kg, COM offset "
             f"({offset_mm}) mm, grasp {self.world.config.grasp_mode}, seed "
@@ -171,11 +194,30 @@ class SimNode(Node):
             f"{self._real_time_factor or 'max'}"
         )
 
-    def _sensor_model(self, overrides: dict | None = None):
-        values = {name: self.get_parameter(name).value for name in (*SENSOR_PARAMETERS, "rate")}
-        values.update(overrides or {})
-        rate = values.pop("rate")
-        return SensorModel.from_scalars(**values, rate_hz=rate)
+    def _profile(self, overrides: dict | None = None) -> SensorProfile:
+        """The ``sensor_profile`` with every part its parameters set."""
+        names = (*SENSOR_PARAMETERS, "sensor_profile")
+        values = {name: self.get_parameter(name).value for name in names}
+        return sensor_profile(values | (overrides or {}))
+
+    def _sensor_model(self, overrides: dict | None = None) -> SensorModel:
+        """The sensor of the profile and the parameters (with ``overrides``)."""
+        p = self._profile(overrides)
+        values = {name: self.get_parameter(name).value for name in ("bias_f", "bias_tau", "rate")}
+        values.update({k: v for k, v in (overrides or {}).items() if k in values})
+        return SensorModel.from_scalars(
+            p.sigma_f,
+            p.sigma_tau,
+            bias_f=values["bias_f"],
+            bias_tau=values["bias_tau"],
+            resolution_f=p.resolution_f,
+            resolution_tau=p.resolution_tau,
+            limit_f=p.limit_f,
+            limit_tau=p.limit_tau,
+            rate_hz=values["rate"],
+            correlation_time=p.correlation_time,
+            calibration=self._calibration,
+        )
 
     def parameters_callback(self, parameters: list[Parameter]) -> SetParametersResult:
         """Refuse invalid values with a reason; apply sensor and timing changes at run time."""
@@ -275,7 +317,8 @@ class SimNode(Node):
             now = world.time_ns
             reading = None
             if steps % self._publish_every == 0:
-                reading = sensor.read(self._mounted(world.wrench) + self._drift * (now * 1e-9))
+                t = now * 1e-9
+                reading = sensor.read(self._mounted(world.wrench) + self._drift * t, t)
                 self._saturated_readings += sensor.saturated
             if publish:
                 if steps % self._clock_every == 0:

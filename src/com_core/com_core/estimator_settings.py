@@ -30,6 +30,7 @@ from .exploration import (
 from .kinematics import DEFAULT_GRAVITY, KinematicsError, RobotModel
 from .known_gravity import BIAS_DRIFT_RATE
 from .robot_config import default_robot_config
+from .sensor_profiles import DEFAULT_PROFILE, PROFILES
 from .tare_cache import TareCache, load_tares
 from .wrench_model import SensorModel
 
@@ -42,7 +43,10 @@ __all__ = [
     "use_cached_tares",
 ]
 
-CALIBRATION_ACCURACY, FULL_SCALE = 0.01, (290.0, 10.0)
+_REALISTIC = PROFILES[DEFAULT_PROFILE]
+CALIBRATION_ACCURACY = _REALISTIC.calibration_accuracy
+FULL_SCALE = (_REALISTIC.limit_f, _REALISTIC.limit_tau)
+"""The estimator's defaults: the default sensor profile's datasheet figures."""
 
 SETTINGS: dict[str, tuple[Any, str]] = {
     "method": ("ml", "'ml' (multi-pose maximum likelihood) or 'two_pose' (the paper)"),

@@ -13,6 +13,7 @@ Wrench vectors are ordered (fx, fy, fz, tx, ty, tz).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -23,6 +24,7 @@ __all__ = [
     "STANDARD_GRAVITY",
     "SensorModel",
     "as_vector",
+    "calibration_matrix",
     "gravity_in_sensor",
     "gravity_wrench",
     "rotation_about",
@@ -75,6 +77,17 @@ def gravity_in_sensor(
     return R.T @ np.array([0.0, 0.0, -g])
 
 
+def calibration_matrix(
+    accuracy: float, full_scale_f: float, full_scale_tau: float, rng: np.random.Generator
+) -> NDArray[np.float64]:
+    """A sensor's calibration (6, 6), C = I + S E S^-1: S = diag(fs_f x3, fs_tau x3) the
+    full scales, each element of E drawn N(0, (accuracy / 2)^2) (the stated accuracy is
+    the 95 % bound of one axis's error at full scale; ``com_core.calibration``)."""
+    s = np.array([full_scale_f] * 3 + [full_scale_tau] * 3, dtype=np.float64)
+    e = rng.normal(0.0, accuracy / 2.0, (6, 6))
+    return np.eye(6) + s[:, None] * e / s[None, :]
+
+
 def gravity_wrench(mass: float, com: ArrayLike, g_sensor: ArrayLike) -> NDArray[np.float64]:
     """Wrench the static load exerts on the sensor: f = m g_s, tau = p x f.
 
@@ -96,10 +109,16 @@ def gravity_wrench(mass: float, com: ArrayLike, g_sensor: ArrayLike) -> NDArray[
 
 @dataclass(frozen=True)
 class SensorModel:
-    """A 6-axis F/T sensor: additive white Gaussian noise, bias, quantisation, range.
+    """A 6-axis F/T sensor: calibration, bias, Gaussian noise, quantisation, range.
 
     All arrays are shape (6,) in the order of ``AXES``; N for forces, N m for torques.
     ``resolution`` 0 means no quantisation, ``limit`` inf means no saturation.
+    ``sigma`` is the noise per published sample. ``correlation_time`` (s) is the
+    electronics' first-order digital low-pass: the sensor samples fast and publishes every
+    k-th filtered sample, so its noise is exactly AR(1) at the publish rate, coefficient
+    phi = exp(-1 / (rate_hz correlation_time)) (decimating an AR(1) by k gives phi^k);
+    0: white. ``calibration`` (6, 6): the reading is ``calibration @ wrench`` (None: exact;
+    ``calibration_matrix`` draws one).
     """
 
     sigma: NDArray[np.float64] = field(default_factory=lambda: np.zeros(6))
@@ -107,6 +126,8 @@ class SensorModel:
     resolution: NDArray[np.float64] = field(default_factory=lambda: np.zeros(6))
     limit: NDArray[np.float64] = field(default_factory=lambda: np.full(6, np.inf))
     rate_hz: float = 1000.0
+    correlation_time: float = 0.0
+    calibration: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         for name in ("sigma", "bias", "resolution", "limit"):
@@ -115,6 +136,13 @@ class SensorModel:
             raise ValueError("sigma and resolution must be >= 0 and limit > 0")
         if not self.rate_hz > 0:
             raise ValueError(f"rate_hz must be > 0, got {self.rate_hz}")
+        if not (math.isfinite(self.correlation_time) and self.correlation_time >= 0):
+            raise ValueError(f"correlation_time must be >= 0 s, got {self.correlation_time}")
+        if self.calibration is not None:
+            c = np.asarray(self.calibration, dtype=np.float64)
+            if c.shape != (6, 6) or not np.all(np.isfinite(c)):
+                raise ValueError("calibration must be a finite (6, 6) matrix")
+            object.__setattr__(self, "calibration", c)
         object.__setattr__(self, "_quantised", bool(np.any(self.resolution > 0)))
         object.__setattr__(self, "_limited", bool(np.any(np.isfinite(self.limit))))
 
@@ -131,6 +159,8 @@ class SensorModel:
         limit_f: float = np.inf,
         limit_tau: float = np.inf,
         rate_hz: float = 1000.0,
+        correlation_time: float = 0.0,
+        calibration: ArrayLike | None = None,
     ) -> SensorModel:
         """Same value on every force axis and on every torque axis.
 
@@ -146,7 +176,16 @@ class SensorModel:
             resolution=pair(resolution_f, resolution_tau),
             limit=pair(limit_f or np.inf, limit_tau or np.inf),
             rate_hz=rate_hz,
+            correlation_time=correlation_time,
+            calibration=None if calibration is None else np.asarray(calibration, dtype=float),
         )
+
+    @property
+    def phi(self) -> float:
+        """The noise's AR(1) coefficient at the publish rate (0: white)."""
+        if self.correlation_time <= 0:
+            return 0.0
+        return math.exp(-1.0 / (self.rate_hz * self.correlation_time))
 
     def sample_covariance(self) -> NDArray[np.float64]:
         """Covariance (6, 6) of one sample: noise plus quantisation (resolution^2 / 12)."""
@@ -158,14 +197,23 @@ class SensorModel:
         A reading beyond the range is clipped to it, as an ADC does; ``saturated`` finds it.
         """
         w = np.asarray(wrench, dtype=np.float64)
-        return self.apply(w, rng.standard_normal(w.shape))
+        normals = rng.standard_normal(w.shape)
+        if self.phi and normals.ndim == 2:  # stationary AR(1), first sample from its law
+            scale = math.sqrt(1.0 - self.phi**2)
+            for t in range(1, len(normals)):
+                normals[t] = self.phi * normals[t - 1] + scale * normals[t]
+        return self.apply(w, normals)
 
     def apply(self, wrench: ArrayLike, normals: ArrayLike) -> NDArray[np.float64]:
-        """``measure`` with the standard normal draws given (same shape as ``wrench``).
+        """``measure`` with the unit noise given (same shape as ``wrench``; already
+        coloured by ``phi`` for a correlated sensor).
 
         For callers that draw their noise in blocks (one sample at a time at 1 kHz).
         """
-        reading = np.asarray(wrench, dtype=np.float64) + self.bias + normals * self.sigma
+        w = np.asarray(wrench, dtype=np.float64)
+        if self.calibration is not None:
+            w = w @ self.calibration.T
+        reading = w + self.bias + normals * self.sigma
         if self._quantised:
             q = np.where(self.resolution > 0, self.resolution, 1.0)
             reading = np.where(self.resolution > 0, np.round(reading / q) * q, reading)

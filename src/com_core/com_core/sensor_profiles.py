@@ -1,0 +1,91 @@
+"""Named sets of a simulated wrist F/T sensor's parts, one home for their figures.
+
+- ``ideal``: none of it, the physics floor (the simulator's static error, 2e-4 N).
+- ``white``: independent Gaussian noise of 0.1 N and 0.005 N m per sample, nothing else.
+- ``realistic`` (the default of the simulator and of ``make demo``): a strain-gauge wrist
+  sensor of the ATI Mini45 class (SI-290-10 calibration: range 290 N, 10 N m) read through
+  an interface that samples at 7 kHz, low-pass filters and publishes at 1 kHz:
+  - noise 0.1 N and 0.005 N m per published sample through a first-order digital low-pass
+    of 5 ms correlation time (~32 Hz; exactly AR(1) at the publish rate,
+    ``wrench_model.SensorModel``);
+  - quantisation 1/16 N and 1/2000 N m (counts below the noise);
+  - calibration accuracy 1 % of full scale (95 %), a gain and cross-talk matrix drawn
+    from the seed (``wrench_model.calibration_matrix``; the order ATI states for its
+    calibrations);
+  - a bias that warms up: each axis toward a final offset drawn N(0, 0.3 N / 0.015 N m),
+    time constant 600 s from power-on (sim time 0), plus a random walk of 2e-4 N/sqrt(s)
+    and 1e-5 N m/sqrt(s);
+  - the arm's structure: two lightly damped modes, 12 Hz (damping ratio 0.03) and 27 Hz
+    (0.02), of the order of collaborative arms' first structural modes, excited by every
+    move with participation 50: on the Panda a 0.5 rad wrist move leaves ~0.14 N of ringing
+    at its end, ~0.07 N 0.3 s later, decaying at zeta w (``wrench_sim.vibration``).
+
+These are assumptions of a sensor's class, not a datasheet: each part is a parameter of
+the simulator that a user sets to their sensor's figures.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, replace
+
+__all__ = ["DEFAULT_PROFILE", "PROFILES", "SensorProfile"]
+
+
+@dataclass(frozen=True)
+class SensorProfile:
+    """Every part of a simulated sensor (units: N, N m, s, Hz)."""
+
+    sigma_f: float = 0.0
+    sigma_tau: float = 0.0
+    correlation_time: float = 0.0
+    resolution_f: float = 0.0
+    resolution_tau: float = 0.0
+    limit_f: float = 0.0
+    limit_tau: float = 0.0
+    calibration_accuracy: float = 0.0
+    warmup_f: float = 0.0
+    warmup_tau: float = 0.0
+    warmup_time: float = 600.0
+    random_walk_f: float = 0.0
+    random_walk_tau: float = 0.0
+    vibration_hz: tuple[float, ...] = ()
+    vibration_damping: tuple[float, ...] = ()
+    vibration_gain: float = 3.0
+
+    def with_overrides(self, **values: object) -> SensorProfile:
+        """This profile with the parts in ``values`` changed (names of its fields)."""
+        known = {f.name for f in fields(self)}
+        unknown = sorted(set(values) - known)
+        if unknown:
+            raise ValueError(f"no sensor part named {', '.join(unknown)}")
+        return replace(self, **values)  # type: ignore[arg-type]
+
+    @property
+    def modes(self) -> tuple[tuple[float, float], ...]:
+        """(frequency Hz, damping ratio) per vibration mode."""
+        if len(self.vibration_hz) != len(self.vibration_damping):
+            raise ValueError("vibration_hz and vibration_damping must have the same length")
+        return tuple(zip(self.vibration_hz, self.vibration_damping, strict=True))
+
+
+PROFILES = {
+    "ideal": SensorProfile(),
+    "white": SensorProfile(sigma_f=0.1, sigma_tau=0.005),
+    "realistic": SensorProfile(
+        sigma_f=0.1,
+        sigma_tau=0.005,
+        correlation_time=0.005,
+        resolution_f=1 / 16,
+        resolution_tau=1 / 2000,
+        limit_f=290.0,
+        limit_tau=10.0,
+        calibration_accuracy=0.01,
+        warmup_f=0.3,
+        warmup_tau=0.015,
+        random_walk_f=2e-4,
+        random_walk_tau=1e-5,
+        vibration_hz=(12.0, 27.0),
+        vibration_damping=(0.03, 0.02),
+    ),
+}
+DEFAULT_PROFILE = "realistic"
