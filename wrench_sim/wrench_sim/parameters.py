@@ -64,6 +64,8 @@ PARAMETERS = [  # name, default, description, read-only, lower bound of a float
     ("resolution_tau", _PROFILE, "torque quantisation step, N m; 0 = none; " + _OF, False, None),
     ("limit_f", _PROFILE, "force range (saturation), N; 0 = none; " + _OF, False, None),
     ("limit_tau", _PROFILE, "torque range (saturation), N m; 0 = none; " + _OF, False, None),
+    ("sensor_serial", 0, "which sensor: its calibration error is drawn from this, the same in "
+     f"every run of one sensor whatever the seed; {_START}", True, None),
     ("calibration_accuracy", _PROFILE, "fraction of full scale (limit_f, limit_tau), 95 %: the "
      f"calibration error drawn from the seed; {_OF}; {_START}", True, None),
     ("warmup_f", _PROFILE, f"N: spread of each force axis's warm-up offset; {_OF}; {_START}",

@@ -114,7 +114,10 @@ class SimNode(Node):
         p = self.profile
         self._calibration = (
             calibration_matrix(
-                p.calibration_accuracy, p.limit_f, p.limit_tau, streams["calibration"]
+                p.calibration_accuracy,
+                p.limit_f,
+                p.limit_tau,
+                random_streams(parameter("sensor_serial").value)["calibration"],
             )
             if p.calibration_accuracy > 0
             else None

@@ -28,9 +28,7 @@ class Vibration:
     """Modes (frequency Hz, damping ratio) that each move's end excites; ``gain`` (1/s):
     the extra acceleration (m/s^2) at a move's end per m/s of its peak speed."""
 
-    def __init__(
-        self, modes: Sequence[tuple[float, float]], dt: float, gain: float = 1.0
-    ) -> None:
+    def __init__(self, modes: Sequence[tuple[float, float]], dt: float, gain: float = 1.0) -> None:
         for hz, zeta in modes:
             if not (math.isfinite(hz) and 0.0 < hz < 0.3 / dt):
                 raise ValueError(f"vibration mode {hz} Hz must be in (0, {0.3 / dt:g}) Hz")

@@ -172,7 +172,9 @@ def settled_start(x: NDArray[np.float64], noise: NoiseModel) -> int:
     The first half of the window is cut into probes of ``SETTLE_PROBE`` s; a probe still
     rings when, on any axis, its variance about its own mean exceeds the noise's
     (``_variance_limit`` at ``_SETTLE_ALPHA``). The window starts after the last probe
-    that rings (0 when none does). A ringing oscillates about the static wrench; a step or
+    that rings (0 when none does), or later, at the first probe from which the rest of the
+    window as a whole has the noise's variance (a ringing below each probe's reach). A
+    ringing oscillates about the static wrench; a step or
     a creep of the mean is motion, not ringing, and is left to the motion tests. Depends
     on the samples and the model only, so the node and the replay of its bag cut the same
     windows."""
@@ -186,6 +188,13 @@ def settled_start(x: NDArray[np.float64], noise: NoiseModel) -> int:
     for a in range(0, n // 2 - probe + 1, probe):
         if (x[a : a + probe].var(axis=0) / variance > limit).any():
             start = a + probe
+    # a ringing that each probe hides may still show in the rest as a whole: start where
+    # the rest's variance is the noise's
+    for a in range(start, n // 2 + 1, probe):
+        rest = x[a:]
+        quiet = rest.var(axis=0) / variance <= _variance_limit(noise, len(rest), _SETTLE_ALPHA)
+        if quiet.all():
+            return a
     return start
 
 
