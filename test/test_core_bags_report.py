@@ -250,7 +250,8 @@ def test_report_module_leaves_pyplot_alone():
 def test_report_of_a_kinematic_run_shows_its_own_numbers():
     """The sample run (information kinematics+mount): the banner names the model and the
     numbers show what the wrenches alone give on its windows, the bias drift, the hand
-    fitted (1.010 kg, the sim's), the mounting and the base tilt; lines fit the column."""
+    fitted (the sim's 1.010 kg, to the realistic sensor's 1 % calibration), the mounting,
+    the base tilt and the sensor's noise learnt; lines fit the column."""
     from conftest import WORKSPACE
 
     from com_core.bags.report import _summary_lines
@@ -259,8 +260,9 @@ def test_report_of_a_kinematic_run_shows_its_own_numbers():
     assert run.diagnostic["values"]["information"] == "kinematics+mount"
     lines = _summary_lines(run, [])
     text = "\n".join(lines)
-    for start in ("wrenches   alone: COM", "bias drift", "hand fit   1.010 kg", "mounting   rpy"):
+    for start in ("wrenches   alone: COM", "bias drift", "hand fit   1.0", "mounting   rpy"):
         assert start in text, text
+    assert "sensor noise 0.1" in text and "correlation time" in text, text
     assert "base tilt " in text and all(len(line) <= 64 for line in lines), text
 
 

@@ -642,3 +642,25 @@ def test_an_arm_left_away_from_home_with_open_fingers_goes_home_first(
     assert result.success and result.message.startswith("[OK]"), result.message
     log = next(tmp_path.glob("sequencer_node-*.log")).read_text()
     assert "the arm is away from home: moving it home before the run" in log, log
+
+
+def test_the_three_nodes_with_their_defaults_give_an_estimate(start_node, client, tmp_path):
+    """Each node as `ros2 run` starts it, with nothing set but sim time and where the bags
+    go: the realistic sensor, its noise unknown to the estimator (learnt), the planner's
+    assumed noise. The run gives an estimate within 4.5 sigma of the truth."""
+    start_node("sim_node", "wrench_sim", params={"real_time_factor": 5.0})
+    start_node("estimator_node", "com_estimator", params={"use_sim_time": True})
+    start_node(
+        "sequencer_node",
+        "exploration_sequencer",
+        params={"use_sim_time": True, "bag_dir": str(tmp_path / "bags")},
+    )
+    result = client.wait(client.call())
+    assert result.message.startswith(("[OK]", "[WARN]")), result.message
+    assert "internal error" not in result.message and "sensor noise" in result.message
+    com = numbers(result.message, "COM") * 1e-3
+    sigma = numbers(result.message, r"COM \([-\d., ]+\) \+-") * 1e-3
+    truth = [t for t in client.truths if abs(t.inertia.com.z) < 0.2][-1].inertia
+    np.testing.assert_allclose(
+        com, [truth.com.x, truth.com.y, truth.com.z], atol=float(4.5 * sigma.max())
+    )
