@@ -4,22 +4,22 @@
         [--robots panda,xarm6] [--information NAME] [--target-com-sigma M --fewer-poses]
         [--bias-drift N_PER_S] [--tare-max-age S]
 
-docs/design.md's reference: a 0.1 kg object (the paper's), the sensor of
-``--sensor-profile`` (default realistic; the figures in bench/README.md were measured
-with the white one, 0.1 N and 0.005 N m per sample at 1 kHz), tilt at most pi/6, rigid
-grasp. The estimator (with ``--information``, else its default) and the sequencer run once (the tare pass is
-cached per hand, so it is taken in the first run only); each run starts a simulator with
-its own object (box, cylinder, mug in turn; COM offset drawn from the run's seed) at 5x
-real time and calls ~/explore. Each run's bag is read back for the ground truth
-(``com_core.bags.run``) and replayed offline with every information model and with the
-paper's method (``--method two_pose``): the models side by side on the same windows.
-Per model: COM error at the 95th percentile, mass error, how honest the sigmas are
-(|error / sigma| <= 2 in 95 % of runs per axis) and the COM sigma along z against that of
-the wrenches alone. Targets: COM error <= 1 mm at the 95th percentile, mass error <= 0.5
-%, object pass <= 10 s of sim time (<= 5 s with the planner's shorter pass:
-``--target-com-sigma 0.00035 --fewer-poses``). The verification pose (a kinematic model's;
-``verify/diagonal``, 20 deg about the sensor's diagonal, no fit uses it): the 95th
-percentile of the compensated force's and torque's magnitude there in units of one
+docs/design.md's reference: a 0.1 kg object (the paper's), the sensor of ``--sensor-
+profile`` (default realistic; the figures in bench/README.md were measured with the
+white one, 0.1 N and 0.005 N m per sample at 1 kHz), tilt at most pi/6, rigid grasp. The
+estimator (with ``--information``, else its default) and the sequencer run once (the
+tare pass is cached per hand, so it is taken in the first run only); each run starts a
+simulator with its own object (box, cylinder, mug in turn; COM offset drawn from the
+run's seed) at 5x real time and calls ~/explore. Each run's bag is read back for the
+ground truth (``com_core.bags.run``) and replayed offline with every information model
+and with the paper's method (``--method two_pose``): the models side by side on the same
+windows. Per model: COM error at the 95th percentile, mass error, how honest the sigmas
+are (|error / sigma| <= 2 in 95 % of runs per axis) and the COM sigma along z against
+that of the wrenches alone. Targets: COM error <= 1 mm at the 95th percentile, mass
+error <= 0.5 %, object pass <= 10 s of sim time (<= 5 s with the planner's shorter pass:
+``--target-com-sigma 0.00035 --fewer-poses``). The verification pose (a kinematic
+model's; ``verify/diagonal``, 20 deg about the sensor's diagonal, no fit uses it): the
+95th percentile of the compensated force's and torque's magnitude there in units of one
 object window's mean noise per axis (sigma / sqrt(samples)), and of the verification
 window's own; target <= 3 for both; and how many verifications passed.
 
