@@ -43,7 +43,8 @@ from com_core.wrench_model import SensorModel
 pytestmark = pytest.mark.system
 
 PACKAGE = "com_estimator"
-WRENCHES_ONLY = {"information": "wrenches"}  # a synthetic stream has no robot model
+WRENCHES_ONLY = {"information": "wrenches", "accuracy": 0.0}
+"""A synthetic stream has no robot model, and its sensor an exact calibration."""
 SET_PARAMETERS_SERVICE = ESTIMATOR_PARAMETERS_SERVICE.replace("/get_", "/set_")
 TRUTH_MASS, TRUTH_COM = 0.1, (0.01, -0.02, 0.10)
 
@@ -137,7 +138,7 @@ def test_estimate_is_within_its_sigma_band_and_replay_matches_to_the_bit(
     com = np.array([estimate.com.x, estimate.com.y, estimate.com.z])
     assert np.all(np.abs(com - TRUTH_COM) < 4 * sigma_com)
 
-    offline = replay_json(bag, ros_env, "--information", "wrenches")
+    offline = replay_json(bag, ros_env, "--information", "wrenches", "--accuracy", "0.0")
     assert offline["status"] == "OK" and offline["messages"] == 8050  # 1 s lead-in + run
     node_windows = {
         k.split(" ", 1)[1]: int(v) for k, v in values.items() if k.startswith("samples ")

@@ -31,6 +31,9 @@ from com_core.robot_config import BAG_ROBOT_FILE, read_robot_config, robot_confi
 pytestmark = pytest.mark.system
 
 NOISE = {"sigma_f": 0.1, "sigma_tau": 0.005}
+WHITE = {"sensor_profile": "white"}
+"""The sensor these tests' tolerances are derived for; the realistic one (the default) is
+run by test_the_three_nodes_with_their_defaults_give_an_estimate and bench/."""
 RUN_STARTED = re.compile(r"\]: run \d{8}-\d{6}-\d{3}: \w+, poses")
 SET_PARAMETERS_SERVICE = EXPLORE_SERVICE.rsplit("/", 1)[0] + "/set_parameters"
 
@@ -105,7 +108,10 @@ def start_system(
     cache = {"tare_cache": str(bags / "tare_cache.json")}
     config = ["--ros-args", "--params-file", str(robot_config_path(robot))]
     start_node(
-        "sim_node", "wrench_sim", params={"real_time_factor": 5.0, **NOISE, **sim}, args=config
+        "sim_node",
+        "wrench_sim",
+        params={"real_time_factor": 5.0, **WHITE, **NOISE, **sim},
+        args=config,
     )
     start_node(
         "estimator_node",
@@ -215,7 +221,7 @@ def test_a_sim_that_stops_answering_fails_the_call_within_its_timeout(
     start_node, client, tmp_path
 ):
     bags = tmp_path / "bags"
-    sim = start_node("sim_node", "wrench_sim", params={"real_time_factor": 5.0, **NOISE})
+    sim = start_node("sim_node", "wrench_sim", params={"real_time_factor": 5.0, **WHITE, **NOISE})
     start_node("estimator_node", "com_estimator", params={"use_sim_time": True, **NOISE})
     start_node(
         "sequencer_node",
@@ -329,7 +335,7 @@ def test_a_run_after_a_sequencer_killed_mid_run_starts_clean(start_node, client,
     m g, and the new sequencer would open the fingers wherever the arm stood)."""
     cache = {"tare_cache": str(tmp_path / "bags" / "tare_cache.json")}
     sequencer = {"use_sim_time": True, "bag_dir": str(tmp_path / "bags"), **cache}
-    sim = {"real_time_factor": 5.0, "object": "box", "seed": 6, "object_mass": 0.5, **NOISE}
+    sim = {"real_time_factor": 5.0, "object": "box", "seed": 6, "object_mass": 0.5, **WHITE}
     start_node("sim_node", "wrench_sim", params=sim)
     start_node("estimator_node", "com_estimator", params={"use_sim_time": True, **NOISE, **cache})
     first = start_node("sequencer_node", "exploration_sequencer", params=sequencer)
@@ -414,7 +420,7 @@ def test_plan_changes_are_logged_and_the_prediction_is_the_estimators_method(
 ):
     """A tilt the user set is kept unless raise_tilt allows more; every change is logged
     before moving; the prediction is for the method the estimator runs (two_pose)."""
-    start_node("sim_node", "wrench_sim", params={"real_time_factor": 5.0, **NOISE})
+    start_node("sim_node", "wrench_sim", params={"real_time_factor": 5.0, **WHITE, **NOISE})
     start_node(
         "estimator_node",
         "com_estimator",
@@ -455,6 +461,8 @@ def test_the_demo_prints_its_summary_and_exits_cleanly(ros_env, tmp_path):
             "--hold",
             "--max-tilt",
             "0.45",
+            "--sensor-profile",
+            "white",
         ],
         env=ros_env,
         capture_output=True,

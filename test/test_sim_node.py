@@ -56,6 +56,7 @@ PARAMS = {
     "object_mass": 0.1,
     "object_com_offset": [0.01, -0.005, 0.02],
     "seed": 4,
+    "sensor_profile": "white",  # exact gravity wrenches under white noise (the parts: tests)
     "sigma_f": SIGMA_F,
     "sigma_tau": SIGMA_TAU,
     "rate": RATE,

@@ -29,8 +29,9 @@ __all__ = [
     "split_load_levels",
 ]
 
-LEVEL_TOLERANCE = 0.005
-"""Relative difference of |f| (N) below which two static windows are one load level."""
+LEVEL_TOLERANCE = 0.02
+"""Relative difference of |f| (N) below which two static windows are one load level: a
+sensor calibrated to 1 % reads one load's |f| up to ~1.5 % apart between orientations."""
 PAIR_MAX_ANGLE = math.radians(2.0)
 """rad: largest angle between an object window's force and its tare window's."""
 
@@ -129,7 +130,10 @@ def find_static_windows(
     3. A block is quiet when its standard deviation is below twice the noise on every
        axis (no motion inside it).
     4. Consecutive quiet blocks form one window while each block's mean stays within
-       ``z`` standard errors of the window's running mean on every axis.
+       ``z`` standard errors of the window's running mean on every axis; a block mean's
+       standard error is measured, not assumed white: the median difference of
+       consecutive quiet block means / (0.6745 sqrt(2)) (a sensor whose samples are
+       correlated has block means that vary more than sigma / sqrt(size)).
     5. Windows shorter than ``min_duration`` s are dropped; the first and last block of
        each are trimmed as a guard against the end of a motion.
     """
@@ -145,12 +149,17 @@ def find_static_windows(
     means, sds = blocks.mean(axis=1), blocks.std(axis=1, ddof=1)
     noise = np.maximum(np.median(sds, axis=0), 1e-12)
     quiet = np.all(sds < 2.0 * noise, axis=1)
+    pairs = quiet[1:] & quiet[:-1]
+    block_se = noise / np.sqrt(size)
+    if pairs.sum() >= 3:
+        spread = np.median(np.abs(np.diff(means, axis=0))[pairs], axis=0) / (0.6745 * np.sqrt(2))
+        block_se = np.maximum(block_se, spread)
     runs: list[list[int]] = []
     total = np.zeros(6)
     for k in range(n_blocks):
         if runs and quiet[k] and quiet[runs[-1][-1]] and runs[-1][-1] == k - 1:
             run_mean = total / len(runs[-1])
-            se = noise * np.sqrt(1.0 / size + 1.0 / (size * len(runs[-1])))
+            se = block_se * np.sqrt(1.0 + 1.0 / len(runs[-1]))
             if np.all(np.abs(means[k] - run_mean) < z * se):
                 runs[-1].append(k)
                 total += means[k]

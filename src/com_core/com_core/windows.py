@@ -194,8 +194,20 @@ def settled_start(x: NDArray[np.float64], noise: NoiseModel) -> int:
         rest = x[a:]
         quiet = rest.var(axis=0) / variance <= _variance_limit(noise, len(rest), _SETTLE_ALPHA)
         if quiet.all():
-            return a
+            return a if a == start or _same_level(x[:a], rest, noise) else start
     return start
+
+
+def _same_level(head: NDArray[np.float64], rest: NDArray[np.float64], noise: NoiseModel) -> bool:
+    """The mean of ``head`` agrees with that of ``rest`` within ``_MOTION_Z`` standard
+    scores of their correlated noise: a ringing about the static wrench, not a step."""
+    var = np.where(_quiet(noise), 0.0, noise.variance)
+    sd = np.sqrt(
+        var * noise.mean_factor(len(head)) / len(head)
+        + var * noise.mean_factor(len(rest)) / len(rest)
+        + 2.0 * COV_FLOOR**2
+    )
+    return bool((np.abs(head.mean(axis=0) - rest.mean(axis=0)) <= _MOTION_Z * sd).all())
 
 
 def _check_static_correlated(pose: str, x: NDArray[np.float64], noise: NoiseModel) -> None:
