@@ -177,9 +177,26 @@ def test_the_profiles_hold_their_figures():
     assert (realistic.warmup_f, realistic.warmup_tau, realistic.warmup_time) == (0.3, 0.015, 600)
     assert (realistic.random_walk_f, realistic.random_walk_tau) == (2e-4, 1e-5)
     assert realistic.modes == ((12.0, 0.03), (27.0, 0.02))
-    # counts below the noise: quantisation adds under 3 % to the variance per sample
-    assert realistic.resolution_f**2 / 12 < 0.03 * realistic.sigma_f**2
-    assert realistic.resolution_tau**2 / 12 < 0.03 * realistic.sigma_tau**2
+    assert realistic.resolution_f < realistic.sigma_f
+    assert realistic.resolution_tau < realistic.sigma_tau
+
+
+def test_the_realistic_counts_below_the_noise_leave_the_mean_unbiased():
+    """A count below the noise is dithered by it: the mean reading of a wrench anywhere
+    between two counts is the wrench, and the spread per sample is sigma^2 + q^2 / 12
+    (``sample_covariance``)."""
+    p = PROFILES["realistic"]
+    model = SensorModel.from_scalars(
+        p.sigma_f, p.sigma_tau, resolution_f=p.resolution_f, resolution_tau=p.resolution_tau
+    )
+    rng = np.random.default_rng(20)
+    n = 100_000
+    spread = np.sqrt(np.diag(model.sample_covariance()))
+    for fraction in np.linspace(0.0, 0.875, 8):
+        wrench = np.full((n, 6), 2.0) + fraction * model.resolution
+        reading = model.measure(wrench, rng)
+        assert np.all(np.abs(reading.mean(axis=0) - wrench[0]) < 4.5 * spread / math.sqrt(n))
+        assert_allclose(reading.std(axis=0), spread, rtol=4.5 / math.sqrt(2 * n))
 
 
 def test_overrides_change_one_part_and_refuse_an_unknown_one():
