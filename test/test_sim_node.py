@@ -321,6 +321,7 @@ def test_saturation_clips_and_is_logged_once_per_episode(start_node, rclpy_conte
 
 PUSH_DURATION = 0.6  # s
 PUSH_PARAMS = {
+    "sensor_profile": "ideal",  # the push read to the physics' exactness
     "object": "box",
     "object_mass": 0.1,
     "object_com_offset": [0.01, -0.005, 0.02],
@@ -435,7 +436,7 @@ def test_the_xarm6_runs_from_its_parameters_file(start_node, rclpy_context):
     process = start_node(
         "sim_node",
         "wrench_sim",
-        {"rate": RATE, "real_time_factor": 4.0},
+        {"rate": RATE, "real_time_factor": 4.0, "sensor_profile": "ideal"},
         args=["--ros-args", "--params-file", str(XARM_FILE)],
     )
     client = Client(rclpy_context)
