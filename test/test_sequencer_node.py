@@ -298,7 +298,7 @@ def test_a_cached_hand_model_absorbs_a_bias_drift_since_the_tare(
     bag = Path(result.message.rsplit(" bag ", 1)[1])
     labels = [decode_header(raw)[1] for *_, raw in read_raw(bag, (POSE_TOPIC,))]
     assert "tare/home_check" in labels and "tare/home" not in labels
-    offline = replay_json(bag, ros_env, "--information", "kinematics")
+    offline = replay_json(bag, ros_env, "--information", "kinematics", "--accuracy", "0.0")
     assert offline["information"] == "kinematics"
     # the step, plus what the sensor drifted between the runs (well under 2 min apart)
     assert all(0.25 < d < 0.25 + 0.05 * 2 for d in offline["bias_drift"][:3]), offline
@@ -434,6 +434,7 @@ def test_plan_changes_are_logged_and_the_prediction_is_the_estimators_method(
             "bag_dir": str(tmp_path / "bags"),
             "tilt": 0.05,
             "target_com_sigma": 0.002,
+            "correlation_time": 0.0,  # the white sensor
         },
     )
     refused = client.wait(client.call())
@@ -494,7 +495,8 @@ def test_kinematics_from_the_urdf_tightens_the_com_and_replays(
     """The estimator takes the URDF from /robot_description and each window's gravity
     from /joint_states: the COM sigma along gravity drops to ~0.6x (predicted and
     reported), the estimate is right, and the bag replays to it."""
-    start_system(start_node, tmp_path, {"seed": 7}, estimator={"information": "kinematics"})
+    exact = {"information": "kinematics", "accuracy": 0.0}  # the white sensor's calibration
+    start_system(start_node, tmp_path, {"seed": 7}, estimator=exact)
     result = client.wait(client.call())
     assert result.success and result.message.startswith("[OK]"), result.message
     assert "predicted ml (kinematics)" in result.message
@@ -506,7 +508,7 @@ def test_kinematics_from_the_urdf_tightens_the_com_and_replays(
         com, [truth.com.x, truth.com.y, truth.com.z], atol=float(4.5 * sigma.max() * 1e-3)
     )
     bag = Path(result.message.rsplit(" bag ", 1)[1])
-    offline = replay_json(bag, ros_env, "--information", "kinematics")
+    offline = replay_json(bag, ros_env, "--information", "kinematics", "--accuracy", "0.0")
     assert offline["information"] == "kinematics"
     np.testing.assert_allclose(offline["com"], com, atol=0.006e-3)  # 2 decimals in mm
 
