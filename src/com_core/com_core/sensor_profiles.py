@@ -65,7 +65,10 @@ class SensorProfile:
     def modes(self) -> tuple[tuple[float, float], ...]:
         """(frequency Hz, damping ratio) per vibration mode."""
         if len(self.vibration_hz) != len(self.vibration_damping):
-            raise ValueError("vibration_hz and vibration_damping must have the same length")
+            raise ValueError(
+                f"vibration_hz {list(self.vibration_hz)} and vibration_damping "
+                f"{list(self.vibration_damping)} must have the same length (one damping per mode)"
+            )
         return tuple(zip(self.vibration_hz, self.vibration_damping, strict=True))
 
 
