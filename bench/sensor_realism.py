@@ -61,6 +61,7 @@ from com_core.noise import ar1_noise
 from com_core.planner import Plan, dwell_for_target
 from com_core.robot_config import BAG_ROBOT_FILE, read_robot_config
 from com_core.tare_cache import BAG_TARE_FILE
+from com_core.wrench_model import calibration_matrix
 
 SIGMA = np.array([0.1, 0.1, 0.1, 0.005, 0.005, 0.005])  # N, N m per sample (the demo's)
 RATE = 1000.0
@@ -141,10 +142,8 @@ def drift(t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
 
 
 def calibration_error(accuracy: float, rng: np.random.Generator) -> np.ndarray:
-    """(6, 6) C = I + S E S^-1, E's elements N(0, (accuracy / 2)^2) (com_core.calibration)."""
-    scale = Calibration(accuracy, *FULL_SCALE).scale
-    e = rng.standard_normal((6, 6)) * accuracy / 2.0
-    return np.eye(6) + scale[:, None] * e / scale[None, :]
+    """(6, 6) a sensor's calibration of ``accuracy`` at the estimator's full scale."""
+    return calibration_matrix(accuracy, *FULL_SCALE, rng)
 
 
 class Run:

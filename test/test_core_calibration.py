@@ -27,15 +27,16 @@ from com_core.planner import Plan
 from com_core.stats import chi2_isf
 from com_core.synthetic import Load, object_windows
 from com_core.windows import window_from_mean
-from com_core.wrench_model import gravity_wrench, rotation_about
+from com_core.wrench_model import calibration_matrix, gravity_wrench, rotation_about
 
 CALIBRATION = Calibration(0.01, 290.0, 10.0)  # the realistic profile's
 
 
 def drawn_matrix(calibration: Calibration, rng: np.random.Generator) -> np.ndarray:
-    """C = I + S E S^-1 with E's elements N(0, (accuracy / 2)^2) (the module's definition)."""
-    s = calibration.scale
-    return np.eye(6) + s[:, None] * rng.normal(0.0, calibration.sigma, (6, 6)) / s[None, :]
+    """A calibration drawn as the simulator draws one (``wrench_model.calibration_matrix``)."""
+    return calibration_matrix(
+        calibration.accuracy, calibration.full_scale_f, calibration.full_scale_tau, rng
+    )
 
 
 def test_covariance_of_the_common_error_against_monte_carlo():

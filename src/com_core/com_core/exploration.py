@@ -544,11 +544,17 @@ class Exploration:
             inside |= (stamps >= a) & (stamps < b)
         return float(np.mean(stamps[inside])) * 1e-9
 
-    def noise_model(self, until_ns: int | None = None) -> NoiseModel | None:
-        """The sensor's noise learnt from the second halves of every static window (the
-        arm's ringing has settled there; ``com_core.noise``), at the rate of the kept
-        samples' stamps; ``noise`` when they are too few; None without either."""
-        segments = self.segments(until_ns)
+    def noise_model(
+        self,
+        until_ns: int | None = None,
+        segments: list[tuple[str, NDArray[np.float64]]] | None = None,
+    ) -> NoiseModel | None:
+        """The sensor's noise learnt from the second halves of every static window
+        (``segments``, default ``segments(until_ns)``; the arm's ringing has settled
+        there; ``com_core.noise``), at the rate of the kept samples' stamps; ``noise``
+        when they are too few; None without either."""
+        if segments is None:
+            segments = self.segments(until_ns)
         stamps = self.samples()[0]
         steps = np.diff(stamps)
         steps = steps[steps > 0]
@@ -557,7 +563,10 @@ class Exploration:
         return learnt if learnt is not None else self.noise
 
     def reduced_windows(
-        self, until_ns: int | None = None, noise: NoiseModel | None = None
+        self,
+        until_ns: int | None = None,
+        noise: NoiseModel | None = None,
+        segments: list[tuple[str, NDArray[np.float64]]] | None = None,
     ) -> tuple[dict[str, Window], list[Window], list[Window], list[str]]:
         """Every window of ``segments`` reduced to its mean with the sensor's ``noise``
         (default: ``noise_model``): (tare windows by pose, object windows, verify
@@ -566,9 +575,11 @@ class Exploration:
         objects: list[Window] = []
         verifies: list[Window] = []
         notes: list[str] = []
+        if segments is None:
+            segments = self.segments(until_ns)
         if noise is None:
-            noise = self.noise_model(until_ns)
-        for label, samples in self.segments(until_ns):
+            noise = self.noise_model(until_ns, segments)
+        for label, samples in segments:
             kind, pose = label.split("/", 1)
             if len(samples) == 0:
                 notes.append(f"window {shorten(label)!r} has no samples")
@@ -592,11 +603,11 @@ class Exploration:
         notes += [f"dropped {n} labels {what}" for what, n in self.dropped_labels.items()]
         segments = self.segments(until_ns)
         counts = {label: len(samples) for label, samples in segments}
-        noise = self.noise_model(until_ns)
+        noise = self.noise_model(until_ns, segments)
         if noise is not None and self.noise is not None and noise is not self.noise:
             changed = noise.changed_from(self.noise)
             notes += [changed] if changed else []
-        fresh_tares, objects, verifies, refused = self.reduced_windows(until_ns, noise)
+        fresh_tares, objects, verifies, refused = self.reduced_windows(until_ns, noise, segments)
         tares = dict(self.tares) | fresh_tares
         notes += refused
         try:
