@@ -7,8 +7,10 @@ false with the reason). A second call while one runs is refused. Each run starts
 known state: the estimator is reset, an arm that holds something (fingers closed) puts
 it back on the stand first, an arm away from home goes home; and the grasp must hold a
 load before the object pass. Pose labels go out on ``~/pose`` (std_msgs/Header:
-frame_id = label, stamp = the sim time from which it applies; transient local) only once
-the arm has settled.
+frame_id = label, stamp = the sim time from which it applies; reliable, transient local,
+depth 1) only once the arm has settled; each label waits for every reader's
+acknowledgement before the next goes out, so a reader that falls behind (a starved
+process) is late, never without a label.
 The arm is the robot configuration's (``robot_config``: the parameters of
 ``config/<robot>.yaml``, given with ``--params-file``; the Panda's by default) on the URDF of
 /robot_description: each pose is solved for its joints (``choreography``) before anything
@@ -40,6 +42,7 @@ import rclpy
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.experimental import EventsExecutor
@@ -160,6 +163,7 @@ PARAMETERS: dict[str, tuple[object, str]] = {
     "grasp_check_dwell": (0.2, "s of samples at home after lifting that check the grasp"),
 }
 GRIPPER_HOLDING = 0.025
+LABEL_ACK_TIMEOUT = 2.0  # s (wall) a pose label waits for its readers' acknowledgement
 """A gripper closed beyond this fraction of its stroke may hold an object (a run that
 stopped): it is put back on the stand before a run."""
 BIAS_WINDOW_SUFFIX = "_check"  # the empty-hand window of a run with a cached tare
@@ -723,6 +727,11 @@ class SequencerNode(Node):
         header = Header(frame_id=label)
         header.stamp.sec, header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
         self.pose_pub.publish(header)
+        if not self.pose_pub.wait_for_all_acked(Duration(seconds=LABEL_ACK_TIMEOUT)):
+            self.get_logger().warning(
+                f"label {label!r} not acknowledged by every reader of {POSE_TOPIC} within "
+                f"{LABEL_ACK_TIMEOUT:g} s: a reader that falls this far behind may miss it"
+            )
         self._labels.append((stamp_ns, label))
         if label != MOVING:
             self.get_logger().info(f"window {label} from t={stamp_ns * 1e-9:.3f} s")
