@@ -29,7 +29,7 @@ demo: setup
 	$(IN_ENV) python -m exploration_sequencer.demo $(ARGS)
 
 study: setup
-	$(IN_ENV) python -m com_core.study $(ARGS)
+	$(IN_ENV) python -m com_core.paper.study $(ARGS)
 
 test: setup lint
 	$(IN_ENV) python -m pytest test $(ARGS)

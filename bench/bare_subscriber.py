@@ -15,7 +15,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_srvs.srv import Trigger
 
 from com_core.contract import WRENCH_TOPIC
-from com_core.rosenv import keep_dds_local
+from com_core.runtime.rosenv import keep_dds_local
 
 
 def main() -> None:

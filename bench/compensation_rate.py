@@ -8,7 +8,7 @@ This process publishes /robot_description (latched; pybullet_data's Panda URDF),
 starts at a home pose and moves every arm joint at 0.02 rad/s, so each sample needs its
 own forward kinematics; ``--still``: the arm at rest) and WrenchStamped on
 /ft_sensor/wrench, each stamped with the wall clock (``time.time_ns()``) when it is
-published. It writes a payload.yaml (``com_core.payload.write_payload_files``) and starts
+published. It writes a payload.yaml (``com_core.payload.model.write_payload_files``) and starts
 the estimator with ``payload_file``, so the estimator publishes
 /ft_sensor/wrench_compensated. A receiver process (this script, ``--receiver``:
 EventsExecutor, raw bytes, the estimator's QoS) takes both streams and keeps, for each
@@ -53,7 +53,6 @@ import numpy as np
 from estimator_rate import cpu_seconds, lossless_scan  # bench/, the script's directory
 
 from com_core.bags.cdr import decode_wrench, encode_wrench_stamped, with_wrench
-from com_core.compensation import Compensator
 from com_core.contract import (
     COMPENSATED_TOPIC,
     COMPENSATION_STATUS_NAME,
@@ -63,11 +62,12 @@ from com_core.contract import (
     ROBOT_DESCRIPTION_TOPIC,
     WRENCH_TOPIC,
 )
-from com_core.kinematics import RobotModel
-from com_core.payload import PAYLOAD_FILE, Payload, payload_wrench, write_payload_files
-from com_core.processes import executable, ros_args, stop
-from com_core.robot_config import read_robot_config
-from com_core.rosenv import keep_dds_local
+from com_core.payload.compensation import Compensator
+from com_core.payload.model import PAYLOAD_FILE, Payload, payload_wrench, write_payload_files
+from com_core.robot.config import read_robot_config
+from com_core.robot.model import RobotModel
+from com_core.runtime.processes import executable, ros_args, stop
+from com_core.runtime.rosenv import keep_dds_local
 
 RATES = (1000, 2000, 5000, 10000, 15000, 20000, 30000, 40000, 50000)
 LATENCY_RATE = 1000  # Hz
@@ -82,7 +82,7 @@ RAW_WRENCH = np.array([1.0, -2.0, 9.0, 0.1, -0.2, 0.3])  # N, N m: what every sa
 CHECK_EVERY = 200  # one compensated message in this many is checked
 CHECK_TOLERANCE = 1e-5
 """N, N m: the payload's wrench is linear in time between joint states; at 0.02 rad/s per
-joint it is off by |W| (omega dt)^2 / 2 ~ 2e-6 at most (com_core.compensation)."""
+joint it is off by |W| (omega dt)^2 / 2 ~ 2e-6 at most (com_core.payload.compensation)."""
 RECEIVER = "compensation_receiver"
 BARE_SUBSCRIBER = Path(__file__).with_name("bare_subscriber.py")
 

@@ -21,8 +21,8 @@ import math
 import os
 import sys
 
-from com_core.study import PAPER_LOAD, run_study, table_cells
-from com_core.wrench_model import STANDARD_GRAVITY
+from com_core.paper.study import PAPER_LOAD, run_study, table_cells
+from com_core.sensing.wrench_model import STANDARD_GRAVITY
 
 TARGET = 1.05
 SNR_MIN = 10.0

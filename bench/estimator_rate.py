@@ -25,8 +25,8 @@ from pathlib import Path
 from typing import Any
 
 from com_core.contract import ESTIMATOR_RESET_SERVICE, WRENCH_TOPIC
-from com_core.processes import executable, stop
-from com_core.rosenv import keep_dds_local
+from com_core.runtime.processes import executable, stop
+from com_core.runtime.rosenv import keep_dds_local
 
 RATES = (1000, 2000, 5000, 10000, 15000, 20000, 30000, 40000, 50000, 60000)
 

@@ -11,7 +11,7 @@ estimator (with ``--information``, else its default) and the sequencer run once 
 tare pass is cached per hand, so it is taken in the first run only); each run starts a
 simulator with its own object (box, cylinder, mug in turn; COM offset drawn from the
 run's seed) at 5x real time and calls ~/explore. Each run's bag is read back for the
-ground truth (``com_core.bags.run``) and replayed offline with every information model
+ground truth (``com_core.report.run``) and replayed offline with every information model
 and with the paper's method (``--method two_pose``): the models side by side on the same
 windows. Per model: COM error at the 95th percentile, mass error, how honest the sigmas
 are (|error / sigma| <= 2 in 95 % of runs per axis) and the COM sigma along z against
@@ -42,12 +42,12 @@ from pathlib import Path
 
 import numpy as np
 
-from com_core.bags.run import read_run
 from com_core.contract import EXPLORE_SERVICE
-from com_core.processes import executable, ros_args, stop
-from com_core.robot_config import robot_config_path
-from com_core.rosenv import keep_dds_local
-from com_core.sensor_profiles import DEFAULT_PROFILE, PROFILES
+from com_core.report.run import read_run
+from com_core.robot.config import robot_config_path
+from com_core.runtime.processes import executable, ros_args, stop
+from com_core.runtime.rosenv import keep_dds_local
+from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES
 
 SHAPES = ("box", "cylinder", "mug")
 MODELS = ("wrenches", "kinematics", "kinematics+mount")
@@ -94,7 +94,8 @@ def main() -> int:
         "--sensor-profile",
         default=DEFAULT_PROFILE,
         choices=sorted(PROFILES),
-        help="the simulated sensor (com_core.sensor_profiles); the estimator learns its noise",
+        help="the simulated sensor (com_core.sensing.sensor_profiles); the estimator "
+        "learns its noise",
     )
     parser.add_argument(
         "--bias-drift", type=float, default=0.0, help="N/s of sensor drift per force axis (sim)"

@@ -4,7 +4,7 @@ its COM sigma over that of the wrenches alone, on the paper's Table I grid.
     python bench/information_models.py [--trials 1000] [--seed 0] [--mount-deg 0]
 
 Our setting (1 s windows at 1 kHz, five poses: home, +-tilt about x and y, a tare of the
-same length), the paper's load (com_core.study.PAPER_LOAD) and its per-sample noise on
+same length), the paper's load (com_core.paper.study.PAPER_LOAD) and its per-sample noise on
 every force and torque axis, then the reference sensor (0.1 N, 0.005 N m). The same
 windows go to the three fits:
 - ``wrenches``: ``estimators.ml``, bound ``estimators.crlb``;
@@ -28,14 +28,19 @@ from dataclasses import replace
 
 import numpy as np
 
-from com_core.errors import TooFewPosesError
-from com_core.estimators import crlb, ml
-from com_core.kinematics import DEFAULT_GRAVITY
-from com_core.known_gravity import Observation, kinematic_ml
-from com_core.planner import Plan, plan_observations, predict
-from com_core.study import PAPER_LOAD
-from com_core.windows import window_from_mean
-from com_core.wrench_model import STANDARD_GRAVITY, SensorModel, gravity_wrench, rotation_about
+from com_core.estimation.errors import TooFewPosesError
+from com_core.estimation.estimators import crlb, ml
+from com_core.estimation.known_gravity import Observation, kinematic_ml
+from com_core.estimation.windows import window_from_mean
+from com_core.paper.study import PAPER_LOAD
+from com_core.planning.planner import Plan, plan_observations, predict
+from com_core.robot.model import DEFAULT_GRAVITY
+from com_core.sensing.wrench_model import (
+    STANDARD_GRAVITY,
+    SensorModel,
+    gravity_wrench,
+    rotation_about,
+)
 
 TARGET, SNR_MIN = 1.05, 10.0
 TILTS = {"0.05": 0.05, "pi/6": math.pi / 6, "pi/3": math.pi / 3}

@@ -35,9 +35,9 @@ from com_core.contract import (
     JOINT_STATES_TOPIC,
     SIM_PARAMETERS_SERVICE,
 )
-from com_core.processes import stop
-from com_core.robot_config import default_robot_config
-from com_core.rosenv import keep_dds_local
+from com_core.robot.config import default_robot_config
+from com_core.runtime.processes import stop
+from com_core.runtime.rosenv import keep_dds_local
 
 ARM_JOINTS = default_robot_config().arm_joints  # the sim's default robot
 NOISE = {"sigma_f": 0.1, "sigma_tau": 0.005}

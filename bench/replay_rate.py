@@ -26,8 +26,8 @@ from com_core.bags.cdr import encode_header, encode_wrench_stamped
 from com_core.bags.reader import read_raw
 from com_core.bags.writer import CrashSafeBagWriter
 from com_core.contract import POSE_TOPIC, WRENCH_TOPIC
-from com_core.planner import Plan
-from com_core.synthetic import Load, exploration_stream
+from com_core.paper.synthetic import Load, exploration_stream
+from com_core.planning.planner import Plan
 from com_estimator.replay import main as replay_main
 
 

@@ -19,7 +19,7 @@ its wrenches are read through a real sensor's parts, added afterwards:
   offset, time constant 600 s, from sim time 0) and random walk (2e-4 N/sqrt(s),
   1e-5 N m/sqrt(s));
 - ``calibration``: a calibration error of the realistic profile's accuracy (1 %,
-  ``com_core.calibration``), the estimator told that accuracy (else it is told 0).
+  ``com_core.sensing.calibration``), the estimator told that accuracy (else it is told 0).
 
 Each copy is solved by the same ``Exploration`` as the node's, with the estimator's
 defaults (its noise learnt from the windows). Seeds: copy k of run b in case c draws
@@ -46,22 +46,23 @@ from pathlib import Path
 
 import numpy as np
 
-from com_core.bags.reader import BagReading, feed_bag
-from com_core.bags.run import read_run
-from com_core.calibration import Calibration
+from com_core.bags.reader import BagReading
 from com_core.contract import OBJECT_PREFIX
-from com_core.estimator_settings import (
+from com_core.estimation.feed import feed_bag
+from com_core.estimation.settings import (
     CALIBRATION_ACCURACY,
     FULL_SCALE,
     exploration_from,
     robot_from,
     use_cached_tares,
 )
-from com_core.noise import ar1_noise
-from com_core.planner import Plan, dwell_for_target
-from com_core.robot_config import BAG_ROBOT_FILE, read_robot_config
-from com_core.tare_cache import BAG_TARE_FILE
-from com_core.wrench_model import calibration_matrix
+from com_core.estimation.tare_cache import BAG_TARE_FILE
+from com_core.planning.planner import Plan, dwell_for_target
+from com_core.report.run import read_run
+from com_core.robot.config import BAG_ROBOT_FILE, read_robot_config
+from com_core.sensing.calibration import Calibration
+from com_core.sensing.noise import ar1_noise
+from com_core.sensing.wrench_model import calibration_matrix
 
 SIGMA = np.array([0.1, 0.1, 0.1, 0.005, 0.005, 0.005])  # N, N m per sample (the demo's)
 RATE = 1000.0

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import rclpy
 
-from com_core.rosenv import keep_dds_local
+from com_core.runtime.rosenv import keep_dds_local
 from wrench_sim.physics import ArmWorld, SimConfig
 from wrench_sim.sim_node import SimNode
 

@@ -6,8 +6,8 @@
   ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST and the test's own ROS_DOMAIN_ID.
 - ``start_node(script, package, params=None, args=None, name=None)`` starts
   <prefix>/lib/<package>/<script> as a process (as ``ros2 run`` would), logging
-  to a file under tmp_path (parameters as ``com_core.processes.ros_args`` writes them);
-  every node is stopped at teardown (``com_core.processes.stop``: SIGINT, then SIGTERM,
+  to a file under tmp_path (parameters as ``com_core.runtime.processes.ros_args`` writes them);
+  every node is stopped at teardown (``com_core.runtime.processes.stop``: SIGINT, then SIGTERM,
   then SIGKILL), and its log tail is printed when the test failed; a node still running at
   teardown must end on SIGINT with exit code 0 and no traceback, or the test errors.
 - ``rclpy_context``: an rclpy Context on the same domain, shut down at teardown;
@@ -32,8 +32,8 @@ from typing import Any
 
 import pytest
 
-from com_core.processes import STOP_SEQUENCE, executable, ros_args, stop
-from com_core.robot_config import read_robot_config, urdf_file
+from com_core.robot.config import read_robot_config, urdf_file
+from com_core.runtime.processes import STOP_SEQUENCE, executable, ros_args, stop
 
 # Nothing in the test process may talk DDS beyond this machine.
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
@@ -142,7 +142,7 @@ def start_node(
     """Callable that starts a node's console script as a process; all are stopped at teardown.
 
     ``start_node(script, package, params=None, args=None, name=None)``: the script is found
-    as ``ros2 run`` finds it (``com_core.processes.executable``); ``params`` become
+    as ``ros2 run`` finds it (``com_core.runtime.processes.executable``); ``params`` become
     ``-p name:=value`` (pass ``{"use_sim_time": True}`` to ask for sim time), ``args`` are
     extra command-line arguments placed before ``--ros-args``, ``name`` remaps the node name.
     The process's ``log_path`` attribute is its stdout+stderr log.
@@ -248,7 +248,7 @@ def replay_json(bag: Path, env: dict[str, str] | None = None, *options: str) -> 
 
 
 def write_stream_bag(path: Path, stream: Any, labels: bool = True, **writer: Any) -> None:
-    """A run bag of a synthetic ``stream`` (``com_core.synthetic.exploration_stream``): its
+    """A run bag of a synthetic ``stream`` (``com_core.paper.synthetic.exploration_stream``): its
     wrenches, and its pose labels unless ``labels`` is False, in stamp order; ``writer``
     passes on to CrashSafeBagWriter (chunk_size, ...)."""
     from com_core.bags.cdr import encode_header, encode_wrench_stamped

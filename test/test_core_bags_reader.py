@@ -9,12 +9,13 @@ import numpy as np
 from conftest import write_stream_bag
 
 from com_core.bags.cdr import decode_wrenches, encode_wrench_stamped
-from com_core.bags.reader import INCOMPLETE_TEXT, BagReading, feed_bag, read_metadata, read_raw
+from com_core.bags.reader import INCOMPLETE_TEXT, BagReading, read_metadata, read_raw
 from com_core.bags.writer import CrashSafeBagWriter
 from com_core.contract import POSE_TOPIC, TOPIC_TYPES, WRENCH_TOPIC
-from com_core.exploration import OK, Exploration
-from com_core.planner import Plan
-from com_core.synthetic import Load, exploration_stream
+from com_core.estimation.exploration import OK, Exploration
+from com_core.estimation.feed import feed_bag
+from com_core.paper.synthetic import Load, exploration_stream
+from com_core.planning.planner import Plan
 
 LOAD, HAND = Load(0.1, (0.01, -0.02, 0.1)), Load(0.73, (0.0, 0.0, 0.04))
 

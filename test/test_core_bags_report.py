@@ -1,4 +1,4 @@
-"""com_core.bags.report (and bags.run, which it reads a run with): a PNG per bag, also for
+"""com_core.report.figure (and bags.run, which it reads a run with): a PNG per bag, also for
 failed runs and bags missing topics."""
 
 from __future__ import annotations
@@ -14,8 +14,6 @@ import pytest
 from rosbags.typesys import Stores, get_typestore
 
 from com_core.bags.cdr import encode_header, encode_wrench_stamped
-from com_core.bags.report import write_report
-from com_core.bags.run import read_run
 from com_core.bags.writer import CrashSafeBagWriter
 from com_core.contract import (
     DIAGNOSTIC_NAME,
@@ -29,9 +27,11 @@ from com_core.contract import (
     TRUTH_TOPIC,
     WRENCH_TOPIC,
 )
-from com_core.exploration import ERROR, OK, WARN, Exploration, Solution
-from com_core.planner import Plan
-from com_core.synthetic import Load, exploration_stream
+from com_core.estimation.exploration import ERROR, OK, WARN, Exploration, Solution
+from com_core.paper.synthetic import Load, exploration_stream
+from com_core.planning.planner import Plan
+from com_core.report.figure import write_report
+from com_core.report.run import read_run
 
 LOAD, HAND = Load(0.1, (0.01, -0.02, 0.1)), Load(0.73, (0.0, 0.0, 0.04))
 TS = get_typestore(Stores.ROS2_JAZZY)
@@ -243,7 +243,7 @@ def test_report_of_a_path_that_is_not_a_bag(tmp_path):
 def test_report_module_leaves_pyplot_alone():
     """It draws on its own Figure: importing it neither loads pyplot (nor rclpy, which
     test_ros_free checks for every core module)."""
-    code = "import sys, com_core.bags.report; assert 'matplotlib.pyplot' not in sys.modules"
+    code = "import sys, com_core.report.figure; assert 'matplotlib.pyplot' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
@@ -254,7 +254,7 @@ def test_report_of_a_kinematic_run_shows_its_own_numbers():
     the base tilt and the sensor's noise learnt; lines fit the column."""
     from conftest import WORKSPACE
 
-    from com_core.bags.report import _summary_lines
+    from com_core.report.figure import _summary_lines
 
     run = read_run(WORKSPACE / "bags" / "sample")
     assert run.diagnostic["values"]["information"] == "kinematics+mount"
@@ -267,7 +267,7 @@ def test_report_of_a_kinematic_run_shows_its_own_numbers():
 
 
 def test_the_numbers_show_the_verification_wrapped_to_the_table():
-    from com_core.bags.report import _kinematic_lines
+    from com_core.report.figure import _kinematic_lines
 
     values = {
         "verify_wrench diagonal": "0.003,0.001,-0.007,3e-05,-0.00016,0.00015",

@@ -1,4 +1,4 @@
-"""com_core.calibration: the common error of a sensor's calibration, its covariance against
+"""com_core.sensing.calibration: the common error of a sensor's calibration, its covariance against
 Monte Carlo, and the kinematic fit that weighs it: honest error bars, an honest chi-square
 and an honest verification under a calibration error of the stated accuracy."""
 
@@ -20,14 +20,14 @@ from test_core_known_gravity import (
     seen_gravity,
 )
 
-from com_core.calibration import Calibration
-from com_core.exploration import Exploration
-from com_core.known_gravity import Observation, kinematic_ml
-from com_core.planner import Plan
-from com_core.stats import chi2_isf
-from com_core.synthetic import Load, object_windows
-from com_core.windows import window_from_mean
-from com_core.wrench_model import calibration_matrix, gravity_wrench, rotation_about
+from com_core.estimation.exploration import Exploration
+from com_core.estimation.known_gravity import Observation, kinematic_ml
+from com_core.estimation.stats import chi2_isf
+from com_core.estimation.windows import window_from_mean
+from com_core.paper.synthetic import Load, object_windows
+from com_core.planning.planner import Plan
+from com_core.sensing.calibration import Calibration
+from com_core.sensing.wrench_model import calibration_matrix, gravity_wrench, rotation_about
 
 CALIBRATION = Calibration(0.01, 290.0, 10.0)  # the realistic profile's
 

@@ -1,4 +1,4 @@
-"""com_core.compensation: the payload's wrench at a sample's stamp from the joint states
+"""com_core.payload.compensation: the payload's wrench at a sample's stamp from the joint states
 around it, and the compensated wrench of a moving arm within the bound of that."""
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ import pybullet_data
 import pytest
 from conftest import PANDA_JOINTS
 
-from com_core.compensation import Compensator
-from com_core.kinematics import RobotModel
-from com_core.payload import Payload, payload_wrench
+from com_core.payload.compensation import Compensator
+from com_core.payload.model import Payload, payload_wrench
+from com_core.robot.model import RobotModel
 
 MS = 1_000_000  # ns
 NAMES = list(PANDA_JOINTS)

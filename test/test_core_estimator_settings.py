@@ -1,19 +1,19 @@
-"""com_core.estimator_settings: the node's parameters and the replay's options are one
+"""com_core.estimation.settings: the node's parameters and the replay's options are one
 table, one check and one mapping to an Exploration."""
 
 from __future__ import annotations
 
 import pytest
 
-from com_core.estimator_settings import (
+from com_core.estimation.exploration import Exploration
+from com_core.estimation.settings import (
     SETTINGS,
     exploration_from,
     load_cached_tares,
     setting_problem,
 )
-from com_core.exploration import Exploration
-from com_core.tare_cache import save_tares
-from com_core.windows import window_from_mean
+from com_core.estimation.tare_cache import save_tares
+from com_core.estimation.windows import window_from_mean
 
 
 def test_the_defaults_are_an_explorations_defaults():

@@ -8,17 +8,17 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from com_core.errors import (
+from com_core.estimation.errors import (
     IllConditionedError,
     NonFiniteError,
     NonPositiveMassError,
     TooFewPosesError,
 )
-from com_core.estimators import check_consistency, crlb, ml, two_pose
-from com_core.planner import Plan
-from com_core.synthetic import Load, object_windows
-from com_core.windows import window_from_mean
-from com_core.wrench_model import (
+from com_core.estimation.estimators import check_consistency, crlb, ml, two_pose
+from com_core.estimation.windows import window_from_mean
+from com_core.paper.synthetic import Load, object_windows
+from com_core.planning.planner import Plan
+from com_core.sensing.wrench_model import (
     STANDARD_GRAVITY,
     SensorModel,
     gravity_in_sensor,

@@ -1,11 +1,11 @@
-"""com_core.exploration: what an Exploration keeps, drops and says about its input."""
+"""com_core.estimation.exploration: what an Exploration keeps, drops and says about its input."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from com_core.exploration import (
+from com_core.estimation.exploration import (
     ERROR,
     MAX_LABEL_GAP,
     MAX_LABEL_LENGTH,
@@ -14,8 +14,8 @@ from com_core.exploration import (
     Exploration,
     verification_lines,
 )
-from com_core.planner import Plan
-from com_core.synthetic import Load, Stream, exploration_stream
+from com_core.paper.synthetic import Load, Stream, exploration_stream
+from com_core.planning.planner import Plan
 
 LOAD, HAND = Load(0.1, (0.01, -0.02, 0.1)), Load(0.73, (0.0, 0.0, 0.04))
 PLAN = Plan(dwell=0.3, gravity_home=(0, 0, 1))
@@ -213,7 +213,7 @@ def test_a_verification_window_is_checked_against_the_fit_and_a_push_is_flagged(
 def test_before_a_window_label_only_the_lead_in_is_kept():
     """A node that only compensates (no exploration running) keeps a bounded buffer: the
     last IDLE_KEEP s of samples and joint states; once a window label came, everything."""
-    from com_core.exploration import IDLE_KEEP
+    from com_core.estimation.exploration import IDLE_KEEP
 
     ex = Exploration()
     stamps = np.arange(0, 30_000_000_000, 1_000_000)  # 30 s at 1 kHz

@@ -1,4 +1,4 @@
-"""com_core.inverse_kinematics on two arms of pybullet_data: the Panda (7 joints, sensor
+"""com_core.robot.inverse_kinematics on two arms of pybullet_data: the Panda (7 joints, sensor
 frame ``panda_hand``) and the xArm6 (6 joints, sensor frame ``xarm_gripper_base_link``,
 the flange). Solutions are checked by forward kinematics of their own (pinocchio on a
 fresh model data): the sensor frame's orientation relative to home and the pivot's
@@ -15,10 +15,10 @@ import pinocchio
 import pybullet_data
 import pytest
 
-from com_core.inverse_kinematics import IkResult, largest_reachable_tilt, solve_pose
-from com_core.kinematics import KinematicsError, RobotModel
-from com_core.robot_config import read_robot_config
-from com_core.wrench_model import STANDARD_GRAVITY, rotation_about
+from com_core.robot.config import read_robot_config
+from com_core.robot.inverse_kinematics import IkResult, largest_reachable_tilt, solve_pose
+from com_core.robot.model import KinematicsError, RobotModel
+from com_core.sensing.wrench_model import STANDARD_GRAVITY, rotation_about
 
 DATA = Path(pybullet_data.getDataPath())
 PIVOT = (0.0, 0.0, 0.1)  # m in the sensor frame: a grasped object's centre below the flange

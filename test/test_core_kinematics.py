@@ -1,4 +1,4 @@
-"""com_core.kinematics: gravity in the sensor frame from a URDF and joint positions, and
+"""com_core.robot.model: gravity in the sensor frame from a URDF and joint positions, and
 a clear error for a URDF, frame or joint set that cannot serve. (Against the simulated
 sensor itself: test_sim_physics.py.)"""
 
@@ -12,8 +12,8 @@ import pybullet_data
 import pytest
 from numpy.testing import assert_allclose
 
-from com_core.kinematics import KinematicsError, RobotModel
-from com_core.wrench_model import STANDARD_GRAVITY
+from com_core.robot.model import KinematicsError, RobotModel
+from com_core.sensing.wrench_model import STANDARD_GRAVITY
 
 PANDA = (Path(pybullet_data.getDataPath()) / "franka_panda" / "panda.urdf").read_text()
 HOME = {f"panda_joint{i}": q for i, q in enumerate([0, -0.156, 0, -2.198, 0, 2.042, 0.785], 1)}

@@ -1,5 +1,5 @@
-"""com_core.known_gravity: the fit of hand, bias and object with each window's orientation
-known (from kinematics) is exact without noise, reaches its Cramer-Rao bound, absorbs a
+"""com_core.estimation.known_gravity: the fit of hand, bias and object with each window's
+orientation known (from kinematics) is exact without noise, reaches its Cramer-Rao bound, absorbs a
 bias drift since the tare, and with ``fit_mount`` finds a sensor mounted off its URDF
 frame and a tilted base."""
 
@@ -11,12 +11,17 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from com_core.errors import NonPositiveMassError, TooFewPosesError
-from com_core.estimators import crlb
-from com_core.known_gravity import Observation, kinematic_ml, locate_move, mount_rpy
-from com_core.planner import Plan
-from com_core.windows import window_from_mean
-from com_core.wrench_model import STANDARD_GRAVITY, SensorModel, gravity_wrench, rotation_about
+from com_core.estimation.errors import NonPositiveMassError, TooFewPosesError
+from com_core.estimation.estimators import crlb
+from com_core.estimation.known_gravity import Observation, kinematic_ml, locate_move, mount_rpy
+from com_core.estimation.windows import window_from_mean
+from com_core.planning.planner import Plan
+from com_core.sensing.wrench_model import (
+    STANDARD_GRAVITY,
+    SensorModel,
+    gravity_wrench,
+    rotation_about,
+)
 
 MASS, COM = 0.1, (0.01, -0.02, 0.1)
 HAND_MASS, HAND_COM = 1.0, (0.001, -0.002, 0.04)

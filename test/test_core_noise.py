@@ -1,4 +1,4 @@
-"""com_core.noise and the windows under correlated noise: the learnt model against the
+"""com_core.sensing.noise and the windows under correlated noise: the learnt model against the
 noise it was learnt from, window-mean covariance against Monte Carlo, the motion tests'
 false alarms, the settling, and a noise-free sensor."""
 
@@ -9,9 +9,9 @@ import math
 import numpy as np
 import pytest
 
-from com_core.errors import MotionError
-from com_core.noise import COV_FLOOR, NoiseModel, ar1_noise, learn_noise, white_noise
-from com_core.windows import reduce_window, settled_start
+from com_core.estimation.errors import MotionError
+from com_core.estimation.windows import reduce_window, settled_start
+from com_core.sensing.noise import COV_FLOOR, NoiseModel, ar1_noise, learn_noise, white_noise
 
 SIGMA = np.array([0.1, 0.1, 0.1, 0.005, 0.005, 0.005])
 RATE = 1000.0

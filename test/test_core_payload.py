@@ -1,4 +1,4 @@
-"""com_core.payload: a payload compensates the wrench it predicts exactly, its gravity
+"""com_core.payload.model: a payload compensates the wrench it predicts exactly, its gravity
 follows the mounting and the tilt, control_toolbox's filter with its parameters removes
 the same wrench but the bias, payload.yaml reads back to the same doubles and names the
 field it refuses, a kinematic fit gives the payload, pinocchio reads the URDF fragment,
@@ -16,12 +16,11 @@ import pinocchio
 import pytest
 import yaml
 
-from com_core.estimators import Consistency
-from com_core.exploration import KINEMATICS_MOUNT, WRENCHES, Solution
-from com_core.kinematics import RobotModel
-from com_core.known_gravity import Observation, kinematic_ml
-from com_core.noise import ar1_noise
-from com_core.payload import (
+from com_core.estimation.estimators import Consistency
+from com_core.estimation.exploration import KINEMATICS_MOUNT, WRENCHES, Solution
+from com_core.estimation.known_gravity import Observation, kinematic_ml
+from com_core.estimation.windows import window_from_mean
+from com_core.payload.model import (
     GRAVITY_COMPENSATION_FILE,
     PAYLOAD_FILE,
     URDF_FILE,
@@ -37,8 +36,14 @@ from com_core.payload import (
     urdf_snippet,
     write_payload_files,
 )
-from com_core.windows import window_from_mean
-from com_core.wrench_model import STANDARD_GRAVITY, SensorModel, gravity_wrench, rotation_about
+from com_core.robot.model import RobotModel
+from com_core.sensing.noise import ar1_noise
+from com_core.sensing.wrench_model import (
+    STANDARD_GRAVITY,
+    SensorModel,
+    gravity_wrench,
+    rotation_about,
+)
 
 G = STANDARD_GRAVITY
 MASS, COM = 0.1, np.array([0.01, -0.02, 0.1])

@@ -1,4 +1,4 @@
-"""com_core.planner: predictions against Monte Carlo spreads, and its inversion."""
+"""com_core.planning.planner: predictions against Monte Carlo spreads, and its inversion."""
 
 from __future__ import annotations
 
@@ -9,11 +9,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from com_core.estimators import ml, two_pose
-from com_core.planner import Plan, dwell_for_target, predict
-from com_core.synthetic import Load, exploration_samples, object_windows
-from com_core.windows import reduce_window, subtract_tare
-from com_core.wrench_model import SensorModel
+from com_core.estimation.estimators import ml, two_pose
+from com_core.estimation.windows import reduce_window, subtract_tare
+from com_core.paper.synthetic import Load, exploration_samples, object_windows
+from com_core.planning.planner import Plan, dwell_for_target, predict
+from com_core.sensing.wrench_model import SensorModel
 
 LOAD = Load(0.1, (0.01, -0.02, 0.08))
 HAND = Load(0.7, (0.0, 0.0, 0.04))

@@ -1,4 +1,4 @@
-"""com_core.processes and the packages' console scripts: nodes start as ``ros2 run``
+"""com_core.runtime.processes and the packages' console scripts: nodes start as ``ros2 run``
 would start them, with parameters as ``--ros-args`` reads them, and stop on SIGINT."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from conftest import WORKSPACE
 
-from com_core.processes import STOP_SEQUENCE, executable, parameter_text, ros_args, stop
+from com_core.runtime.processes import STOP_SEQUENCE, executable, parameter_text, ros_args, stop
 
 PACKAGES = ("com_estimator", "wrench_sim", "exploration_sequencer")
 

@@ -1,4 +1,4 @@
-"""com_core.robot_config: the shipped robot configurations, and files that cannot serve
+"""com_core.robot.config: the shipped robot configurations, and files that cannot serve
 refused with the file and the key named."""
 
 from __future__ import annotations
@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 import yaml
 
-from com_core.kinematics import RobotModel
-from com_core.robot_config import (
+from com_core.robot.config import (
     BAG_ROBOT_FILE,
     CONFIG_DIR,
     KEYS,
@@ -24,6 +23,7 @@ from com_core.robot_config import (
     urdf_file,
     write_robot_config,
 )
+from com_core.robot.model import RobotModel
 
 
 @pytest.mark.parametrize("robot", ROBOTS)

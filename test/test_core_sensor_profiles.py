@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from com_core.sensor_profiles import DEFAULT_PROFILE, PROFILES, SensorProfile
-from com_core.wrench_model import SensorModel, calibration_matrix
+from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES, SensorProfile
+from com_core.sensing.wrench_model import SensorModel, calibration_matrix
 
 CORRELATION_TIME = 0.005  # s: the realistic profile's
 RATE = 1000.0  # Hz: the publish rate

@@ -1,4 +1,4 @@
-"""com_core.static_windows: an unlabelled stream cut into its static windows, sorted by
+"""com_core.estimation.static_windows: an unlabelled stream cut into its static windows, sorted by
 load level into tare and object windows."""
 
 from __future__ import annotations
@@ -6,15 +6,15 @@ from __future__ import annotations
 import numpy as np
 from conftest import write_stream_bag
 
-from com_core.bags.reader import feed_bag
-from com_core.exploration import WARN, Exploration
-from com_core.planner import Plan
-from com_core.static_windows import (
+from com_core.estimation.exploration import WARN, Exploration
+from com_core.estimation.feed import feed_bag
+from com_core.estimation.static_windows import (
     find_static_windows,
     label_static_windows,
     split_load_levels,
 )
-from com_core.synthetic import Load, exploration_stream
+from com_core.paper.synthetic import Load, exploration_stream
+from com_core.planning.planner import Plan
 
 LOAD, HAND = Load(0.1, (0.01, -0.02, 0.1)), Load(0.73, (0.0, 0.0, 0.04))
 

@@ -1,4 +1,4 @@
-"""com_core.study: the Monte Carlo reproduction of the paper's tables (cells, CLI)."""
+"""com_core.paper.study: the Monte Carlo reproduction of the paper's tables (cells, CLI)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from com_core.study import Cell, run_cell
+from com_core.paper.study import Cell, run_cell
 
 
 @pytest.mark.slow
@@ -27,7 +27,7 @@ def test_study_cli_json_and_figures(tmp_path):
         [
             sys.executable,
             "-m",
-            "com_core.study",
+            "com_core.paper.study",
             "--trials",
             "12",
             "--json",

@@ -1,4 +1,4 @@
-"""com_core.tare_cache: one entry per hand and plan, the current one, the drift test."""
+"""com_core.estimation.tare_cache: one entry per hand and plan, the current one, the drift test."""
 
 from __future__ import annotations
 
@@ -8,8 +8,7 @@ import time
 import numpy as np
 from conftest import WORKSPACE, choreography
 
-from com_core.planner import Plan
-from com_core.tare_cache import (
+from com_core.estimation.tare_cache import (
     BAG_TARE_FILE,
     TareCache,
     drift,
@@ -21,7 +20,8 @@ from com_core.tare_cache import (
     tare_signature,
     use_tares,
 )
-from com_core.windows import window_from_mean
+from com_core.estimation.windows import window_from_mean
+from com_core.planning.planner import Plan
 
 PANDA = choreography("panda")
 

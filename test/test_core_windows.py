@@ -1,4 +1,4 @@
-"""com_core.windows: a window reduced to its mean and covariance, bad samples and motion
+"""com_core.estimation.windows: a window reduced to its mean and covariance, bad samples and motion
 refused, the per-pose tare."""
 
 from __future__ import annotations
@@ -9,12 +9,17 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from com_core.errors import MissingTareError, MotionError, NonFiniteError, SaturationError
-from com_core.estimators import ml
-from com_core.planner import Plan
-from com_core.synthetic import Load, exploration_samples
-from com_core.windows import reduce_window, subtract_tare
-from com_core.wrench_model import SensorModel, gravity_wrench
+from com_core.estimation.errors import (
+    MissingTareError,
+    MotionError,
+    NonFiniteError,
+    SaturationError,
+)
+from com_core.estimation.estimators import ml
+from com_core.estimation.windows import reduce_window, subtract_tare
+from com_core.paper.synthetic import Load, exploration_samples
+from com_core.planning.planner import Plan
+from com_core.sensing.wrench_model import SensorModel, gravity_wrench
 
 SENSOR = SensorModel.from_scalars(0.1, 0.005, limit_f=50.0, limit_tau=5.0)
 

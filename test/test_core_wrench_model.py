@@ -1,4 +1,4 @@
-"""com_core.wrench_model: f = m g_s, tau = p x f, and the sensor model (noise, bias,
+"""com_core.sensing.wrench_model: f = m g_s, tau = p x f, and the sensor model (noise, bias,
 quantisation, saturation, seed)."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from com_core.wrench_model import (
+from com_core.sensing.wrench_model import (
     SensorModel,
     gravity_in_sensor,
     gravity_wrench,

@@ -27,8 +27,7 @@ from com_core.contract import (
     ROBOT_DESCRIPTION_TOPIC,
     WRENCH_TOPIC,
 )
-from com_core.kinematics import RobotModel
-from com_core.payload import (
+from com_core.payload.model import (
     GRAVITY_COMPENSATION_FILE,
     PAYLOAD_FILE,
     URDF_FILE,
@@ -37,8 +36,9 @@ from com_core.payload import (
     read_payload,
     write_payload_files,
 )
-from com_core.planner import Plan, predict
-from com_core.wrench_model import SensorModel
+from com_core.planning.planner import Plan, predict
+from com_core.robot.model import RobotModel
+from com_core.sensing.wrench_model import SensorModel
 
 pytestmark = pytest.mark.system
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from conftest import WORKSPACE, replay_json
 
-from com_core.bags.run import read_run
+from com_core.report.run import read_run
 
 SAMPLE = WORKSPACE / "bags" / "sample"
 

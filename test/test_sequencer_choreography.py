@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 from conftest import choreography
 
-from com_core.kinematics import RobotModel
-from com_core.planner import Plan
-from com_core.robot_config import ROBOTS, RobotConfigError, read_robot_config, urdf_file
-from com_core.wrench_model import rotation_about
+from com_core.planning.planner import Plan
+from com_core.robot.config import ROBOTS, RobotConfigError, read_robot_config, urdf_file
+from com_core.robot.model import RobotModel
+from com_core.sensing.wrench_model import rotation_about
 from exploration_sequencer.choreography import (
     MAX_PIVOT_SHIFT,
     QUINTIC_PEAK,

@@ -17,7 +17,6 @@ from conftest import PANDA, UNCLEAN_EXIT, replay_json, spin_until
 
 from com_core.bags.cdr import decode_header
 from com_core.bags.reader import read_raw
-from com_core.bags.run import read_run
 from com_core.contract import (
     ESTIMATE_TOPIC,
     EXPLORE_SERVICE,
@@ -27,7 +26,8 @@ from com_core.contract import (
     TRUTH_TOPIC,
     WRENCH_TOPIC,
 )
-from com_core.robot_config import BAG_ROBOT_FILE, read_robot_config, robot_config_path
+from com_core.report.run import read_run
+from com_core.robot.config import BAG_ROBOT_FILE, read_robot_config, robot_config_path
 
 pytestmark = pytest.mark.system
 

@@ -34,8 +34,8 @@ from com_core.contract import (
     TRUTH_TOPIC,
     WRENCH_TOPIC,
 )
-from com_core.robot_config import CONFIG_DIR, read_robot_config
-from com_core.wrench_model import gravity_in_sensor, gravity_wrench
+from com_core.robot.config import CONFIG_DIR, read_robot_config
+from com_core.sensing.wrench_model import gravity_in_sensor, gravity_wrench
 
 rclpy = pytest.importorskip("rclpy")
 pytestmark = pytest.mark.system
@@ -216,7 +216,7 @@ def test_clock_runs_in_sim_time(sim, rclpy_context):
 def test_the_robot_description_is_the_urdf_the_sim_loaded(sim):
     """Latched on /robot_description (as robot_state_publisher does): a late subscriber
     gets the URDF with the fixed fingers of rigid mode, and it parses."""
-    from com_core.kinematics import RobotModel
+    from com_core.robot.model import RobotModel
 
     process, client = sim
     latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -430,7 +430,7 @@ def test_the_xarm6_runs_from_its_parameters_file(start_node, rclpy_context):
     /robot_description (sensor frame xarm_gripper_base_link), at rest the wrench is the
     gravity wrench of the gripper's ground truth, and driven into the ground it warns of the
     collision."""
-    from com_core.kinematics import RobotModel
+    from com_core.robot.model import RobotModel
 
     xarm = read_robot_config("xarm6")
     process = start_node(

@@ -2,9 +2,9 @@
 
 Drives ``wrench_sim.physics.ArmWorld`` directly, on the Panda and on the xArm6: grasp the
 object from its stand, hold the arm still at several orientations and compare the sensed
-wrench with ``com_core.wrench_model.gravity_wrench`` of hand (+ object) from the ground truth,
-and the change a push on the held object makes with the push as the sensor reads it; drive the
-arm into the ground and read the collision it reports.
+wrench with ``com_core.sensing.wrench_model.gravity_wrench`` of hand (+ object) from the ground
+truth, and the change a push on the held object makes with the push as the sensor reads it;
+drive the arm into the ground and read the collision it reports.
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from com_core.robot_config import read_robot_config
-from com_core.wrench_model import STANDARD_GRAVITY, SensorModel, gravity_wrench
+from com_core.robot.config import read_robot_config
+from com_core.sensing.wrench_model import STANDARD_GRAVITY, SensorModel, gravity_wrench
 from wrench_sim.objects import SHAPES, holdable_com_range, object_spec
 from wrench_sim.physics import TIME_STEP, ArmWorld, SimConfig
 from wrench_sim.sensor import WrenchSensor, random_streams
@@ -433,11 +433,11 @@ def test_every_seeded_com_offset_is_in_the_holdable_range(shape):
     ("robot", "grasp_mode"), [("panda", "rigid"), ("panda", "friction"), ("xarm6", "rigid")]
 )
 def test_the_urdf_the_sim_loads_gives_its_sensor_orientation(robot, grasp_mode):
-    """com_core.kinematics on the URDF the sim publishes: the sensor frame (``panda_hand``,
+    """com_core.robot.model on the URDF the sim publishes: the sensor frame (``panda_hand``,
     ``xarm_gripper_base_link``) turns as the simulated sensor does, and the hand's sensed
     force is m g_s with the g_s it computes (frames and signs checked against the
     measurement itself)."""
-    from com_core.kinematics import RobotModel
+    from com_core.robot.model import RobotModel
 
     config = read_robot_config(robot)
     world = ArmWorld(SimConfig(robot=config, object_shape="box", grasp_mode=grasp_mode))

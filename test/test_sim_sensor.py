@@ -18,9 +18,9 @@ import pytest
 from conftest import choreography
 from numpy.testing import assert_allclose, assert_array_equal
 
-from com_core.robot_config import read_robot_config
-from com_core.sensor_profiles import PROFILES
-from com_core.wrench_model import SensorModel, calibration_matrix, gravity_wrench
+from com_core.robot.config import read_robot_config
+from com_core.sensing.sensor_profiles import PROFILES
+from com_core.sensing.wrench_model import SensorModel, calibration_matrix, gravity_wrench
 from wrench_sim.physics import TIME_STEP, ArmWorld, SimConfig
 from wrench_sim.sensor import BiasDrift, WrenchSensor, random_streams
 

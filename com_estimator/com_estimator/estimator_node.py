@@ -13,7 +13,7 @@ Publishes
     with the wrench rate and the stamps of the latest wrench and label, so a sequencer
     knows the estimator hears the sensor and its labels).
     /ft_sensor/wrench_compensated (geometry_msgs/WrenchStamped; best effort): each wrench
-    less the bias, the hand and the payload at its orientation (``com_core.compensation``),
+    less the bias, the hand and the payload at its orientation (``com_core.payload.compensation``),
     same stamp and frame, once there is a payload: the latest usable estimate with a
     kinematic fit, or the ``payload_file`` loaded at start; ``com_estimator:
     compensation`` on /diagnostics at 1 Hz says from what, how many samples, how many
@@ -22,9 +22,9 @@ Publishes
 Services
     ~/solve (std_srvs/Trigger): estimate now from what has arrived; success only on OK.
     ~/reset (std_srvs/Trigger): forget the current exploration.
-    ~/save_payload (std_srvs/Trigger): write the payload files (``com_core.payload``) to
+    ~/save_payload (std_srvs/Trigger): write the payload files (``com_core.payload.model``) to
     the directory ``payload_save_dir`` (set it first); the answer names them, or why not.
-The estimation is ``com_core.exploration``; this node only moves messages in and out.
+The estimation is ``com_core.estimation.exploration``; this node only moves messages in and out.
 The compensation runs here, not in a node of its own: this node holds the fit (bias,
 hand, payload) the moment it is made, and already decodes every wrench.
 """
@@ -51,7 +51,6 @@ from std_msgs.msg import Header, String
 from std_srvs.srv import Trigger
 
 from com_core.bags.cdr import decode_header, decode_wrench, decode_wrenches, with_wrench
-from com_core.compensation import MAX_JOINT_STATE_AGE, Compensator
 from com_core.contract import (
     COMPENSATED_TOPIC,
     COMPENSATION_STATUS_NAME,
@@ -71,14 +70,7 @@ from com_core.contract import (
     WRENCH_TOPIC,
     level_of,
 )
-from com_core.estimator_settings import (
-    SETTINGS,
-    exploration_from,
-    robot_from,
-    setting_problem,
-    use_cached_tares,
-)
-from com_core.exploration import (
+from com_core.estimation.exploration import (
     ERROR,
     OK,
     WARN,
@@ -88,16 +80,24 @@ from com_core.exploration import (
     format_solution,
     shorten,
 )
-from com_core.kinematics import RobotModel
-from com_core.payload import (
+from com_core.estimation.settings import (
+    SETTINGS,
+    exploration_from,
+    robot_from,
+    setting_problem,
+    use_cached_tares,
+)
+from com_core.payload.compensation import MAX_JOINT_STATE_AGE, Compensator
+from com_core.payload.model import (
     Payload,
     PayloadError,
     payload_from_solution,
     read_payload,
     write_payload_files,
 )
-from com_core.robot_config import default_robot_config
-from com_core.rosenv import keep_dds_local, stop_on_signals
+from com_core.robot.config import default_robot_config
+from com_core.robot.model import RobotModel
+from com_core.runtime.rosenv import keep_dds_local, stop_on_signals
 
 MAX_MESSAGE_LENGTH = 1000  # characters of a diagnostic message
 
@@ -121,7 +121,7 @@ _READ_AT_START = ("payload_file",)
 
 
 class EstimatorNode(Node):
-    """Thin adapter from messages to ``com_core.exploration.Exploration``."""
+    """Thin adapter from messages to ``com_core.estimation.exploration.Exploration``."""
 
     def __init__(self) -> None:
         super().__init__("com_estimator")

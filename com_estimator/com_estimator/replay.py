@@ -3,11 +3,11 @@
     replay BAG_DIR [--method ml|two_pose] [--json] [...]
 
 Reads /ft_sensor/wrench and /exploration_sequencer/pose from a rosbag2 directory
-(MCAP) and feeds them to the same ``com_core.exploration.Exploration`` the node uses,
+(MCAP) and feeds them to the same ``com_core.estimation.exploration.Exploration`` the node uses,
 with the node's defaults, so the same messages give the same numbers to the last bit.
 
 A bag without pose labels is cut into static windows by
-``com_core.static_windows.find_static_windows`` (blocks of 50 ms whose spread is at the
+``com_core.estimation.static_windows.find_static_windows`` (blocks of 50 ms whose spread is at the
 noise level, joined while their means agree within 6 standard errors, kept when longer
 than 0.3 s) and sorted by ``split_load_levels`` into the empty hand's and the loaded
 hand's by the magnitude of their mean force (the gravity load, N, whatever the
@@ -34,16 +34,9 @@ import json
 import sys
 from pathlib import Path
 
-from com_core.bags.reader import INCOMPLETE_TEXT, BagReading, feed_bag
+from com_core.bags.reader import INCOMPLETE_TEXT, BagReading
 from com_core.contract import OBJECT_PREFIX, POSE_TOPIC, TARE_PREFIX, VERIFY_PREFIX, WRENCH_TOPIC
-from com_core.estimator_settings import (
-    SETTINGS,
-    exploration_from,
-    robot_from,
-    setting_problem,
-    use_cached_tares,
-)
-from com_core.exploration import (
+from com_core.estimation.exploration import (
     ERROR,
     OK,
     WARN,
@@ -52,9 +45,17 @@ from com_core.exploration import (
     Solution,
     format_solution,
 )
-from com_core.robot_config import BAG_ROBOT_FILE, RobotConfigError, read_robot_config
-from com_core.static_windows import find_static_windows, split_load_levels
-from com_core.tare_cache import BAG_TARE_FILE
+from com_core.estimation.feed import feed_bag
+from com_core.estimation.settings import (
+    SETTINGS,
+    exploration_from,
+    robot_from,
+    setting_problem,
+    use_cached_tares,
+)
+from com_core.estimation.static_windows import find_static_windows, split_load_levels
+from com_core.estimation.tare_cache import BAG_TARE_FILE
+from com_core.robot.config import BAG_ROBOT_FILE, RobotConfigError, read_robot_config
 
 ROBOT_FRAMES = ("sensor_frame", "base_frame")
 """The settings a run's robot configuration gives the replay."""

@@ -5,7 +5,7 @@
                                    no-windows|long-label] [--shift-sigma 0.01]
                           [--estimator-timeout 10]
 
-The stream is ``com_core.synthetic.exploration_stream`` (tare pass, then object pass,
+The stream is ``com_core.paper.synthetic.exploration_stream`` (tare pass, then object pass,
 motion between poses, then ``done``), published on /ft_sensor/wrench and
 /exploration_sequencer/pose with the ground truth on /wrench_sim/ground_truth. With
 ``--bag`` every published message is also written, serialized as sent, to a rosbag2
@@ -47,10 +47,10 @@ from com_core.contract import (
     WRENCH_TOPIC,
     heard_stamps,
 )
-from com_core.planner import Plan
-from com_core.rosenv import keep_dds_local
-from com_core.synthetic import Load, Stream, exploration_stream
-from com_core.wrench_model import SensorModel
+from com_core.paper.synthetic import Load, Stream, exploration_stream
+from com_core.planning.planner import Plan
+from com_core.runtime.rosenv import keep_dds_local
+from com_core.sensing.wrench_model import SensorModel
 
 FAULTS = (
     "none",

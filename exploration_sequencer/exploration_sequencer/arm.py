@@ -18,7 +18,7 @@ from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from com_core.contract import ARM_COMMAND_TOPIC, HAND_COMMAND_TOPIC
-from com_core.robot_config import RobotConfig
+from com_core.robot.config import RobotConfig
 from exploration_sequencer.choreography import Choreography
 from exploration_sequencer.io_node import IoNode, TimeoutRunError
 

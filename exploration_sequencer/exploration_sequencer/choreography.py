@@ -30,11 +30,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from com_core.inverse_kinematics import largest_reachable_tilt, solve_pose
-from com_core.kinematics import KinematicsError, RobotModel
-from com_core.planner import HOME, Plan
-from com_core.robot_config import RobotConfig, RobotConfigError, grasp_point, robot_problems
-from com_core.wrench_model import rotation_about
+from com_core.planning.planner import HOME, Plan
+from com_core.robot.config import RobotConfig, RobotConfigError, grasp_point, robot_problems
+from com_core.robot.inverse_kinematics import largest_reachable_tilt, solve_pose
+from com_core.robot.model import KinematicsError, RobotModel
+from com_core.sensing.wrench_model import rotation_about
 
 __all__ = [
     "AXES",

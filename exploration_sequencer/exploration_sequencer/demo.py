@@ -30,12 +30,17 @@ from com_core.contract import (
     EXPLORE_SERVICE,
     TRUTH_TOPIC,
 )
-from com_core.exploration import INFORMATION, noise_line, vector_value, verification_lines
-from com_core.payload import PAYLOAD_FILE
-from com_core.processes import executable, ros_args, stop
-from com_core.robot_config import ROBOTS, RobotConfigError, read_robot_config, robot_config_path
-from com_core.rosenv import keep_dds_local
-from com_core.sensor_profiles import DEFAULT_PROFILE, PROFILES
+from com_core.estimation.exploration import (
+    INFORMATION,
+    noise_line,
+    vector_value,
+    verification_lines,
+)
+from com_core.payload.model import PAYLOAD_FILE
+from com_core.robot.config import ROBOTS, RobotConfigError, read_robot_config, robot_config_path
+from com_core.runtime.processes import executable, ros_args, stop
+from com_core.runtime.rosenv import keep_dds_local
+from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -59,7 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--sensor-profile",
         choices=sorted(PROFILES),
         default=DEFAULT_PROFILE,
-        help="the simulated sensor's parts (com_core.sensor_profiles)",
+        help="the simulated sensor's parts (com_core.sensing.sensor_profiles)",
     )
     p.add_argument("--sigma-f", type=float, help="N per published sample (default: the profile's)")
     p.add_argument("--sigma-tau", type=float, help="N m per published sample (as --sigma-f)")

@@ -54,7 +54,6 @@ from std_msgs.msg import Header, String
 from std_srvs.srv import Trigger
 
 from com_core.bags.cdr import decode_wrench_batch
-from com_core.calibration import Calibration
 from com_core.contract import (
     DONE,
     ESTIMATOR_PARAMETERS_SERVICE,
@@ -73,25 +72,14 @@ from com_core.contract import (
     WRENCH_TOPIC,
     status_of,
 )
-from com_core.exploration import (
+from com_core.estimation.exploration import (
     WRENCHES,
     Exploration,
     noise_line,
     vector_value,
     verification_lines,
 )
-from com_core.noise import NoiseModel, ar1_noise
-from com_core.planner import Plan, dwell_for_target, predict, within_max_tilt
-from com_core.robot_config import (
-    BAG_ROBOT_FILE,
-    KEYS,
-    RobotConfig,
-    RobotConfigError,
-    default_robot_config,
-    write_robot_config,
-)
-from com_core.rosenv import keep_dds_local, stop_on_signals
-from com_core.tare_cache import (
+from com_core.estimation.tare_cache import (
     BAG_TARE_FILE,
     drift_accepted,
     latest_hand_model,
@@ -101,8 +89,20 @@ from com_core.tare_cache import (
     tare_signature,
     use_tares,
 )
-from com_core.windows import Window
-from com_core.wrench_model import STANDARD_GRAVITY, SensorModel
+from com_core.estimation.windows import Window
+from com_core.planning.planner import Plan, dwell_for_target, predict, within_max_tilt
+from com_core.robot.config import (
+    BAG_ROBOT_FILE,
+    KEYS,
+    RobotConfig,
+    RobotConfigError,
+    default_robot_config,
+    write_robot_config,
+)
+from com_core.runtime.rosenv import keep_dds_local, stop_on_signals
+from com_core.sensing.calibration import Calibration
+from com_core.sensing.noise import NoiseModel, ar1_noise
+from com_core.sensing.wrench_model import STANDARD_GRAVITY, SensorModel
 from exploration_sequencer.arm import Arm
 from exploration_sequencer.choreography import (
     VERIFY_POSE,
@@ -666,7 +666,7 @@ class SequencerNode(Node):
         self, poses: list[tuple[str, list[float]]], dwell: float
     ) -> tuple[dict[str, Window], NoiseModel | None]:
         """Run a tare pass and reduce its windows from the wrenches the recorder saw, with
-        the noise they learn (``com_core.noise``); (windows by pose, that noise)."""
+        the noise they learn (``com_core.sensing.noise``); (windows by pose, that noise)."""
 
         def tare_pass() -> int:
             self._pass(TARE_PREFIX, poses, dwell)
@@ -792,7 +792,7 @@ class SequencerNode(Node):
 
     def _write_report(self, bag: Path) -> None:
         try:
-            from com_core.bags.report import write_report
+            from com_core.report.figure import write_report
 
             self.get_logger().info(f"report: {write_report(bag)}")
         except Exception as exc:  # a report must never fail a run

@@ -1,13 +1,13 @@
 """com_core installs with pip (into the venv) and with colcon (ament_python) alike."""
 
-from setuptools import setup
+from setuptools import find_packages, setup
 
 PACKAGE = "com_core"
 
 setup(
     name=PACKAGE,
     version="0.1.0",
-    packages=[PACKAGE, f"{PACKAGE}.bags"],
+    packages=find_packages(include=[PACKAGE, f"{PACKAGE}.*"]),
     package_data={PACKAGE: ["py.typed", "config/*.yaml"]},
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),

@@ -1,7 +1,7 @@
 """The sim node's parameters: names, defaults, descriptions, and why a value is refused.
 
 Besides the scene's and the sensor's, the node reads every key of a robot configuration
-(``com_core.robot_config.KEYS``), read-only, the Panda's by default: give another arm's file
+(``com_core.robot.config.KEYS``), read-only, the Panda's by default: give another arm's file
 with ``--ros-args --params-file <file>`` (e.g. com_core's ``config/xarm6.yaml``).
 """
 
@@ -15,8 +15,8 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from com_core.contract import APPLY_WRENCH_TOPIC
-from com_core.robot_config import KEYS, default_robot_config
-from com_core.sensor_profiles import DEFAULT_PROFILE, PROFILES, SensorProfile
+from com_core.robot.config import KEYS, default_robot_config
+from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES, SensorProfile
 from wrench_sim.objects import SHAPES, com_offset_problem
 from wrench_sim.physics import GRASP_MODES
 
@@ -51,7 +51,8 @@ PARAMETERS = [  # name, default, description, read-only, lower bound of a float
      "(sensor_frame) by roll, pitch, yaw (rad, fixed axes x, y, z): its readings and the "
      f"ground truth are in the mounted frame; {_START}", True, None),
     ("sensor_profile", DEFAULT_PROFILE, f"the sensor's parts: {sorted(PROFILES)} "
-     f"(com_core.sensor_profiles); each part below, when set, overrides it; {_START}", True, None),
+     f"(com_core.sensing.sensor_profiles); each part below, when set, overrides it; "
+     f"{_START}", True, None),
     ("sigma_f", _PROFILE, "sensor noise per published force sample, N; " + _OF, False, None),
     ("sigma_tau", _PROFILE, "sensor noise per published torque sample, N m; " + _OF, False, None),
     ("correlation_time", _PROFILE, "s; the sensor's first-order low-pass (its noise AR(1) at "
@@ -88,7 +89,7 @@ PARAMETERS = [  # name, default, description, read-only, lower bound of a float
      "object, s of sim time, > 0 (whole 1 ms steps, at least one); for pushes received from "
      "then on", False, 0.0),
 ] + [
-    (key, value, f"robot configuration (com_core.robot_config); {_START}", True, None)
+    (key, value, f"robot configuration (com_core.robot.config); {_START}", True, None)
     for key, value in default_robot_config().parameters().items()
 ]  # fmt: skip
 PROFILE_PARAMETERS = tuple(f.name for f in fields(SensorProfile) if f.name != "vibration_gain")

@@ -2,7 +2,7 @@
 object on a stand.
 
 ROS-free; the node (``sim_node``) is a thin adapter around ``ArmWorld`` and tests drive it
-directly. The arm is the one a robot configuration (``com_core.robot_config``) describes: its
+directly. The arm is the one a robot configuration (``com_core.robot.config``) describes: its
 URDF, sensor frame, joints, gripper and poses. Two ship with com_core: the Franka Emika Panda
 with its hand (``panda``, the default) and the UFACTORY xArm6 with its gripper (``xarm6``).
 
@@ -25,7 +25,7 @@ joint origin, so the conversion is just f = -F, tau = -M (both checked to agree 
 Scene
 -----
 A stand carries the object upright. At the configuration's ``pick_joints`` the object's
-geometric centre lies on the grasp centre (``com_core.robot_config.grasp_point``) across the
+geometric centre lies on the grasp centre (``com_core.robot.config.grasp_point``) across the
 sensor's z, and its top 0.04 m before the grasp centre along it (Panda: grasp centre 0.115 m
 from the flange, the top 0.075 m); the object's axes are the world's.
 
@@ -99,15 +99,15 @@ import pybullet_data
 from numpy.typing import NDArray
 from pybullet_utils.bullet_client import BulletClient
 
-from com_core.kinematics import KinematicsError, RobotModel
-from com_core.robot_config import (
+from com_core.robot.config import (
     RobotConfig,
     default_robot_config,
     grasp_point,
     robot_problems,
     urdf_file,
 )
-from com_core.wrench_model import STANDARD_GRAVITY
+from com_core.robot.model import KinematicsError, RobotModel
+from com_core.sensing.wrench_model import STANDARD_GRAVITY
 from wrench_sim.objects import SHAPES, ObjectSpec, create_object_body, object_spec
 from wrench_sim.sensor import random_streams
 from wrench_sim.trajectory import JointLimits, QuinticTrajectory, trajectory_from_command
@@ -171,7 +171,7 @@ class SimConfig:
 
     Attributes
     ----------
-    robot : the arm (``com_core.robot_config``); default the Panda's configuration.
+    robot : the arm (``com_core.robot.config``); default the Panda's configuration.
     object_shape : 'box', 'cylinder' or 'mug'.
     object_mass : kg.
     object_com_offset : m, object frame, COM minus geometric centre, inside

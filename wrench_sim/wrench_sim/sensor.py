@@ -7,8 +7,8 @@ sensor's own first-order low-pass (``SensorModel.correlation_time``; the signal 
 and smoothed as the noise is coloured), adds the bias (the static one, a warm-up toward a
 final offset and a random walk, from sim time 0: the sensor is powered when the sim starts)
 and the noise (AR(1) at the publish rate), calibrates, quantises and clips as
-``com_core.wrench_model.SensorModel.apply`` does, and remembers whether the last reading
-saturated. Figures: ``com_core.sensor_profiles``.
+``com_core.sensing.wrench_model.SensorModel.apply`` does, and remembers whether the last reading
+saturated. Figures: ``com_core.sensing.sensor_profiles``.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from com_core.wrench_model import SensorModel
+from com_core.sensing.wrench_model import SensorModel
 
 __all__ = ["BiasDrift", "WrenchSensor", "random_streams"]
 

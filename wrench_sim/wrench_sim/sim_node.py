@@ -1,6 +1,6 @@
 """ROS 2 node around ``physics.ArmWorld``: sim time, wrenches, joint states, ground truth.
 
-The arm is the robot configuration in its parameters (``com_core.robot_config.KEYS``, the
+The arm is the robot configuration in its parameters (``com_core.robot.config.KEYS``, the
 Panda's by default; ``--ros-args --params-file <com_core>/config/xarm6.yaml`` runs the xArm6).
 A configuration that does not serve (a bad value, a frame or joint its URDF lacks, home
 joints outside the limits) is an ERROR log naming it, and the node exits with code 1.
@@ -77,10 +77,10 @@ from com_core.contract import (
     TRUTH_TOPIC,
     WRENCH_TOPIC,
 )
-from com_core.robot_config import KEYS, RobotConfig
-from com_core.rosenv import keep_dds_local
-from com_core.sensor_profiles import SensorProfile
-from com_core.wrench_model import SensorModel, calibration_matrix, rotation_about
+from com_core.robot.config import KEYS, RobotConfig
+from com_core.runtime.rosenv import keep_dds_local
+from com_core.sensing.sensor_profiles import SensorProfile
+from com_core.sensing.wrench_model import SensorModel, calibration_matrix, rotation_about
 from wrench_sim.parameters import (
     SENSOR_PARAMETERS,
     check_parameter,

@@ -1,8 +1,40 @@
-"""rosbag2 (MCAP) bags of exploration runs, without ROS.
-
-- ``cdr``: decoding (and encoding) of the two hot messages, WrenchStamped and Header.
-- ``reader``: reads a bag's raw messages, also a copy cut short; feeds an Exploration.
-- ``writer``: the crash-safe writer (docs/bag_writer.md).
-- ``run``: one run read back and summarised (wrenches, labels, estimate, ground truth).
-- ``report``: the PNG report of a run.
+"""rosbag2 (MCAP) bags without ROS: CDR decoding of the hot messages, a reader that also
+reads a copy cut short, and the crash-safe writer (docs/bag_writer.md). Depends on the
+wire contract alone.
 """
+
+from com_core.bags.cdr import (
+    decode_header,
+    decode_wrench,
+    decode_wrench_batch,
+    decode_wrenches,
+    encode_header,
+    encode_wrench_stamped,
+    with_wrench,
+)
+from com_core.bags.reader import (
+    INCOMPLETE_TEXT,
+    BagReading,
+    read_metadata,
+    read_raw,
+)
+from com_core.bags.writer import (
+    BagWriteError,
+    CrashSafeBagWriter,
+)
+
+__all__ = [
+    "INCOMPLETE_TEXT",
+    "BagReading",
+    "BagWriteError",
+    "CrashSafeBagWriter",
+    "decode_header",
+    "decode_wrench",
+    "decode_wrench_batch",
+    "decode_wrenches",
+    "encode_header",
+    "encode_wrench_stamped",
+    "read_metadata",
+    "read_raw",
+    "with_wrench",
+]

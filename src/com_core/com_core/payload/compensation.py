@@ -32,8 +32,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from .kinematics import RobotModel
-from .payload import Payload, payload_wrench
+from com_core.payload.model import Payload, payload_wrench
+from com_core.robot.model import RobotModel
 
 __all__ = ["MAX_JOINT_STATE_AGE", "RATE_STEP", "Compensator"]
 

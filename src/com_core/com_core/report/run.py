@@ -22,7 +22,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from ..contract import (
+from com_core.bags.cdr import decode_header, decode_wrench_batch
+from com_core.bags.reader import read_raw
+from com_core.contract import (
     DIAGNOSTIC_NAME,
     DIAGNOSTICS_TOPIC,
     ESTIMATE_TOPIC,
@@ -34,9 +36,7 @@ from ..contract import (
     WRENCH_TOPIC,
     status_of,
 )
-from ..exploration import done_stamp
-from .cdr import decode_header, decode_wrench_batch
-from .reader import read_raw
+from com_core.estimation.exploration import done_stamp
 
 __all__ = ["RUN_BAG_TOPICS", "Inertia", "RunData", "read_run"]
 

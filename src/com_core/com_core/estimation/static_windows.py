@@ -18,8 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .contract import MOVING, OBJECT_PREFIX, TARE_PREFIX
-from .windows import Window
+from com_core.contract import MOVING, OBJECT_PREFIX, TARE_PREFIX
+from com_core.estimation.windows import Window
 
 __all__ = [
     "LoadLevels",

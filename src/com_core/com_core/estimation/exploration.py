@@ -39,10 +39,14 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .calibration import Calibration
-from .contract import DONE, ERROR, OBJECT_PREFIX, OK, TARE_PREFIX, VERIFY_PREFIX, WARN
-from .errors import EstimationError, MissingTareError, NonPositiveMassError, WindowError
-from .estimators import (
+from com_core.contract import DONE, ERROR, OBJECT_PREFIX, OK, TARE_PREFIX, VERIFY_PREFIX, WARN
+from com_core.estimation.errors import (
+    EstimationError,
+    MissingTareError,
+    NonPositiveMassError,
+    WindowError,
+)
+from com_core.estimation.estimators import (
     DEFAULT_ALPHA,
     MIN_TILT_SIGMAS,
     Consistency,
@@ -51,8 +55,7 @@ from .estimators import (
     ml,
     two_pose,
 )
-from .kinematics import KinematicsError, RobotModel
-from .known_gravity import (
+from com_core.estimation.known_gravity import (
     BIAS_DRIFT_RATE,
     KinematicFit,
     Observation,
@@ -60,10 +63,12 @@ from .known_gravity import (
     locate_move,
     mount_rpy,
 )
-from .noise import NoiseModel, learn_noise
-from .stats import chi2_isf, chi2_sf
-from .windows import Window, reduce_window, subtract_tare
-from .wrench_model import STANDARD_GRAVITY, SensorModel
+from com_core.estimation.stats import chi2_isf, chi2_sf
+from com_core.estimation.windows import Window, reduce_window, subtract_tare
+from com_core.robot.model import KinematicsError, RobotModel
+from com_core.sensing.calibration import Calibration
+from com_core.sensing.noise import NoiseModel, learn_noise
+from com_core.sensing.wrench_model import STANDARD_GRAVITY, SensorModel
 
 __all__ = [
     "ERROR",
@@ -277,7 +282,7 @@ class Exploration:
     expected_frame : frame_id the samples must carry ('' accepts any).
     sensor : sensor model for saturation and motion tests; None uses the samples alone.
     noise : the sensor's noise known from before (a cached tare pass's,
-        ``com_core.noise``): used when this exploration's own static windows are too few
+        ``com_core.sensing.noise``): used when this exploration's own static windows are too few
         to learn it, and compared with what they give (a changed noise is named).
     tares : tare windows known from before (a cached tare pass), by pose; this
         exploration's own tare windows take precedence.
@@ -296,7 +301,7 @@ class Exploration:
         run (1 sigma; (0, 0): a constant bias within a run).
     max_drift_f, max_drift_tau : N, N m; a larger bias drift since a cached tare is a WARN.
     calibration : the sensor's stated accuracy and full scales: the kinematic fit weighs
-        its windows with the calibration's common error too (``com_core.calibration``);
+        its windows with the calibration's common error too (``com_core.sensing.calibration``);
         None: a perfect calibration.
     """
 
@@ -551,7 +556,7 @@ class Exploration:
     ) -> NoiseModel | None:
         """The sensor's noise learnt from the second halves of every static window
         (``segments``, default ``segments(until_ns)``; the arm's ringing has settled
-        there; ``com_core.noise``), at the rate of the kept samples' stamps; ``noise``
+        there; ``com_core.sensing.noise``), at the rate of the kept samples' stamps; ``noise``
         when they are too few; None without either."""
         if segments is None:
             segments = self.segments(until_ns)

@@ -26,9 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .noise import NoiseModel
-from .stats import chi2_sf
-from .windows import Window, window_from_mean
+from com_core.estimation.stats import chi2_sf
+from com_core.estimation.windows import Window, window_from_mean
+from com_core.sensing.noise import NoiseModel
 
 __all__ = [
     "BAG_TARE_FILE",
@@ -55,7 +55,7 @@ class TareCache:
     joint positions of each window (rad, m, by joint name), the hand's wrench is known
     at any orientation (``known_gravity``), not only at these poses; ``times`` are the
     windows' middles (s, the sensor's clock), for a bias that drifts within the pass;
-    ``noise`` the sensor's noise learnt from the pass (``com_core.noise``)."""
+    ``noise`` the sensor's noise learnt from the pass (``com_core.sensing.noise``)."""
 
     signature: str
     created: float

@@ -6,7 +6,7 @@ the sensor noise, the rate and the dwell: cov = S (1/N + 1/N_tare) with N = dwel
 samples (the window mean minus its pose's tare mean) and S what one sample is worth in a
 long window's mean (``Plan.sample_cov``): the noise's per-sample covariance times its
 long-run factor, so a sensor whose samples are correlated is planned by its effective
-number of samples, N / f (``com_core.noise``).
+number of samples, N / f (``com_core.sensing.noise``).
 
 - ``ml``: the Cramer-Rao bound of the wrench-only model (``estimators.crlb``). The ML
   estimator reaches the bound, so the prediction is the spread a user will see.
@@ -39,13 +39,13 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from .calibration import Calibration
-from .estimators import crlb, two_pose
-from .kinematics import DEFAULT_GRAVITY
-from .known_gravity import BIAS_DRIFT_RATE, Observation, kinematic_ml
-from .noise import COV_FLOOR, NoiseModel, white_noise
-from .windows import Window
-from .wrench_model import (
+from com_core.estimation.estimators import crlb, two_pose
+from com_core.estimation.known_gravity import BIAS_DRIFT_RATE, Observation, kinematic_ml
+from com_core.estimation.windows import Window
+from com_core.robot.model import DEFAULT_GRAVITY
+from com_core.sensing.calibration import Calibration
+from com_core.sensing.noise import COV_FLOOR, NoiseModel, white_noise
+from com_core.sensing.wrench_model import (
     STANDARD_GRAVITY,
     SensorModel,
     as_vector,
@@ -68,7 +68,7 @@ __all__ = [
 HOME = "home"
 
 METHODS: tuple[str, ...] = ("ml", "two_pose")
-"""Estimators the planner predicts for (``com_core.estimators``)."""
+"""Estimators the planner predicts for (``com_core.estimation.estimators``)."""
 
 _GRASP_TIME, _RELEASE_TIME = 4.0, 5.0
 """s from the end of a run's empty-hand window at home to its object pass (to the stand,
@@ -100,9 +100,9 @@ class Plan:
     settle : s waited after each motion before the window starts.
     move_time : s per motion between poses.
     sensor : noise and rate of the F/T sensor (per sample).
-    noise : the sensor's noise as learnt (a tare pass's, ``com_core.noise``) or assumed;
+    noise : the sensor's noise as learnt (a tare pass's, ``com_core.sensing.noise``) or assumed;
         None: white at ``sensor``'s sigma.
-    calibration : the sensor's stated accuracy (``com_core.calibration``): the kinematic
+    calibration : the sensor's stated accuracy (``com_core.sensing.calibration``): the kinematic
         fit's prediction holds its systematic share, a floor no dwell lowers.
     mass_guess : kg. com_guess : shape (3,); m; sensor frame.
     gravity_home : shape (3,); gravity direction at home in the sensor frame (measure it

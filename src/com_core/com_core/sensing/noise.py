@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .wrench_model import AXES
+from com_core.sensing.wrench_model import AXES
 
 __all__ = [
     "COV_FLOOR",

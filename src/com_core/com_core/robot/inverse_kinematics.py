@@ -47,8 +47,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .kinematics import KinematicsError, RobotModel
-from .wrench_model import rotation_about, skew
+from com_core.robot.model import KinematicsError, RobotModel
+from com_core.sensing.wrench_model import rotation_about, skew
 
 __all__ = ["IkResult", "largest_reachable_tilt", "solve_pose"]
 

@@ -82,7 +82,7 @@ def calibration_matrix(
 ) -> NDArray[np.float64]:
     """A sensor's calibration (6, 6), C = I + S E S^-1: S = diag(fs_f x3, fs_tau x3) the
     full scales, each element of E drawn N(0, (accuracy / 2)^2) (the stated accuracy is
-    the 95 % bound of one axis's error at full scale; ``com_core.calibration``)."""
+    the 95 % bound of one axis's error at full scale; ``com_core.sensing.calibration``)."""
     s = np.array([full_scale_f] * 3 + [full_scale_tau] * 3, dtype=np.float64)
     e = rng.normal(0.0, accuracy / 2.0, (6, 6))
     return np.eye(6) + s[:, None] * e / s[None, :]

@@ -36,7 +36,7 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from .kinematics import RobotModel
+from com_core.robot.model import RobotModel
 
 __all__ = [
     "BAG_ROBOT_FILE",
@@ -53,7 +53,7 @@ __all__ = [
     "write_robot_config",
 ]
 
-CONFIG_DIR = Path(__file__).resolve().parent / "config"
+CONFIG_DIR = Path(__file__).resolve().parents[1] / "config"
 BAG_ROBOT_FILE = "robot.yaml"
 """The robot configuration of a run, beside its bag (the replay reads its frames)."""
 ROBOTS = tuple(sorted(path.stem for path in CONFIG_DIR.glob("*.yaml")))

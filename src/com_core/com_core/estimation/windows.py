@@ -17,10 +17,15 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import MissingTareError, MotionError, NonFiniteError, SaturationError
-from .noise import COV_FLOOR, NoiseModel
-from .stats import chi2_isf
-from .wrench_model import AXES, SensorModel
+from com_core.estimation.errors import (
+    MissingTareError,
+    MotionError,
+    NonFiniteError,
+    SaturationError,
+)
+from com_core.estimation.stats import chi2_isf
+from com_core.sensing.noise import COV_FLOOR, NoiseModel
+from com_core.sensing.wrench_model import AXES, SensorModel
 
 __all__ = [
     "MIN_SAMPLES_FOR_COVARIANCE",
@@ -101,7 +106,7 @@ def reduce_window(
         its noise is the covariance when there are fewer than
         ``MIN_SAMPLES_FOR_COVARIANCE`` samples and the reference of the motion test on
         the variance.
-    noise : the sensor's learnt noise (``com_core.noise``): the window starts where the
+    noise : the sensor's learnt noise (``com_core.sensing.noise``): the window starts where the
         arm's ringing has settled (``settled_start``), the covariance of its mean is the
         model's for that many samples (correlated noise: var(mean) = sigma^2 f(n) / n),
         and the motion tests use it.

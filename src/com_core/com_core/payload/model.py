@@ -48,11 +48,11 @@ import numpy as np
 import yaml
 from numpy.typing import ArrayLike, NDArray
 
-from .exploration import Solution
-from .kinematics import DEFAULT_GRAVITY, RobotModel
-from .known_gravity import _rotation, mount_rpy
-from .noise import NoiseModel
-from .wrench_model import skew
+from com_core.estimation.exploration import Solution
+from com_core.estimation.known_gravity import _rotation, mount_rpy
+from com_core.robot.model import DEFAULT_GRAVITY, RobotModel
+from com_core.sensing.noise import NoiseModel
+from com_core.sensing.wrench_model import skew
 
 __all__ = [
     "FILTER_PLUGIN",
@@ -118,7 +118,7 @@ class Payload:
     information : the information model of the fit (e.g. 'kinematics+mount').
     time : ISO 8601 (UTC) of the estimate; '' unknown.
     hand_id : names the hand the payload was held by; '' unknown.
-    noise : the sensor's noise the estimate learnt (``com_core.noise``); None unknown.
+    noise : the sensor's noise the estimate learnt (``com_core.sensing.noise``); None unknown.
 
     Keyword arguments only; arrays are kept as read-only copies, and what the compensation
     needs of them (R(mount), R(base_tilt) g, the wrench per unit gravity) is computed
@@ -415,7 +415,7 @@ _UNITS = (
 _FILE_NOTES = {
     "mass": (
         "The payload of an F/T sensor: the object held (mass, com), the hand and the sensor's\n"
-        "bias and mounting; com_core.payload.read_payload reads it (the estimator's\n"
+        "bias and mounting; com_core.payload.model.read_payload reads it (the estimator's\n"
         "payload_file parameter). Units: kg, m, N, N m, rad, m/s^2; vectors in frame (the\n"
         "wrenches' frame_id, the sensor's axes) unless stated.\n"
     ),
@@ -434,9 +434,9 @@ _FILE_NOTES = {
     ),
     "time": "time of the estimate; hand_id: the hand it was held by ('' unknown)\n",
     "noise": (
-        "the sensor's noise the estimate learnt (com_core.noise.NoiseModel): the covariance\n"
-        "of one sample, per axis its AR coefficients and prediction-error variance, the\n"
-        "samples and the rate it was learnt from\n"
+        "the sensor's noise the estimate learnt (com_core.sensing.noise.NoiseModel): the\n"
+        "covariance of one sample, per axis its AR coefficients and prediction-error\n"
+        "variance, the samples and the rate it was learnt from\n"
     ),
     "control_toolbox": _FILTER_NOTE.format(plugin=FILTER_PLUGIN)
     + "The same parameters as gravity_compensation.yaml.\n",

@@ -13,10 +13,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .contract import DONE, MOVING, OBJECT_PREFIX, TARE_PREFIX, VERIFY_PREFIX
-from .planner import Plan
-from .windows import Window
-from .wrench_model import STANDARD_GRAVITY, as_vector, gravity_wrench
+from com_core.contract import DONE, MOVING, OBJECT_PREFIX, TARE_PREFIX, VERIFY_PREFIX
+from com_core.estimation.windows import Window
+from com_core.planning.planner import Plan
+from com_core.sensing.wrench_model import STANDARD_GRAVITY, as_vector, gravity_wrench
 
 __all__ = ["Load", "Stream", "exploration_samples", "exploration_stream", "object_windows"]
 

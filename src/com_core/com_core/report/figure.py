@@ -5,7 +5,7 @@
 - left: force and torque against sim time (s, the wrenches' header stamps; N and N m,
   ``ft_sensor``), under a strip of the labelled windows: ``tare/<pose>`` and
   ``object/<pose>`` static windows shaded in two colours, ``moving`` unshaded, ``done``
-  marked (label semantics as in ``com_core.exploration``);
+  marked (label semantics as in ``com_core.estimation.exploration``);
 - right: the estimate against the ground truth, estimate minus truth (0 = truth) for
   the mass (g) and each COM axis (mm, ``ft_sensor``) with 1-sigma (thick) and 3-sigma
   (thin) error bars; without ground truth the estimate itself with its error bars; with
@@ -13,7 +13,7 @@
   reason, method, chi-square, poses, and which topics the bag lacks;
 - bottom left: the sensor's noise, the autocorrelation of the empty hand's windows (all
   static windows when there are none) per axis, each window less its mean, against the
-  AR model the estimator learns from them (``com_core.noise``).
+  AR model the estimator learns from them (``com_core.sensing.noise``).
 
 Any topic may be missing: the report is still written and says what is missing.
 
@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from ..contract import (
+from com_core.contract import (
     DIAGNOSTICS_TOPIC,
     DONE,
     ESTIMATE_TOPIC,
@@ -43,9 +43,9 @@ from ..contract import (
     VERIFY_PREFIX,
     WRENCH_TOPIC,
 )
-from ..exploration import noise_line, vector_value, verification_lines
-from ..noise import learn_noise
-from .run import RunData, read_run
+from com_core.estimation.exploration import noise_line, vector_value, verification_lines
+from com_core.report.run import RunData, read_run
+from com_core.sensing.noise import learn_noise
 
 __all__ = ["write_report"]
 

@@ -1,6 +1,6 @@
 """Monte Carlo reproduction of the paper's Tables I and II, beside our estimator and the CRLB.
 
-Run ``python -m com_core.study [--trials N] [--seed S] [--json] [--out DIR]``.
+Run ``python -m com_core.paper.study [--trials N] [--seed S] [--json] [--out DIR]``.
 
 Object: the paper's 0.1 kg, COM p = (10, -20, -60) mm in the sensor frame, top grasp
 (gravity along the sensor's -z at home, as in the paper). Two settings per cell:
@@ -49,15 +49,22 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import EstimationError
-from .estimators import MIN_TILT_SIGMAS, Estimate, check_consistency, check_windows, crlb, ml
-from .estimators import two_pose as two_pose_estimate
-from .kinematics import DEFAULT_GRAVITY
-from .known_gravity import Observation, kinematic_ml
-from .planner import Plan
-from .synthetic import Load, object_windows
-from .windows import Window
-from .wrench_model import SensorModel, gravity_wrench
+from com_core.estimation.errors import EstimationError
+from com_core.estimation.estimators import (
+    MIN_TILT_SIGMAS,
+    Estimate,
+    check_consistency,
+    check_windows,
+    crlb,
+    ml,
+)
+from com_core.estimation.estimators import two_pose as two_pose_estimate
+from com_core.estimation.known_gravity import Observation, kinematic_ml
+from com_core.estimation.windows import Window
+from com_core.paper.synthetic import Load, object_windows
+from com_core.planning.planner import Plan
+from com_core.robot.model import DEFAULT_GRAVITY
+from com_core.sensing.wrench_model import SensorModel, gravity_wrench
 
 __all__ = ["PAPER_LOAD", "Cell", "main", "run_cell", "table_cells"]
 
@@ -362,7 +369,7 @@ def write_figures(records: Sequence[dict], out_dir: Path) -> list[Path]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m com_core.study", description=__doc__.split("\n\n")[0]
+        prog="python -m com_core.paper.study", description=__doc__.split("\n\n")[0]
     )
     parser.add_argument(
         "--trials", type=int, default=2000, help="trials per cell (2000: sd to ~1.6%%, two digits)"

@@ -17,7 +17,7 @@ from collections.abc import Iterable, Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from .wrench_model import STANDARD_GRAVITY
+from com_core.sensing.wrench_model import STANDARD_GRAVITY
 
 __all__ = ["DEFAULT_GRAVITY", "KinematicsError", "RobotModel"]
 

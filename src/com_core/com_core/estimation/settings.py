@@ -4,7 +4,7 @@ The estimator node declares them as ROS parameters and the offline replay as com
 line options (``--sigma-f`` for ``sigma_f``), both from ``SETTINGS``, and both build
 their explorations with ``exploration_from``: "the replay uses the node's defaults"
 holds by construction. ``tare_cache`` names a file of cached tare windows (its current
-entry, ``com_core.tare_cache``), read by ``load_cached_tares`` once per exploration,
+entry, ``com_core.estimation.tare_cache``), read by ``load_cached_tares`` once per exploration,
 when it is solved (a sequencer may take or choose the tare during the exploration).
 """
 
@@ -15,9 +15,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from .calibration import Calibration
-from .estimators import DEFAULT_ALPHA, MIN_TILT_SIGMAS
-from .exploration import (
+from com_core.estimation.estimators import DEFAULT_ALPHA, MIN_TILT_SIGMAS
+from com_core.estimation.exploration import (
     INFORMATION,
     KINEMATICS_MOUNT,
     MAX_DRIFT_F,
@@ -27,12 +26,13 @@ from .exploration import (
     WRENCHES,
     Exploration,
 )
-from .kinematics import DEFAULT_GRAVITY, KinematicsError, RobotModel
-from .known_gravity import BIAS_DRIFT_RATE
-from .robot_config import default_robot_config
-from .sensor_profiles import DEFAULT_PROFILE, PROFILES
-from .tare_cache import TareCache, load_tares
-from .wrench_model import SensorModel
+from com_core.estimation.known_gravity import BIAS_DRIFT_RATE
+from com_core.estimation.tare_cache import TareCache, load_tares
+from com_core.robot.config import default_robot_config
+from com_core.robot.model import DEFAULT_GRAVITY, KinematicsError, RobotModel
+from com_core.sensing.calibration import Calibration
+from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES
+from com_core.sensing.wrench_model import SensorModel
 
 __all__ = [
     "SETTINGS",
@@ -55,13 +55,13 @@ SETTINGS: dict[str, tuple[Any, str]] = {
     "sigma_f": (
         0.0,
         "sensor force noise per sample, N, for windows too few to learn the noise from "
-        "(0: unknown; the noise is learnt from the static windows, com_core.noise)",
+        "(0: unknown; the noise is learnt from the static windows, com_core.sensing.noise)",
     ),
     "sigma_tau": (0.0, "sensor torque noise per sample, N m (as sigma_f)"),
     "accuracy": (
         CALIBRATION_ACCURACY,
         "the sensor's calibration accuracy, a fraction of full scale (95 %): a systematic "
-        "term of the kinematic fit's covariance (com_core.calibration); 0: exact",
+        "term of the kinematic fit's covariance (com_core.sensing.calibration); 0: exact",
     ),
     "full_scale": (
         list(FULL_SCALE),

@@ -41,10 +41,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import IllConditionedError, NonPositiveMassError, TooFewPosesError
-from .stats import chi2_sf
-from .windows import Window
-from .wrench_model import STANDARD_GRAVITY
+from com_core.estimation.errors import IllConditionedError, NonPositiveMassError, TooFewPosesError
+from com_core.estimation.stats import chi2_sf
+from com_core.estimation.windows import Window
+from com_core.sensing.wrench_model import STANDARD_GRAVITY
 
 __all__ = [
     "DEFAULT_ALPHA",

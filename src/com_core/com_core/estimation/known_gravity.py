@@ -2,7 +2,7 @@
 ``kinematics`` and ``kinematics+mount`` information models), with the hand and the
 sensor's bias as a model (the ft_calib model).
 
-Each window i has R_i = R_base_sensor from forward kinematics (``com_core.kinematics``)
+Each window i has R_i = R_base_sensor from forward kinematics (``com_core.robot.model``)
 and so gravity in the sensor frame g_i = R_i^T g_base (m/s^2). A static rigid load of
 mass m and COM p (sensor frame) has the wrench A(g_i) theta with theta = (m, c), c = m p
 (kg m):
@@ -48,13 +48,13 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .calibration import Calibration
-from .errors import NonPositiveMassError, TooFewPosesError
-from .estimators import Estimate
-from .kinematics import DEFAULT_GRAVITY
-from .stats import chi2_sf
-from .windows import Window
-from .wrench_model import rotation_about, skew
+from com_core.estimation.errors import NonPositiveMassError, TooFewPosesError
+from com_core.estimation.estimators import Estimate
+from com_core.estimation.stats import chi2_sf
+from com_core.estimation.windows import Window
+from com_core.robot.model import DEFAULT_GRAVITY
+from com_core.sensing.calibration import Calibration
+from com_core.sensing.wrench_model import rotation_about, skew
 
 __all__ = [
     "BIAS_DRIFT_RATE",
@@ -247,7 +247,7 @@ class _Model:
 
     def _whitening(self) -> NDArray[np.float64]:
         """(6n, 6n) W with W^T W the inverse of the windows' joint covariance: each
-        window's noise, plus the calibration's common error (``com_core.calibration``)."""
+        window's noise, plus the calibration's common error (``com_core.sensing.calibration``)."""
         n = len(self.obs)
         cov = np.zeros((6 * n, 6 * n))
         for i, o in enumerate(self.obs):
@@ -359,7 +359,7 @@ class _Model:
         """(6, 6): what the calibration's common error adds to the covariance of a window
         ``measured`` (6,) that no fit used less the prediction there (whose derivative by
         the unknowns is ``predicted_jacobian``, (6, size)): its own share, less its
-        correlation with the fit's windows through the unknowns (``com_core.calibration``).
+        correlation with the fit's windows through the unknowns (``com_core.sensing.calibration``).
         Zero without a calibration."""
         if self.calibration is None:
             return np.zeros((6, 6))
@@ -414,7 +414,7 @@ def kinematic_ml(
     ``gravity`` (m/s^2) in the base frame; ``fit_mount`` also fits the sensor's mounting
     and the base's tilt; ``drift_rate_sigma`` (N/s, N m/s) lets each epoch's bias drift
     (see module); ``calibration`` weighs the windows with the calibration's common error
-    too (``com_core.calibration``). The covariance is the CRLB; chi2 has 6n (+ 6 per
+    too (``com_core.sensing.calibration``). The covariance is the CRLB; chi2 has 6n (+ 6 per
     epoch with a rate prior) - (unknowns) dof.
 
     Raises TooFewPosesError when the windows' orientations do not resolve the unknowns

@@ -1,0 +1,19 @@
+"""One run read back from its bag, and its PNG report."""
+
+from com_core.report.figure import (
+    write_report,
+)
+from com_core.report.run import (
+    RUN_BAG_TOPICS,
+    Inertia,
+    RunData,
+    read_run,
+)
+
+__all__ = [
+    "RUN_BAG_TOPICS",
+    "Inertia",
+    "RunData",
+    "read_run",
+    "write_report",
+]

@@ -1,0 +1,49 @@
+"""The arm: its configuration files, its kinematic model from the URDF, inverse
+kinematics, and the choreography of an exploration's poses.
+"""
+
+from com_core.robot.config import (
+    BAG_ROBOT_FILE,
+    CONFIG_DIR,
+    ROBOTS,
+    RobotConfig,
+    RobotConfigError,
+    default_robot_config,
+    grasp_point,
+    read_robot_config,
+    robot_config_path,
+    robot_problems,
+    urdf_file,
+    write_robot_config,
+)
+from com_core.robot.inverse_kinematics import (
+    IkResult,
+    largest_reachable_tilt,
+    solve_pose,
+)
+from com_core.robot.model import (
+    DEFAULT_GRAVITY,
+    KinematicsError,
+    RobotModel,
+)
+
+__all__ = [
+    "BAG_ROBOT_FILE",
+    "CONFIG_DIR",
+    "DEFAULT_GRAVITY",
+    "ROBOTS",
+    "IkResult",
+    "KinematicsError",
+    "RobotConfig",
+    "RobotConfigError",
+    "RobotModel",
+    "default_robot_config",
+    "grasp_point",
+    "largest_reachable_tilt",
+    "read_robot_config",
+    "robot_config_path",
+    "robot_problems",
+    "solve_pose",
+    "urdf_file",
+    "write_robot_config",
+]
