@@ -2,10 +2,11 @@
 SHELL := /bin/bash
 PYTHON ?= python3
 VENV := .venv
-PACKAGES := src/com_core com_estimator wrench_sim exploration_sequencer
+PACKAGES := com_interfaces src/com_core com_estimator wrench_sim exploration_sequencer
 VENV_STAMP := $(VENV)/.installed
 BUILD_STAMP := install/.built
-PACKAGE_FILES := $(shell find $(PACKAGES) -name setup.py -o -name setup.cfg -o -name package.xml)
+PACKAGE_FILES := $(shell find $(PACKAGES) -name setup.py -o -name setup.cfg -o -name package.xml \
+	-o -name CMakeLists.txt -o -name '*.action')
 IN_ENV := source ./env.sh &&
 ARGS ?=
 
@@ -21,7 +22,11 @@ $(VENV_STAMP): requirements.txt constraints.txt
 	touch $(VENV)/COLCON_IGNORE $@
 
 $(BUILD_STAMP): $(VENV_STAMP) $(PACKAGE_FILES)
-	source $(VENV)/bin/activate && colcon build --symlink-install --base-paths $(PACKAGES) \
+	# the ROS wheels install their CMake packages (ament_cmake, rosidl) under the venv
+	source $(VENV)/bin/activate && \
+		export AMENT_PREFIX_PATH="$$VIRTUAL_ENV$${AMENT_PREFIX_PATH:+:$$AMENT_PREFIX_PATH}" && \
+		export CMAKE_PREFIX_PATH="$$VIRTUAL_ENV$${CMAKE_PREFIX_PATH:+:$$CMAKE_PREFIX_PATH}" && \
+		colcon build --symlink-install --base-paths $(PACKAGES) \
 		--event-handlers console_cohesion- summary-
 	touch $@
 
