@@ -128,7 +128,7 @@ def holdable_com_range(shape: str) -> ComRange:
     Only the inertial frame moves with the offset (``create_object_body``): whatever the
     offset, the body stands centred on the stand between the open pads (Panda 0.04 m, xArm6
     0.0415 m from the centre, against a half width of 0.025 m, mug 0.028 m) and the pads
-    (``physics``, Gripper) close on it 0.01-0.035 m below its top, so the grasp reaches every
+    (``gripper``) close on it 0.01-0.035 m below its top, so the grasp reaches every
     offset. What limits the offset is the stand: the object rests there on its bottom face
     until the fingers close, and it stays upright only while its COM lies above that
     footprint, the

@@ -1,9 +1,16 @@
 """The wrist F/T sensor's electronics: com_core's SensorModel with a seeded random stream,
 one sample per call, with the parts of a real sensor that depend on time.
 
-The physics hands over the true wrench (load on the sensor, frame ``ft_sensor``, already
-through the 2-tap anti-alias filter, see ``physics``). This stage filters it with the
-sensor's own first-order low-pass (``SensorModel.correlation_time``; the signal is delayed
+Frame ``ft_sensor`` has the axes and origin of the robot configuration's ``sensor_frame``
+(Panda: ``panda_hand``; xArm6: ``xarm_gripper_base_link``), the child link of the fixed joint
+at the flange (``panda_hand_joint``; ``gripper_fix``). The sensor reads the wrench the load
+beyond it (every link after that joint: hand or gripper base, fingers, and a grasped object)
+exerts on it, expressed in ``ft_sensor``: a static load of mass m with COM p gives
+f = m g_s, tau = p x f (docs/design.md, Conventions).
+
+The physics hands over that true wrench, already through the 2-tap anti-alias filter
+(``wrench_sim.load``, which reads it from pybullet's joint sensor). This stage filters it
+with the sensor's own first-order low-pass (``SensorModel.correlation_time``; the signal is delayed
 and smoothed as the noise is coloured), adds the bias (the static one, a warm-up toward a
 final offset and a random walk, from sim time 0: the sensor is powered when the sim starts)
 and the noise (AR(1) at the publish rate), calibrates, quantises and clips as
