@@ -46,9 +46,9 @@ PANDA_JOINTS = (*PANDA.arm_joints, *PANDA.gripper_joints)
 
 
 def choreography(robot: str) -> Any:
-    """The ``exploration_sequencer`` choreography of a shipped robot configuration on the
+    """The choreography (``com_core.robot``) of a shipped robot configuration on the
     URDF of its ``urdf`` file (gripper joints movable, as a real arm's)."""
-    from exploration_sequencer.choreography import Choreography
+    from com_core.robot.choreography import Choreography
 
     config = read_robot_config(robot)
     return Choreography.of(config, urdf_file(config).read_text())

@@ -1,4 +1,4 @@
-"""exploration_sequencer.choreography (no ROS) on the two arms of the robot configurations
+"""com_core.robot.choreography on the two arms of the robot configurations
 (the Panda and the xArm6 of pybullet_data): the joints of each pose of a plan, checked by
 forward kinematics of their own (the sensor's orientation and the grasp centre), poses
 out of reach, a configuration the URDF does not serve, and the motion time between poses
@@ -13,10 +13,7 @@ import pytest
 from conftest import choreography
 
 from com_core.planning.planner import Plan
-from com_core.robot.config import ROBOTS, RobotConfigError, read_robot_config, urdf_file
-from com_core.robot.model import RobotModel
-from com_core.sensing.wrench_model import rotation_about
-from exploration_sequencer.choreography import (
+from com_core.robot.choreography import (
     MAX_PIVOT_SHIFT,
     QUINTIC_PEAK,
     VERIFY_AXIS,
@@ -24,6 +21,9 @@ from exploration_sequencer.choreography import (
     Choreography,
     PoseUnreachable,
 )
+from com_core.robot.config import ROBOTS, RobotConfigError, read_robot_config, urdf_file
+from com_core.robot.model import RobotModel
+from com_core.sensing.wrench_model import rotation_about
 from wrench_sim.trajectory import JointLimits, trajectory_from_command
 
 TILT = 0.4

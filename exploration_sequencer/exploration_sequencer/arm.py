@@ -18,8 +18,8 @@ from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from com_core.contract import ARM_COMMAND_TOPIC, HAND_COMMAND_TOPIC
+from com_core.robot.choreography import Choreography
 from com_core.robot.config import RobotConfig
-from exploration_sequencer.choreography import Choreography
 from exploration_sequencer.io_node import IoNode, TimeoutRunError
 
 REST_POSITION, REST_SPEED = 5e-3, 5e-3  # rad, rad/s

@@ -13,9 +13,10 @@ acknowledgement before the next goes out, so a reader that falls behind (a starv
 process) is late, never without a label.
 The arm is the robot configuration's (``robot_config``: the parameters of
 ``config/<robot>.yaml``, given with ``--params-file``; the Panda's by default) on the URDF of
-/robot_description: each pose is solved for its joints (``choreography``) before anything
-moves, and a tilt the arm cannot reach is lowered to the largest it reaches (logged as a
-plan change) or the run is refused.
+/robot_description: each pose is solved for its joints (``com_core.robot.choreography``)
+before anything moves, and a tilt the arm cannot reach is lowered to the largest it reaches
+(logged as a plan change) or the run is refused. What a run decides (its plan, the noise it
+plans for, the tare's reuse, the grasp's load) is ``com_core.planning.decisions``.
 Every run is recorded to ``<bag_dir>/<run-id>/`` (rosbag2, MCAP) with a PNG report.
 
 Threads: the high-rate subscriptions (recording, joint states, sim clock) live on a
@@ -32,12 +33,9 @@ import sys
 import threading
 import traceback
 from collections.abc import Callable
-from dataclasses import replace
 from datetime import datetime
-from itertools import pairwise
 from pathlib import Path
 
-import numpy as np
 import rclpy
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rcl_interfaces.srv import GetParameters, SetParameters
@@ -72,25 +70,39 @@ from com_core.contract import (
     WRENCH_TOPIC,
     status_of,
 )
-from com_core.estimation.exploration import (
-    WRENCHES,
-    Exploration,
-    noise_line,
-    vector_value,
-    verification_lines,
-)
+from com_core.estimation.exploration import Exploration
+from com_core.estimation.fits import WRENCHES
+from com_core.estimation.solution import noise_line, vector_value, verification_lines
 from com_core.estimation.tare_cache import (
     BAG_TARE_FILE,
-    drift_accepted,
-    latest_hand_model,
-    load_tares,
-    reusable,
     save_tares,
     tare_signature,
     use_tares,
 )
 from com_core.estimation.windows import Window
-from com_core.planning.planner import Plan, dwell_for_target, predict, within_max_tilt
+from com_core.planning.decisions import (
+    BIAS_AFTER_SUFFIX,
+    BIAS_WINDOW_SUFFIX,
+    PlanInfeasible,
+    Poses,
+    RunSettings,
+    cached_tare,
+    complete_tare_pass,
+    estimator_calibration,
+    grasp_holds,
+    held_mass,
+    may_hold_object,
+    newest_hand_model,
+    parameter_problem,
+    plan_for_target,
+    plan_within_reach,
+    planning_noise,
+    tare_cache_path,
+    tare_decision,
+    tare_reuse,
+)
+from com_core.planning.planner import Plan, predict
+from com_core.robot.choreography import VERIFY_POSE, Choreography
 from com_core.robot.config import (
     BAG_ROBOT_FILE,
     KEYS,
@@ -101,14 +113,8 @@ from com_core.robot.config import (
 )
 from com_core.runtime.rosenv import keep_dds_local, stop_on_signals
 from com_core.sensing.calibration import Calibration
-from com_core.sensing.noise import NoiseModel, ar1_noise
-from com_core.sensing.wrench_model import STANDARD_GRAVITY, SensorModel
+from com_core.sensing.noise import NoiseModel
 from exploration_sequencer.arm import Arm
-from exploration_sequencer.choreography import (
-    VERIFY_POSE,
-    Choreography,
-    PoseUnreachable,
-)
 from exploration_sequencer.io_node import IoNode, RunError, TimeoutRunError
 
 PARAMETERS: dict[str, tuple[object, str]] = {
@@ -162,12 +168,7 @@ PARAMETERS: dict[str, tuple[object, str]] = {
     "min_load": (0.005, "kg; the grasp must hold at least this before the object pass"),
     "grasp_check_dwell": (0.2, "s of samples at home after lifting that check the grasp"),
 }
-GRIPPER_HOLDING = 0.025
 LABEL_ACK_TIMEOUT = 2.0  # s (wall) a pose label waits for its readers' acknowledgement
-"""A gripper closed beyond this fraction of its stroke may hold an object (a run that
-stopped): it is put back on the stand before a run."""
-BIAS_WINDOW_SUFFIX = "_check"  # the empty-hand window of a run with a cached tare
-BIAS_AFTER_SUFFIX = "_after"  # the empty-hand window after the pass (kinematic information)
 
 
 class SequencerNode(Node):
@@ -233,34 +234,8 @@ class SequencerNode(Node):
 
     def validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
         for prm in params:
-            v, bad = prm.value, None
-            if prm.name in ("tilt", "max_tilt") and not 0.0 < v < math.pi / 2:
-                bad = "must be in (0, pi/2) rad"
-            elif prm.name == "tilt_axes" and (not v or any(a not in ("x", "y") for a in v)):
-                bad = "must be a non-empty list of 'x' and 'y'"
-            elif prm.name == "com_guess" and len(v) != 3 and list(v) != [0.0]:
-                bad = "must be 3 values (m) or [0.0] for the grasp centre"
-            elif (
-                prm.name
-                in ("dwell", "tare_dwell", "speed", "rate", "mass_guess", "grasp_check_dwell")
-                and v <= 0
-            ):
-                bad = "must be > 0"
-            elif (
-                prm.name
-                in (
-                    "settle",
-                    "target_com_sigma",
-                    "sigma_f",
-                    "sigma_tau",
-                    "min_load",
-                    "verify_dwell",
-                )
-                and v < 0
-            ):
-                bad = "must be >= 0"
-            if bad:
-                reason = f"{prm.name}={v!r} refused: {bad}"
+            if bad := parameter_problem(prm.name, prm.value):
+                reason = f"{prm.name}={prm.value!r} refused: {bad}"
                 self.get_logger().error(reason)
                 return SetParametersResult(successful=False, reason=reason)
         return SetParametersResult(successful=True)
@@ -293,130 +268,42 @@ class SequencerNode(Node):
             raise RunError(self._motion)
         return self._motion
 
+    def settings(self) -> RunSettings:
+        """The run's settings, from the parameters."""
+        return RunSettings.from_parameters(self.p)
+
     def _planned(
         self,
+        settings: RunSettings,
+        noise: NoiseModel,
         method: str,
         information: str,
         bias_drift_rate: tuple[float, ...],
         motion: Choreography,
         calibration: Calibration | None = None,
-    ) -> tuple[Plan, list[tuple[str, list[float]]]]:
-        """The plan of the parameters and the joints of its poses: within ``max_tilt`` and
-        the arm's reach (a pose no joint solution reaches is refused and the tilt lowered
-        to the largest the arm reaches) and, with ``target_com_sigma``, its dwell (and
-        with ``raise_tilt`` its tilt, up to what the arm reaches) set by the planner for
-        the estimator's ``method``, ``information`` and ``calibration``; its move time the
-        longest move of the pass. Every change is logged with its reason. RunError when no plan is
-        feasible (the reason says what would be)."""
-        plan = replace(self.plan(motion), calibration=calibration)
-        if len(bias_drift_rate) == 2:  # the estimator's (kinematic information)
-            plan = replace(plan, bias_drift_rate=bias_drift_rate)
-        plan, lowered = within_max_tilt(plan, self.p("max_tilt"))
-        changes = list(lowered)
-        refusals: list[PoseUnreachable] = []
-        reach = self._reachable_tilt(plan, motion, refusals)
-        for refusal in refusals:
-            self.get_logger().warning(f"refused before moving: {refusal}")
-        if refusals:
-            last = refusals[-1]
-            changes.append(
-                f"tilt {plan.tilt:.3f} -> {reach:.3f} rad (the largest the arm reaches at "
-                f"{last.pose}: {last.reason})"
-            )
-            plan = replace(plan, tilt=reach)
-        plan, poses = self._timed(plan, motion)
-        target = self.p("target_com_sigma")
-        if target > 0:
-            ceiling = self.p("max_tilt")
-            if self.p("raise_tilt") and ceiling > plan.tilt:  # no higher than the arm reaches
-                ceiling = self._reachable_tilt(replace(plan, tilt=ceiling), motion, [])
-            advice = dwell_for_target(
-                plan,
-                target,
-                max_tilt=ceiling,
-                max_time=self.p("max_object_time"),
-                raise_tilt=self.p("raise_tilt"),
-                method=method,
-                information=information,
-                fewer_poses=self.p("fewer_poses"),
-            )
-            if not advice.feasible:
-                raise RunError(f"target COM sigma cannot be met: {advice.reason}")
-            plan, changes = advice.plan, changes + list(advice.changes)
-            plan, poses = self._timed(plan, motion)
-        for change in changes:
-            self.get_logger().warning(f"plan changed: {change}")
-        return plan, poses
-
-    def _reachable_tilt(
-        self, plan: Plan, motion: Choreography, refusals: list[PoseUnreachable]
-    ) -> float:
-        """The largest tilt (rad, up to ``plan.tilt``) at which the arm reaches every pose
-        of ``plan``'s tare pass (which holds the object pass's); each pose refused on the
-        way is appended to ``refusals``. RunError when a pose is out of reach at any
-        tilt."""
-        while True:
-            try:
-                motion.pose_joints(plan.tare_plan())
-                return plan.tilt
-            except PoseUnreachable as exc:
-                if exc.largest <= 0.0:
-                    raise RunError(f"no exploration is feasible: {exc}") from exc
-                refusals.append(exc)
-                plan = replace(plan, tilt=exc.largest)
-
-    def _timed(
-        self, plan: Plan, motion: Choreography
-    ) -> tuple[Plan, list[tuple[str, list[float]]]]:
-        """(``plan`` with its move time the longest move of its pass at ``speed``, the
-        joints of its poses)."""
+    ) -> tuple[Plan, Poses]:
+        """The plan of ``settings`` and the joints of its poses (``plan_within_reach``,
+        ``plan_for_target``), each pose refused and each change logged. RunError when no
+        plan is feasible (the reason says what would be)."""
         try:
-            poses = motion.pose_joints(plan)
-        except PoseUnreachable as exc:  # checked with the tare's poses: not expected
-            raise RunError(f"no exploration is feasible: {exc}") from exc
-        speed = self.p("speed")
-        moves = [motion.motion_time(a, b, speed) for (_, a), (_, b) in pairwise(poses)]
-        return replace(plan, move_time=max(moves, default=plan.move_time)), poses
+            planned = plan_within_reach(settings, motion, noise, calibration, bias_drift_rate)
+            for refusal in planned.refusals:
+                self.get_logger().warning(f"refused before moving: {refusal}")
+            planned = plan_for_target(planned, settings, motion, method, information)
+        except PlanInfeasible as exc:
+            raise RunError(str(exc)) from exc
+        for change in planned.changes:
+            self.get_logger().warning(f"plan changed: {change}")
+        return planned.plan, planned.poses
 
     def _cache_path(self) -> Path:
-        return Path(self.p("tare_cache") or Path(self.p("bag_dir")) / "tare_cache.json")
+        return tare_cache_path(self.p("tare_cache"), self.p("bag_dir"))
 
-    def planning_noise(self) -> tuple[NoiseModel, str]:
-        """(the sensor's noise to plan for, where it comes from): the noise the newest
-        tare pass of this hand learnt (the tare cache), else assumed from ``sigma_f``,
-        ``sigma_tau``, ``correlation_time`` and ``rate``."""
-        try:
-            cache = latest_hand_model(self._cache_path(), self.p("hand_id"))
-        except (ValueError, KeyError, OSError):
-            cache = None
-        if cache is not None and cache.noise is not None:
-            return cache.noise, "learnt by the cached tare pass"
-        sigma = [self.p("sigma_f")] * 3 + [self.p("sigma_tau")] * 3
-        noise = ar1_noise(sigma, self.p("correlation_time"), self.p("rate"))
-        return noise, "assumed from sigma_f, sigma_tau and correlation_time"
-
-    def plan(self, motion: Choreography) -> Plan:
-        """The plan the parameters ask for, as set; the COM guess ([0.0]: the grasp
-        centre) and the gravity at home from the arm's model (its move time is set when
-        its poses are solved: ``_timed``); the noise of ``planning_noise``."""
-        gravity = motion.robot.gravity_in_sensor(motion.home_positions())
-        guess = self.p("com_guess")
-        return Plan(
-            tilt=self.p("tilt"),
-            axes=tuple(self.p("tilt_axes")),
-            both_directions=self.p("both_directions"),
-            dwell=self.p("dwell"),
-            tare_dwell=self.p("tare_dwell"),
-            settle=self.p("settle"),
-            sensor=SensorModel.from_scalars(
-                self.p("sigma_f"), self.p("sigma_tau"), rate_hz=self.p("rate")
-            ),
-            mass_guess=self.p("mass_guess"),
-            com_guess=tuple(motion.pivot if len(guess) == 1 else guess),
-            gravity_home=tuple(gravity / np.linalg.norm(gravity)),
-            bias_dwell=self.p("bias_dwell"),
-            noise=self.planning_noise()[0],
-        )
+    def planning_noise(self, settings: RunSettings) -> tuple[NoiseModel, str]:
+        """(the sensor's noise to plan for, where it comes from): ``planning_noise`` of
+        the newest tare pass of this hand in the tare cache."""
+        cache = newest_hand_model(self._cache_path(), self.p("hand_id"))
+        return planning_noise(cache, settings)
 
     # --- the service ---------------------------------------------------------------------
 
@@ -486,12 +373,13 @@ class SequencerNode(Node):
         method, information, estimator_cache = (value.string_value for value in answer.values[:3])
         drift_rate = tuple(answer.values[3].double_array_value)
         accuracy, full_scale = answer.values[4].double_value, answer.values[5].double_array_value
-        calibration = (
-            Calibration(accuracy, *full_scale) if accuracy > 0 and len(full_scale) == 2 else None
+        calibration = estimator_calibration(accuracy, full_scale)
+        settings = self.settings()
+        noise, source = self.planning_noise(settings)
+        plan, poses = self._planned(
+            settings, noise, method, information, drift_rate, motion, calibration
         )
-        plan, poses = self._planned(method, information, drift_rate, motion, calibration)
         prediction = predict(plan, method, information)
-        noise, source = self.planning_noise()
         log.info(f"planned for the sensor's {noise.summary()} ({source})")
         log.info(
             f"run {run_id}: {config.robot}, poses {[n for n, _ in poses]}, "
@@ -560,59 +448,47 @@ class SequencerNode(Node):
         hand_model: bool,
     ) -> Window:
         """Phase 1: reuse the cached tare pass of this hand if still valid, else take a new
-        one; returns an empty-hand window at home (of this run when it has one).
-
-        With a ``hand_model`` (the estimator's kinematic information) a cached pass of
-        this hand with its joint positions serves any plan while younger than
-        ``tare_max_age``: the estimator fits the hand from it, and this run's bias from a
-        ``bias_dwell`` window at home, so a drift since is absorbed. With the wrenches
-        alone an entry serves the same hand and plan (signature) only, and only while that
-        window agrees with it (chi-square, 6 dof, ``tare_cache.drift_accepted``). A reused
-        entry becomes the cache's current one and is copied beside the bag; the estimator
-        must read the same file (its ``tare_cache``), else a fresh pass is taken.
-        """
+        one; returns an empty-hand window at home (of this run when it has one). The
+        policy: docs/design.md, "The tare cache"."""
         log = self.get_logger()
         path = self._cache_path()
         tare_poses = motion.pose_joints(plan.tare_plan())
         home_name, home = tare_poses[0]
         signature = tare_signature(self.p("hand_id"), tare_poses)
-        try:
-            if hand_model:
-                cache = latest_hand_model(path, self.p("hand_id"))
-            else:
-                cache = load_tares(path, signature)
-        except (ValueError, KeyError, OSError) as exc:
-            log.warning(f"tare cache {path} unreadable ({exc}): taking a new tare")
-            cache = None
-        shared = bool(estimator_cache) and Path(estimator_cache).resolve() == path.resolve()
-        if cache is not None and not shared:
+        cache, unreadable = cached_tare(path, self.p("hand_id"), signature, hand_model)
+        if unreadable:
+            log.warning(f"tare cache {path} unreadable ({unreadable}): taking a new tare")
+        decision = tare_decision(
+            cache,
+            path,
+            estimator_cache,
+            self.p("tare_max_age"),
+            [name for name, _ in plan.poses()],
+            hand_model,
+        )
+        if decision.unshared:
             log.warning(
                 f"the estimator reads the tare cache {estimator_cache or '(none)'!r}, not "
                 f"{str(path)!r}: taking a fresh tare pass (give both nodes one tare_cache)"
             )
-        needed = [] if hand_model else [name for name, _ in plan.poses()]
-        if shared and reusable(cache, self.p("tare_max_age"), needed):
+        if decision.check and cache is not None:
             what = "this run's bias" if hand_model else "drift check of the cached tare"
             log.info(f"phase 1/4: {what} ({cache.age():.0f} s old), empty hand at home")
             self.arm.move(home, "home")
             check = f"{home_name}{BIAS_WINDOW_SUFFIX}"  # matches no object window
             fresh = self._captured_tares([(check, home)], self.p("bias_dwell"))[0].get(check)
-            if hand_model and fresh is not None:
-                reuse, verdict = True, "its hand model; the bias is fitted with the object"
-            else:
-                reuse, chi2, p = drift_accepted(cache.windows[home_name], fresh)
-                verdict = f"drift chi2 {chi2:.1f}, 6 dof, p {p:.2g}"
-            if reuse:
+            reuse = tare_reuse(cache, home_name, fresh, hand_model)
+            if reuse.reuse:
                 use_tares(path, cache)
                 use_tares(bag / BAG_TARE_FILE, cache)
-                log.info(f"tare: reusing the cache ({verdict})")
-                return fresh if hand_model else cache.windows[home_name]
-            log.warning(f"tare not reusable ({verdict}): new tare pass")
+                log.info(f"tare: reusing the cache ({reuse.verdict})")
+                return reuse.home
+            log.warning(f"tare not reusable ({reuse.verdict}): new tare pass")
         log.info("phase 1/4: tare pass with the empty hand")
         windows, noise = self._captured_tares(tare_poses, plan.tare_dwell or plan.dwell)
         if home_name not in windows:
             raise RunError(f"the tare window at {home_name} was not recorded")
-        if len(windows) == len(tare_poses):
+        if complete_tare_pass(windows, [name for name, _ in tare_poses]):
             seen = {pose: self._window_seen[TARE_PREFIX + pose] for pose in windows}
             times = {pose: time for pose, (time, _) in seen.items()}
             joints = {p: j for p, (_, j) in seen.items()}
@@ -626,7 +502,7 @@ class SequencerNode(Node):
         from home goes home."""
         log = self.get_logger()
         closed = self.arm.gripper_closed()
-        if closed > GRIPPER_HOLDING:
+        if may_hold_object(closed):
             log.warning(
                 f"the gripper is {closed:.0%} closed: the hand may hold an object; putting "
                 "it back on the stand before the run"
@@ -648,12 +524,10 @@ class SequencerNode(Node):
 
         raws, end = self._wrenches_during(lift_and_weigh, "the grasp check")
         stamps, wrenches, _ = decode_wrench_batch(raws)
-        held = wrenches[(stamps >= end - dwell) & (stamps < end), :3]
-        if len(held) == 0:
+        mass = held_mass(stamps, wrenches, end - dwell, end, tare_home.force)
+        if mass is None:
             raise RunError("no wrenches arrived while weighing the grasp")
-        gravity = tare_home.force / np.linalg.norm(tare_home.force)
-        mass = float((held.mean(axis=0) - tare_home.force) @ gravity) / STANDARD_GRAVITY
-        if mass < self.p("min_load"):
+        if not grasp_holds(mass, self.p("min_load")):
             self.arm.put_back(home, pick)
             raise RunError(
                 f"grasp failed: after lifting the hand holds {mass * 1e3:.1f} g beyond the "

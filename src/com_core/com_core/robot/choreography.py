@@ -26,15 +26,18 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
-from com_core.planning.planner import HOME, Plan
 from com_core.robot.config import RobotConfig, RobotConfigError, grasp_point, robot_problems
 from com_core.robot.inverse_kinematics import largest_reachable_tilt, solve_pose
 from com_core.robot.model import KinematicsError, RobotModel
 from com_core.sensing.wrench_model import rotation_about
+
+if TYPE_CHECKING:  # the planner imports the robot wing: no import of it at run time
+    from com_core.planning.planner import Plan
 
 __all__ = [
     "AXES",
@@ -128,12 +131,13 @@ class Choreography:
         pass's order (see module). PoseUnreachable for the first pose no solution
         reaches."""
         names = [name for name, _ in plan.poses()]
+        home = names[0]  # ``Plan.poses``: home first
         order = sorted(
-            names, key=lambda n: (n != HOME, n[-2:-1] != "y", n[-1] == "+" and "x" in n)
+            names, key=lambda n: (n != home, n[-2:-1] != "y", n[-1] == "+" and "x" in n)
         )
         out = []
         for name in order:
-            if name == HOME:
+            if name == home:
                 out.append((name, list(self.home)))
                 continue
             axis = np.asarray(AXES[name[-2]]) * (1.0 if name[-1] == "+" else -1.0)
