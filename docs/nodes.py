@@ -1,0 +1,448 @@
+"""Writes docs/nodes.md: every node's topics, services and parameters.
+
+The parameter tables are read from the code that declares them, so the page cannot drift
+from what ``ros2 param describe`` says:
+
+- ``sim_node``: ``wrench_sim.parameters.PARAMETERS``;
+- ``estimator_node``: ``com_core.estimation.settings.SETTINGS`` (the replay's options too)
+  and the node's own rows of ``com_estimator.estimator_node.PARAMETERS``;
+- ``sequencer_node``: ``exploration_sequencer.sequencer_node.PARAMETERS``;
+- the robot configuration's keys (sim and sequencer, read-only):
+  ``com_core.robot.config.default_robot_config().parameters()``.
+
+Topic and service names and types come from ``com_core.contract``; what each carries is
+written here. Run from the workspace with its environment (``source ./env.sh``)::
+
+    python docs/nodes.py > docs/nodes.md
+    python docs/nodes.py --check    # exit 1 when docs/nodes.md differs
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PAGE = ROOT / "docs" / "nodes.md"
+# The source trees, ahead of any installed copy: the page describes the code as it is.
+for _tree in ("exploration_sequencer", "com_estimator", "wrench_sim", "src/com_core"):
+    sys.path.insert(0, str(ROOT / _tree))
+
+from com_core import contract as c  # noqa: E402
+from com_core.estimation.settings import SETTINGS  # noqa: E402
+from com_core.robot.config import KEYS, default_robot_config  # noqa: E402
+from com_estimator.estimator_node import PARAMETERS as ESTIMATOR_PARAMETERS  # noqa: E402
+from exploration_sequencer.sequencer_node import PARAMETERS as SEQUENCER_PARAMETERS  # noqa: E402
+from wrench_sim.parameters import PARAMETERS as SIM_PARAMETERS  # noqa: E402
+
+TRIGGER = "std_srvs/srv/Trigger"
+GET_PARAMETERS = "rcl_interfaces/srv/GetParameters"
+SET_PARAMETERS = "rcl_interfaces/srv/SetParameters"
+
+
+def value_text(value: object) -> str:
+    """A default as a reader types it."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "NaN"
+        if value == math.pi / 6:
+            return "pi/6"
+        return repr(value) if len(repr(value)) <= 8 else f"{value:.6g}"
+    if isinstance(value, str):
+        return value or "''"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(value_text(v) for v in value) + "]"
+    if type(value).__name__ == "Type":  # rclpy's Parameter.Type: declared without a value
+        return "unset"
+    return str(value)
+
+
+def cell(text: str) -> str:
+    """Text inside a table cell."""
+    return text.replace("|", "\\|").replace("\n", " ")
+
+
+def table(header: tuple[str, ...], rows: list[tuple[str, ...]]) -> list[str]:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(cell(x) for x in row) + " |" for row in rows]
+    return [*lines, ""]
+
+
+def interface(name: str, kind: str, notes: str, type_: str | None = None) -> tuple[str, ...]:
+    """A row of a node's topics or services; topic types from the contract."""
+    type_ = type_ or c.TOPIC_TYPES[name]
+    return (f"`{name}`", f"`{type_}`", kind, notes)
+
+
+INTERFACE_HEADER = ("name", "type", "", "what")
+
+
+def sim_node() -> list[str]:
+    rows = [
+        interface(c.CLOCK_TOPIC, "out", "sim time, `clock_rate` Hz of sim time"),
+        interface(
+            c.WRENCH_TOPIC, "out", "frame `ft_sensor`, sim-time stamps, `rate` Hz (the sensor)"
+        ),
+        interface(
+            c.JOINT_STATES_TOPIC,
+            "out",
+            "100 Hz sim time; the configuration's `arm_joints`, then `gripper_joints` "
+            "(rigid mode: the virtual gripper's position)",
+        ),
+        interface(
+            c.TRUTH_TOPIC,
+            "out",
+            "the object's m and COM in `ft_sensor`; latched; on grasp, release and when the "
+            f"COM moves more than {c.TRUTH_MOVE_M * 1e3:g} mm in the hand",
+        ),
+        interface(
+            c.HAND_TRUTH_TOPIC,
+            "out",
+            "every link beyond the sensor (hand or gripper, fingers) from the URDF; latched",
+        ),
+        interface(
+            c.OBJECT_TOPIC,
+            "out",
+            "`shape=box mass=0.1000 grasp_mode=rigid state=held`, with each held / not held "
+            "change; latched",
+        ),
+        interface(
+            c.ROBOT_DESCRIPTION_TOPIC,
+            "out",
+            "the URDF it loaded (rigid mode: the copy with the gripper's joints fixed open); "
+            "latched",
+        ),
+        interface(
+            c.ARM_COMMAND_TOPIC,
+            "in",
+            "the configuration's `arm_joints`; quintic interpolation, position control; "
+            "starts at `header.stamp` (sim time; 0 or past: now)",
+        ),
+        interface(
+            c.HAND_COMMAND_TOPIC,
+            "in",
+            "one value, the gripper's command, `gripper_open` .. `gripper_closed` (Panda: m "
+            "per finger, 0.04 open, 0 closed; xArm6: rad, 0 open, 0.85 closed)",
+        ),
+        interface(
+            c.APPLY_WRENCH_TOPIC,
+            "in",
+            "a push on the held object: force at its COM and a couple, frame `world` or "
+            "`ft_sensor`, from `header.stamp` (0: now) for `push_duration` s; pushes add up",
+            c.TOPIC_TYPES[c.APPLIED_WRENCH_TOPIC],
+        ),
+        interface(
+            c.APPLIED_WRENCH_TOPIC,
+            "out",
+            "the push as the sensor reads it (`ft_sensor`, about its origin), with each wrench "
+            "sample's stamp while it acts, then one zero",
+        ),
+    ]
+    params = []
+    for name, default, description, _read_only, low in SIM_PARAMETERS:
+        if name in KEYS:
+            continue
+        text = description if low is None else f"{description} (>= {low:g})"
+        params.append((f"`{name}`", f"`{value_text(default)}`", text))
+    return [
+        "## wrench_sim: `sim_node`",
+        "",
+        "pybullet (DIRECT; `-p gui:=true` opens a window), the arm of its robot configuration "
+        "on a fixed base (the Franka Panda of pybullet_data by default; `--ros-args "
+        "--params-file src/com_core/com_core/config/xarm6.yaml` runs the xArm6 with its "
+        "gripper), 1 kHz physics, gravity 9.80665 m/s^2, as fast as it can "
+        "(`real_time_factor:=0`) or at a set real-time factor. What its sensor reads and how "
+        "exact that is: [design.md, The simulated sensor](design.md#the-simulated-sensor).",
+        "",
+        "### Topics",
+        "",
+        *table(INTERFACE_HEADER, rows),
+        "A malformed or unreachable command (unknown joint, NaN, wrong lengths, times not "
+        "increasing, outside the joint or velocity limits) is logged as rejected and ignored; "
+        "so is a push in another frame, with a non-finite value or with no object held.",
+        "",
+        "### Parameters",
+        "",
+        "From `wrench_sim.parameters.PARAMETERS`. A sensor part left at NaN (or `[-1.0]` for a "
+        "list) takes the `sensor_profile`'s figure ([design.md, A real sensor]"
+        "(design.md#a-real-sensor-correlated-noise-ringing-drift-and-calibration)). Besides "
+        "these, every key of the robot configuration, read-only ([Robot configuration]"
+        "(#robot-configuration)).",
+        "",
+        *table(("parameter", "default", "what"), params),
+        "`object_com_offset` is the COM minus the body's geometric centre, in the object's "
+        "frame (z up, y the fingers' axis). Only the inertial frame moves: the body stands "
+        "centred on its stand between the open pads (its centre on the grasp centre at "
+        "`pick_joints`) whatever the offset, until the fingers close, and it stays upright "
+        "only while its COM is above its base (the box's 0.05 m square, the cylinder's "
+        "0.025 m and the mug's 0.028 m radius disc); Bullet tips it over a little inside the "
+        "edge (a round base at 0.95 of its radius, upright at 0.9). So the sim accepts only "
+        "offsets in `wrench_sim.objects.holdable_com_range(object)`, 0.8 of the base, and "
+        "|z| up to the half height (0.04 m, mug 0.045 m), in both grasp modes; any other "
+        "offset stops the node at start with a log line that states the range. The seeded "
+        "draw is uniform in half the half extents, inside that range. At the range's edge "
+        "the object is held and, lifted, its ground truth is the requested offset to 0.07 mm "
+        "in either mode. In friction mode whether it stays held through the tilts also "
+        "depends on `object_mass` and `grip_force`: at 5 N per finger every edge offset "
+        "tried held through seven orientations at 0.1 and 0.3 kg; at 0.6 kg the box and the "
+        "cylinder with the COM at (0.02, 0, -0.04) m, low and far from the pads, dropped out "
+        "with gravity along the finger axis.",
+        "",
+    ]
+
+
+def estimator_node() -> list[str]:
+    rows = [
+        interface(
+            c.WRENCH_TOPIC,
+            "in",
+            "best effort, depth 5000; raw CDR decoded in batches with numpy",
+        ),
+        interface(c.POSE_TOPIC, "in", "the sequencer's pose labels (latched)"),
+        interface(c.JOINT_STATES_TOPIC, "in", "each window's orientation; the compensation"),
+        interface(c.ROBOT_DESCRIPTION_TOPIC, "in", "the URDF, unless `robot_description` is set"),
+        interface(
+            c.ESTIMATE_TOPIC,
+            "out",
+            "m and COM in `ft_sensor`, latched, stamped with the `done` stamp; usable "
+            "estimates only",
+        ),
+        interface(
+            c.DIAGNOSTICS_TOPIC,
+            "out",
+            f"`{c.DIAGNOSTIC_NAME}` at each solution; `{c.INPUT_STATUS_NAME}` and "
+            f"`{c.COMPENSATION_STATUS_NAME}` once a second (keys: [design.md, Wire contract]"
+            "(design.md#wire-contract))",
+        ),
+        interface(
+            c.COMPENSATED_TOPIC,
+            "out",
+            "best effort; each wrench, with its stamp and frame, less the bias and the gravity "
+            "wrench of the hand and the payload at that sample's orientation, once there is a "
+            "payload ([design.md, Compensated wrench](design.md"
+            "#compensated-wrench-verification-and-payload-files))",
+        ),
+    ]
+    services = [
+        interface(c.ESTIMATOR_SOLVE_SERVICE, "server", "estimate now from what has arrived; "
+                  "`success` only for OK", TRIGGER),
+        interface(c.ESTIMATOR_RESET_SERVICE, "server", "forget the current exploration "
+                  "(\"cleared N samples\")", TRIGGER),
+        interface(c.ESTIMATOR_SAVE_PAYLOAD_SERVICE, "server", "write the payload files to "
+                  "`payload_save_dir`; the answer names them, or why not", TRIGGER),
+    ]  # fmt: skip
+    settings = [
+        (f"`{name}`", f"`{value_text(default)}`", text, f"`--{name.replace('_', '-')}`")
+        for name, (default, text) in SETTINGS.items()
+    ]
+    settings = [(n, d, t, "`--tare`" if n == "`tare_cache`" else o) for n, d, t, o in settings]
+    own = [
+        (f"`{name}`", f"`{value_text(default)}`", text)
+        for name, (default, text) in ESTIMATOR_PARAMETERS.items()
+        if name not in SETTINGS
+    ]
+    return [
+        "## com_estimator: `estimator_node`",
+        "",
+        "Groups the wrenches into windows by their stamps and the labels' stamps, subtracts "
+        "the tare, and on `done` (or `~/solve`) publishes the estimate and the status; then "
+        "the compensated wrench. The computation is `com_core.estimation` and "
+        "`com_core.payload`; what each status means: [design.md, Statuses]"
+        "(design.md#statuses-and-what-each-consumer-sees).",
+        "",
+        "### Topics",
+        "",
+        *table(INTERFACE_HEADER, rows),
+        "### Services",
+        "",
+        *table(INTERFACE_HEADER, services),
+        "### Parameters",
+        "",
+        "The estimator's settings, `com_core.estimation.settings.SETTINGS`: the node's "
+        "parameters and the replay's options alike, so the replay uses the node's defaults.",
+        "",
+        *table(("parameter", "default", "what", "replay"), settings),
+        "The node's own, from `com_estimator.estimator_node.PARAMETERS`:",
+        "",
+        *table(("parameter", "default", "what"), own),
+        "Bad input never stops it: NaN/inf samples, another frame, duplicate stamps, samples "
+        "out of time order, labels longer than 128 characters are dropped and counted (WARN); "
+        "a window with motion in it is dropped (WARN, or ERROR if too few poses remain); "
+        "`done` with no window before it, without tare, too few poses, gravity directions too "
+        "close, no load beyond the hand (the object was not held), a load against gravity (a "
+        "tare taken with the object in the hand): ERROR with the reason. A sensor clock that "
+        "jumps back by more than 1 s (a restarted simulator, a looped bag) starts a new "
+        "timeline; a label more than `max_label_gap` s after the previous one drops the "
+        "exploration before it (a sequencer that died mid-run), so two runs' windows of one "
+        "name never merge.",
+        "",
+        "### `replay BAG`",
+        "",
+        "Reads a bag's wrenches and labels and feeds them to the same core code with the "
+        "node's defaults: the same messages give the same numbers (`--json` prints one "
+        "object: mass, com, sigmas, chi2, status, method, samples per window, and under "
+        "`bag` what was read). A kinematic fit takes the sensor and base frames of the run's "
+        "robot configuration, `robot.yaml` beside the bag (the sequencer writes it; `--robot "
+        "FILE` for another, `--sensor-frame` / `--base-frame` win over both), and the tare "
+        "the run reused, `tare.json` beside the bag (`--tare FILE` for another).",
+        "",
+        "A bag without labels is cut into static windows by the core (blocks of 50 ms at the "
+        "noise level, joined while their means agree within 6 standard errors, kept when "
+        "longer than 0.3 s), which it sorts by load level: a window's |f| is the gravity load "
+        "whatever the orientation, so the empty hand's windows and the loaded hand's form two "
+        "levels (apart by more than 0.5 % and 6 standard errors). Each object window is tared "
+        "with the tare window, of the bag or of the cached tare, whose force points the same "
+        "way within 2 deg; one without such a tare is left out. The sample run without its "
+        "labels: 5 object windows, all tared from its tare.json, mass 99.93 +- 0.14 g against "
+        "99.97 +- 0.17 g labelled (fitted together, the two levels gave 1093.5 g). With one "
+        "load level the estimate is of the whole load beyond the sensor, untared. The output "
+        "says which it did.",
+        "",
+        "A bag rosbags cannot open (an MCAP file cut short by a copy has no Footer) is read "
+        "record by record with the `mcap` package up to the cut, and the output says how much "
+        "of what metadata.yaml lists it read (the sample cut at 50 % of its bytes: 48 % of "
+        "the wrenches; at 90 %: 88 %, every window). A labelled run without its `done` (a run "
+        "that died), or cut before the end of its last window, is WARN with the reason (`the "
+        "run has no done label: cut short after object/tilt_x+`, and whether metadata.yaml "
+        "says its recorder never closed it); the estimate is kept.",
+        "",
+        "### `synthetic_exploration`",
+        "",
+        "Plays a synthetic exploration (optionally with a fault: `--fault nan|frame|order|"
+        "duplicate|motion|no-tare|one-pose|no-windows|long-label`, or an object that moves: "
+        "`--shift-sigma`) into a live estimator and records what it sent (`--bag`). It starts "
+        "the exploration only once the estimator's input status reports hearing its lead-in "
+        "(`--estimator-timeout`, 0 for no estimator).",
+        "",
+    ]
+
+
+def sequencer_node() -> list[str]:
+    rows = [
+        interface(c.POSE_TOPIC, "out", "the pose labels: latched, depth 1, each waiting for "
+                  "every reader's acknowledgement (up to 2 s) before the next"),
+        interface(c.ARM_COMMAND_TOPIC, "out", "the poses' joint trajectories, each stamped "
+                  "to start at the previous window's end"),
+        interface(c.HAND_COMMAND_TOPIC, "out", "open and close"),
+        interface(c.JOINT_STATES_TOPIC, "in", "when the arm rests; each window's joints"),
+        interface(c.DIAGNOSTICS_TOPIC, "in", "the estimator's input and exploration statuses"),
+        interface(c.ROBOT_DESCRIPTION_TOPIC, "in", "the URDF the poses are solved on"),
+    ]  # fmt: skip
+    services = [
+        interface(c.EXPLORE_SERVICE, "server", "one exploration; answers with a one-line "
+                  "summary, `success` only for OK; a call while one runs is refused at once",
+                  TRIGGER),
+        interface(c.ESTIMATOR_RESET_SERVICE, "client", "at the start of each run", TRIGGER),
+        interface(c.ESTIMATOR_PARAMETERS_SERVICE, "client", "the estimator's `method`, to "
+                  "predict for it", GET_PARAMETERS),
+        interface(c.ESTIMATOR_SET_PARAMETERS_SERVICE, "client", "`payload_save_dir` = the "
+                  "run's bag directory", SET_PARAMETERS),
+        interface(c.ESTIMATOR_SAVE_PAYLOAD_SERVICE, "client", "the payload files beside the "
+                  "bag, when the run's estimate became the payload", TRIGGER),
+    ]  # fmt: skip
+    params = [
+        (f"`{name}`", f"`{value_text(default)}`", text)
+        for name, (default, text) in SEQUENCER_PARAMETERS.items()
+    ]
+    return [
+        "## exploration_sequencer: `sequencer_node`",
+        "",
+        "Runs one exploration per `~/explore` call: tare, grasp, tilt, label, record, report "
+        "([design.md, Run lifecycle](design.md#run-lifecycle-and-recovery); its plan: "
+        "[Planner rules](design.md#planner-rules); its poses: [Robots](design.md#robots); its "
+        "tare: [The tare cache](design.md#the-tare-cache)). A label goes out only once the "
+        "arm rests: joint positions within 5 mrad of the target and speeds below 5 mrad/s, "
+        "then `settle` s counted from the stamp of the first joint state that shows it "
+        "resting. Its high-rate subscriptions "
+        "(joint states, statuses, the recorder) live on a second node, "
+        "`exploration_sequencer_io`, in the same process.",
+        "",
+        "### Topics",
+        "",
+        *table(INTERFACE_HEADER, rows),
+        "The recorder subscribes to every topic of a run, raw, and writes "
+        "`<bag_dir>/<run-id>/` (rosbag2, MCAP, metadata.yaml), never re-encoding: "
+        + ", ".join(f"`{t}`" for t in sorted(c.TOPIC_TYPES))
+        + ". A run that dies leaves a bag that opens up to ~0.1 s before the end "
+        "([bag_writer.md](bag_writer.md)). Beside it: `tare.json` (the tare entry a run "
+        "reused), `robot.yaml` (its robot configuration), `report.png` (the wrench traces "
+        "with the windows, and the estimate against the ground truth with 1- and 3-sigma "
+        "bars) and, for an estimate that became the payload, the payload files.",
+        "",
+        "### Services",
+        "",
+        *table(INTERFACE_HEADER, services),
+        "Its service calls wait `sim_timeout` for the server and retry three times, 3 s each "
+        "(a request sent before the service matched is lost).",
+        "",
+        "### Parameters",
+        "",
+        "From `exploration_sequencer.sequencer_node.PARAMETERS`; besides these, every key of "
+        "the robot configuration, read-only ([Robot configuration](#robot-configuration)).",
+        "",
+        *table(("parameter", "default", "what"), params),
+        "### `demo`",
+        "",
+        "`python -m exploration_sequencer.demo` (`make demo ARGS=...`) starts the three "
+        "nodes as processes, calls `~/explore`, prints the progress and a summary (estimate, "
+        "sigma, truth, error, time, bag and report paths) and stops the nodes; `--help` "
+        "lists its options.",
+        "",
+    ]
+
+
+def robot_configuration() -> list[str]:
+    rows = [
+        (f"`{key}`", f"`{value_text(value)}`")
+        for key, value in default_robot_config().parameters().items()
+    ]
+    return [
+        "## Robot configuration",
+        "",
+        "`sim_node` and `sequencer_node` declare every key of the robot configuration, "
+        "read-only (a file's `0` is taken for `0.0`); the estimator takes `sensor_frame` and "
+        "`hand_id` from it. The defaults are the Panda's file "
+        "(`src/com_core/com_core/config/panda.yaml`); what each key means: "
+        "[README, Your own arm](../README.md#your-own-arm).",
+        "",
+        *table(("key", "default (Panda)"), rows),
+    ]
+
+
+def page() -> str:
+    lines = [
+        "# Nodes",
+        "",
+        "<!-- Generated by docs/nodes.py from the parameter tables in code; do not edit. "
+        "Regenerate: python docs/nodes.py > docs/nodes.md -->",
+        "",
+        "Every node's topics, services and parameters; `ros2 param describe` gives the same "
+        "descriptions. QoS, publishers and subscribers of every topic: [design.md, Wire "
+        "contract](design.md#wire-contract).",
+        "",
+        *sim_node(),
+        *estimator_node(),
+        *sequencer_node(),
+        *robot_configuration(),
+    ]
+    while lines[-1] == "":
+        lines.pop()
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str]) -> int:
+    text = page()
+    if "--check" in argv:
+        if PAGE.read_text() != text:
+            print(f"{PAGE} differs from docs/nodes.py: python docs/nodes.py > docs/nodes.md")
+            return 1
+        return 0
+    sys.stdout.write(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
