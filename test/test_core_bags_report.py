@@ -18,16 +18,20 @@ from com_core.bags.writer import CrashSafeBagWriter
 from com_core.contract import (
     DIAGNOSTIC_NAME,
     DIAGNOSTICS_TOPIC,
+    ERROR,
     ESTIMATE_TOPIC,
     HAND_TRUTH_TOPIC,
     MOVING,
     OBJECT_TOPIC,
+    OK,
     POSE_TOPIC,
     TARE_PREFIX,
     TRUTH_TOPIC,
+    WARN,
     WRENCH_TOPIC,
 )
-from com_core.estimation.exploration import ERROR, OK, WARN, Exploration, Solution
+from com_core.estimation.exploration import Exploration
+from com_core.estimation.solution import Solution
 from com_core.paper.synthetic import Load, exploration_stream
 from com_core.planning.planner import Plan
 from com_core.report.figure import write_report

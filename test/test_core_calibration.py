@@ -133,6 +133,6 @@ def test_the_wrenches_alone_carry_the_calibrations_share():
             replace(w, mean=w.mean + (c - np.eye(6)) @ t.mean)
             for w, t in zip(windows, truth, strict=True)
         ]
-        e = exploration._wrenches_estimate(read)
+        e = exploration.wrenches_estimate(read)
         ratios.append([(e.mass - MASS) / e.sigma_mass, *((e.com - COM) / e.sigma_com)])
     np.testing.assert_allclose(np.sqrt(np.mean(np.square(ratios), axis=0)), 1.0, atol=0.2)

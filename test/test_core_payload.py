@@ -17,8 +17,9 @@ import pytest
 import yaml
 
 from com_core.estimation.estimators import Consistency
-from com_core.estimation.exploration import KINEMATICS_MOUNT, WRENCHES, Solution
+from com_core.estimation.fits import KINEMATICS_MOUNT, WRENCHES
 from com_core.estimation.known_gravity import Observation, kinematic_ml
+from com_core.estimation.solution import Solution
 from com_core.estimation.windows import window_from_mean
 from com_core.payload.model import (
     GRAVITY_COMPENSATION_FILE,

@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 from conftest import write_stream_bag
 
-from com_core.estimation.exploration import WARN, Exploration
+from com_core.contract import WARN
+from com_core.estimation.exploration import Exploration
 from com_core.estimation.feed import feed_bag
 from com_core.estimation.static_windows import (
     find_static_windows,

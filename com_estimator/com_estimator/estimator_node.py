@@ -57,6 +57,7 @@ from com_core.contract import (
     DIAGNOSTIC_NAME,
     DIAGNOSTICS_TOPIC,
     DONE,
+    ERROR,
     ESTIMATE_TOPIC,
     ESTIMATOR_RESET_SERVICE,
     ESTIMATOR_SAVE_PAYLOAD_SERVICE,
@@ -65,21 +66,16 @@ from com_core.contract import (
     JOINT_STATES_TOPIC,
     LATEST_LABEL_KEY,
     LATEST_STAMP_KEY,
+    OK,
     POSE_TOPIC,
     ROBOT_DESCRIPTION_TOPIC,
+    WARN,
     WRENCH_TOPIC,
     level_of,
 )
-from com_core.estimation.exploration import (
-    ERROR,
-    OK,
-    WARN,
-    WRENCHES,
-    Exploration,
-    Solution,
-    format_solution,
-    shorten,
-)
+from com_core.estimation.exploration import Exploration
+from com_core.estimation.fits import WRENCHES
+from com_core.estimation.inbox import shorten
 from com_core.estimation.settings import (
     SETTINGS,
     exploration_from,
@@ -87,6 +83,7 @@ from com_core.estimation.settings import (
     setting_problem,
     use_cached_tares,
 )
+from com_core.estimation.solution import Solution, format_solution
 from com_core.payload.compensation import MAX_JOINT_STATE_AGE, Compensator
 from com_core.payload.model import (
     Payload,

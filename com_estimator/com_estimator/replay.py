@@ -35,17 +35,19 @@ import sys
 from pathlib import Path
 
 from com_core.bags.reader import INCOMPLETE_TEXT, BagReading
-from com_core.contract import OBJECT_PREFIX, POSE_TOPIC, TARE_PREFIX, VERIFY_PREFIX, WRENCH_TOPIC
-from com_core.estimation.exploration import (
+from com_core.contract import (
     ERROR,
+    OBJECT_PREFIX,
     OK,
+    POSE_TOPIC,
+    TARE_PREFIX,
+    VERIFY_PREFIX,
     WARN,
-    WRENCHES,
-    Exploration,
-    Solution,
-    format_solution,
+    WRENCH_TOPIC,
 )
+from com_core.estimation.exploration import Exploration
 from com_core.estimation.feed import feed_bag
+from com_core.estimation.fits import WRENCHES
 from com_core.estimation.settings import (
     SETTINGS,
     exploration_from,
@@ -53,6 +55,7 @@ from com_core.estimation.settings import (
     setting_problem,
     use_cached_tares,
 )
+from com_core.estimation.solution import Solution, format_solution
 from com_core.estimation.static_windows import find_static_windows, split_load_levels
 from com_core.estimation.tare_cache import BAG_TARE_FILE
 from com_core.robot.config import BAG_ROBOT_FILE, RobotConfigError, read_robot_config

@@ -30,12 +30,8 @@ from com_core.contract import (
     EXPLORE_SERVICE,
     TRUTH_TOPIC,
 )
-from com_core.estimation.exploration import (
-    INFORMATION,
-    noise_line,
-    vector_value,
-    verification_lines,
-)
+from com_core.estimation.fits import INFORMATION
+from com_core.estimation.solution import noise_line, vector_value, verification_lines
 from com_core.payload.model import PAYLOAD_FILE
 from com_core.robot.config import ROBOTS, RobotConfigError, read_robot_config, robot_config_path
 from com_core.runtime.processes import executable, ros_args, stop

@@ -9,7 +9,7 @@ stay with the nodes that create them (docs/design.md lists them).
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from typing import Protocol
 
 __all__ = [
@@ -52,6 +52,7 @@ __all__ = [
     "VERIFY_PREFIX",
     "WARN",
     "WRENCH_TOPIC",
+    "done_stamp",
     "heard_stamps",
     "level_of",
     "status_of",
@@ -143,6 +144,25 @@ MOVING = "moving"
 """Ends a window; the arm moves (also the handshake label)."""
 DONE = "done"
 """Ends the exploration: solve from the windows before it."""
+
+
+def done_stamp(labels: Sequence[tuple[int, str]]) -> int | None:
+    """Stamp (ns) of the first ``done`` that arrived after a window label, or None.
+
+    ``labels``: (stamp ns, label) in arrival order. A ``done`` with no window label
+    (``tare/``, ``object/``, ``verify/``) before it ends an earlier exploration (the latched
+    label a late-joining subscriber or a recorder gets first), not this one; with a
+    restarted clock its stamp could fall anywhere, so the order of arrival decides, not
+    the stamp.
+    """
+    seen_window = False
+    for stamp, label in labels:
+        if label.startswith((TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX)):
+            seen_window = True
+        elif label == DONE and seen_window:
+            return stamp
+    return None
+
 
 # --- the estimator's statuses on DIAGNOSTICS_TOPIC ------------------------------------
 DIAGNOSTIC_NAME = "com_estimator: exploration"

@@ -13,7 +13,7 @@ the covariance of that mean; N, N m; sensor frame):
     The paper mixes two conventions: eqs. 4-8 follow tau = f x p (eq. 4 reads
     tau = -P^X R f), eq. 9 states tau = f x P, but eq. 10 expands P x f, and eq. 11
     as printed, P_z = (tau_x - f_z P_y) / f_r, has the sign of neither (from eq. 10,
-    P_z = (f_z P_y - tau_x) / f_y). Here everything follows tau = p x f (docs/design.md),
+    P_z = (f_z P_y - tau_x) / f_y). Here everything follows tau = p x f (docs/estimation.md),
     so eqs. 7, 8 read p_x = tau_y / (m g), p_y = -tau_x / (m g).
 
 ``ml``

@@ -13,7 +13,8 @@ from com_core.contract import (
     ROBOT_DESCRIPTION_TOPIC,
     WRENCH_TOPIC,
 )
-from com_core.estimation.exploration import WRENCHES, Exploration
+from com_core.estimation.exploration import Exploration
+from com_core.estimation.fits import WRENCHES
 
 __all__ = ["feed_bag"]
 

@@ -16,16 +16,16 @@ from pathlib import Path
 from typing import Any
 
 from com_core.estimation.estimators import DEFAULT_ALPHA, MIN_TILT_SIGMAS
-from com_core.estimation.exploration import (
+from com_core.estimation.exploration import Exploration
+from com_core.estimation.fits import (
     INFORMATION,
     KINEMATICS_MOUNT,
     MAX_DRIFT_F,
     MAX_DRIFT_TAU,
-    MAX_LABEL_GAP,
     METHODS,
     WRENCHES,
-    Exploration,
 )
+from com_core.estimation.inbox import MAX_LABEL_GAP
 from com_core.estimation.known_gravity import BIAS_DRIFT_RATE
 from com_core.estimation.tare_cache import TareCache, load_tares
 from com_core.robot.config import default_robot_config

@@ -5,7 +5,7 @@
 - left: force and torque against sim time (s, the wrenches' header stamps; N and N m,
   ``ft_sensor``), under a strip of the labelled windows: ``tare/<pose>`` and
   ``object/<pose>`` static windows shaded in two colours, ``moving`` unshaded, ``done``
-  marked (label semantics as in ``com_core.estimation.exploration``);
+  marked (label semantics as in ``com_core.contract``);
 - right: the estimate against the ground truth, estimate minus truth (0 = truth) for
   the mass (g) and each COM axis (mm, ``ft_sensor``) with 1-sigma (thick) and 3-sigma
   (thin) error bars; without ground truth the estimate itself with its error bars; with
@@ -43,7 +43,7 @@ from com_core.contract import (
     VERIFY_PREFIX,
     WRENCH_TOPIC,
 )
-from com_core.estimation.exploration import noise_line, vector_value, verification_lines
+from com_core.estimation.solution import noise_line, vector_value, verification_lines
 from com_core.report.run import RunData, read_run
 from com_core.sensing.noise import learn_noise
 

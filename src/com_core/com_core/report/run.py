@@ -34,9 +34,9 @@ from com_core.contract import (
     TRUTH_MOVE_M,
     TRUTH_TOPIC,
     WRENCH_TOPIC,
+    done_stamp,
     status_of,
 )
-from com_core.estimation.exploration import done_stamp
 
 __all__ = ["RUN_BAG_TOPICS", "Inertia", "RunData", "read_run"]
 
@@ -76,7 +76,7 @@ class RunData:
     stamps : shape (n,); ns, sim time (header stamps), sorted.
     wrenches : shape (n, 6); N and N m; ``ft_sensor``.
     labels : (stamp ns, label) sorted by stamp.
-    done_ns : stamp of the ``done`` that ends the run (``exploration.done_stamp``).
+    done_ns : stamp of the ``done`` that ends the run (``com_core.contract.done_stamp``).
     estimate : the ``/com_estimator/estimate`` of this run (stamped with its ``done``), or None.
     diagnostic : level (int), message (str) and values (dict of str) of the last
         ``com_estimator: exploration`` status on ``/diagnostics``, or None.

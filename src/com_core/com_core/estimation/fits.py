@@ -1,0 +1,340 @@
+"""The fits an exploration's windows take, and what they take them with (``FitSetup``).
+
+The information a fit uses:
+
+- 'wrenches': each pose's gravity direction is unknown; the object's windows less the
+  tare of their pose (the paper's W_HAND, eq. 2; ``windows.subtract_tare``) are fitted
+  by ``method``: 'ml' (every pose, ``estimators.ml``) or 'two_pose' (the paper's, eqs.
+  3, 7, 8, 11), and tested for one rigid load (``estimators.check_consistency``); the load's
+  force must point the way the hand's does (both are gravity);
+- 'kinematics': each window's gravity in the sensor frame comes from the URDF and the
+  joint states (``cutting.window_rotation``); the hand, the sensor's bias (one per run,
+  drifting at ``bias_drift_rate``) and the object are fitted together
+  (``known_gravity.kinematic_ml``);
+- 'kinematics+mount': and the sensor's mounting and the base tilt.
+
+Wrenches are in N and N m in the sensor frame, masses in kg, COMs in m in the sensor
+frame. Without a robot model, or with a method other than 'ml', the fit uses the
+wrenches and says so.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from com_core.contract import OBJECT_PREFIX, TARE_PREFIX
+from com_core.estimation.cutting import window_rotation, window_time
+from com_core.estimation.errors import (
+    EstimationError,
+    MissingTareError,
+    NonPositiveMassError,
+    WindowError,
+)
+from com_core.estimation.estimators import (
+    DEFAULT_ALPHA,
+    MIN_TILT_SIGMAS,
+    Consistency,
+    Estimate,
+    check_consistency,
+    ml,
+    two_pose,
+)
+from com_core.estimation.inbox import Inbox
+from com_core.estimation.known_gravity import (
+    BIAS_DRIFT_RATE,
+    KinematicFit,
+    Observation,
+    kinematic_ml,
+    locate_move,
+)
+from com_core.estimation.stats import chi2_sf
+from com_core.estimation.windows import Window
+from com_core.robot.model import KinematicsError, RobotModel
+from com_core.sensing.calibration import Calibration
+from com_core.sensing.noise import NoiseModel
+from com_core.sensing.wrench_model import STANDARD_GRAVITY, SensorModel
+
+__all__ = [
+    "INFORMATION",
+    "KINEMATICS",
+    "KINEMATICS_MOUNT",
+    "LOAD_SIGMAS",
+    "MAX_DRIFT_F",
+    "MAX_DRIFT_TAU",
+    "METHODS",
+    "WRENCHES",
+    "FitSetup",
+    "check_load_direction",
+]
+
+LOAD_SIGMAS = 5.0
+"""A window's load along the tare's gravity must exceed this many sigma to count as held."""
+METHODS = {"ml": ml, "two_pose": two_pose}
+WRENCHES, KINEMATICS, KINEMATICS_MOUNT = "wrenches", "kinematics", "kinematics+mount"
+INFORMATION = (WRENCHES, KINEMATICS, KINEMATICS_MOUNT)
+"""What the fit uses: the wrenches only, or also each window's gravity from kinematics."""
+MAX_DRIFT_F, MAX_DRIFT_TAU = 1.0, 0.05
+"""N, N m: a bias drift since the tare beyond either is a WARN (re-tare; the fit absorbs
+it, but a sensor drifting that fast is warming up or was overloaded)."""
+
+
+@dataclass
+class FitSetup:
+    """What the fits take besides the windows.
+
+    Attributes
+    ----------
+    method : 'ml' or 'two_pose'.
+    sensor : sensor model for saturation and motion tests; None uses the samples alone.
+    noise : the sensor's noise known from before (a cached tare pass's,
+        ``com_core.sensing.noise``): used when an exploration's own static windows are too
+        few to learn it, and compared with what they give (a changed noise is named).
+    alpha : false-alarm rate of the consistency and verification tests.
+    min_tilt_sigmas : refuse tilts below this many sigma of noise.
+    g : m/s^2, the gravity the wrench-only fits divide by.
+    tares : tare windows known from before (a cached tare pass), by pose; an
+        exploration's own tare windows take precedence.
+    tare_joints, tare_times : the joint positions (rad, m; by name) and the time (s) of
+        each cached tare window, for the hand model of the kinematic information.
+    untared : estimate the whole load beyond the sensor (hand + object) without any
+        tare; the solution is then at best WARN and says so.
+    information : 'wrenches', 'kinematics' or 'kinematics+mount' (see module); with no
+        robot model the fit falls back to 'wrenches' and says so.
+    robot, robot_problem : the robot model for the kinematic information, and why there
+        is none.
+    bias_drift_rate : N/s, N m/s; the sensor bias's drift rate to allow for within a
+        run (1 sigma; (0, 0): a constant bias within a run).
+    max_drift_f, max_drift_tau : N, N m; a larger bias drift since a cached tare is a WARN.
+    calibration : the sensor's stated accuracy and full scales: the fits weigh their
+        windows with the calibration's common error too (``com_core.sensing.calibration``);
+        None: a perfect calibration.
+    """
+
+    method: str = "ml"
+    sensor: SensorModel | None = None
+    noise: NoiseModel | None = None
+    alpha: float = DEFAULT_ALPHA
+    min_tilt_sigmas: float = MIN_TILT_SIGMAS
+    g: float = STANDARD_GRAVITY
+    tares: Mapping[str, Window] = field(default_factory=dict)
+    tare_joints: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
+    tare_times: Mapping[str, float] = field(default_factory=dict)
+    untared: bool = False
+    information: str = WRENCHES
+    robot: RobotModel | None = None
+    robot_problem: str = ""
+    bias_drift_rate: tuple[float, float] = BIAS_DRIFT_RATE
+    max_drift_f: float = MAX_DRIFT_F
+    max_drift_tau: float = MAX_DRIFT_TAU
+    calibration: Calibration | None = None
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise ValueError(f"method must be one of {sorted(METHODS)}, got {self.method!r}")
+        if self.information not in INFORMATION:
+            raise ValueError(f"information must be one of {INFORMATION}, got {self.information!r}")
+
+    def information_used(self, notes: list[str]) -> str:
+        """The information the fit can use: ``information``; 'wrenches' for a method other
+        than ml, and without a robot model (with the reason in ``notes``)."""
+        if self.information == WRENCHES or self.method != "ml":  # two_pose: the wrenches
+            return WRENCHES
+        if self.robot is None:
+            why = self.robot_problem or "none given"
+            notes.append(
+                f"no robot model ({why}): information 'wrenches', not {self.information!r}"
+            )
+            return WRENCHES
+        return self.information
+
+    def wrenches_estimate(self, windows: list[Window]) -> Estimate:
+        """``method``'s estimate from the tare-subtracted ``windows``, its covariance with
+        the calibration's share (``Calibration.propagated``)."""
+
+        def fit(ws: list[Window]) -> Estimate:
+            return METHODS[self.method](ws, g=self.g, min_tilt_sigmas=self.min_tilt_sigmas)
+
+        estimate = fit(windows)
+        if self.calibration is None:
+            return estimate
+
+        def numbers(ws: list[Window]) -> NDArray[np.float64]:
+            e = fit(ws)
+            return np.array([e.mass, *e.com])
+
+        share = self.calibration.propagated(numbers, windows)
+        return replace(estimate, cov=estimate.cov + share)
+
+    def wrenches_sigma(self, windows: list[Window]) -> NDArray[np.float64] | None:
+        """For a kinematic fit, the COM sigma (m) the wrenches alone give on the same
+        tare-subtracted ``windows`` (None when a pose has no tare or they give none)."""
+        try:
+            return ml(windows, g=self.g, min_tilt_sigmas=0.0).sigma_com if windows else None
+        except EstimationError:
+            return None
+
+    def kinematic_consistency(
+        self,
+        fit: KinematicFit,
+        observations: list[Observation],
+        information: str,
+        subtracted: list[Window],
+    ) -> Consistency:
+        """The chi-square test of the kinematic fit. When it fails, the object moved in the
+        grasp if one move explains the windows (``known_gravity.locate_move``: the best
+        alternative passes the test; the message names the pose), or if the wrenches alone
+        fail too (``check_consistency`` of the tare-subtracted windows: a slip that goes on,
+        a friction grasp); else the misfit is the kinematic model's: what the wrenches
+        alone cannot see (a sensor mounted off its URDF frame, a wrong base gravity, joint
+        states of another time) or a bias drifting faster than ``bias_drift_rate``."""
+        e = fit.estimate
+        head = f"chi2 {e.chi2:.1f}, {e.dof} dof, p {e.p_value:.2g}"
+        if e.p_value >= self.alpha:
+            return Consistency(True, e.chi2, e.dof, e.p_value, self.alpha, None, "")
+        robot = self.robot
+        assert robot is not None
+        found = locate_move(
+            observations,
+            robot.gravity,
+            information == KINEMATICS_MOUNT,
+            self.bias_drift_rate,
+            self.calibration,
+        )
+        loads = [o.window.pose for o in observations if o.load]
+        if found is not None and chi2_sf(found[1], e.dof - 4) >= self.alpha:
+            pose = loads[found[0]]
+            message = (
+                f"poses inconsistent ({head}): the object moved in the grasp at pose {pose!r}"
+            )
+            return Consistency(False, e.chi2, e.dof, e.p_value, self.alpha, pose, message)
+        try:
+            alone = (
+                check_consistency(subtracted, alpha=self.alpha, g=self.g) if subtracted else None
+            )
+        except EstimationError:
+            alone = None
+        if alone is not None and not alone.consistent:
+            message = f"kinematic fit {head}; the wrenches alone: {alone.message}"
+            return Consistency(
+                False, e.chi2, e.dof, e.p_value, self.alpha, alone.suspect_pose, message
+            )
+        message = (
+            f"the wrenches do not fit the kinematic gravity ({head}): a sensor mounted off "
+            "its URDF frame, a wrong base gravity, joint states of another time, or a bias "
+            "drifting faster than bias_drift_rate"
+        )
+        return Consistency(False, e.chi2, e.dof, e.p_value, self.alpha, None, message)
+
+    def kinematic_fit(
+        self,
+        inbox: Inbox,
+        objects: list[Window],
+        subtracted: list[Window],
+        fresh_tares: Mapping[str, Window],
+        information: str,
+        until_ns: int | None,
+        notes: list[str],
+    ) -> tuple[KinematicFit, list[Observation]]:
+        """The hand, the bias and the object fitted to every window with its orientation
+        (``known_gravity.kinematic_ml``; orientations and times from ``inbox``): this
+        run's empty-hand windows (its tare pass, or the window that checks a cached tare)
+        share this run's bias, a cached tare pass has its own; a window without an
+        orientation is left out, with the reason in ``notes``. A cached tare without joint
+        positions cannot give the hand at other poses: the tare-subtracted windows
+        (``subtracted``) are fitted, as the load alone. A bias drift beyond
+        ``max_drift_f`` or ``max_drift_tau`` is noted (a WARN). Returns the fit and its
+        observations."""
+        assert self.robot is not None
+        robot = self.robot
+        observations: list[Observation] = []
+        stamps = inbox.samples()[0]
+
+        def add(
+            window: Window,
+            label: str,
+            load: bool,
+            epoch: int,
+            cached: tuple[Mapping[str, float], float] | None = None,
+        ) -> None:
+            try:
+                if cached is None:
+                    rotation = window_rotation(inbox, robot, label, until_ns)
+                    time = window_time(inbox, label, stamps, until_ns)
+                else:
+                    rotation, time = robot.sensor_rotation(cached[0]), cached[1]
+            except (WindowError, KinematicsError) as exc:
+                notes.append(f"left out: {exc}")
+                return
+            observations.append(Observation(window, rotation, load, epoch, time))
+
+        if not self.untared:
+            for pose, window in fresh_tares.items():
+                add(window, TARE_PREFIX + pose, False, 0)
+            for pose, window in self.tares.items():
+                if pose not in fresh_tares and pose in self.tare_joints:
+                    cached = (self.tare_joints[pose], self.tare_times.get(pose, 0.0))
+                    add(window, f"cached tare {pose!r}", False, 1, cached)
+        loads = objects
+        if not self.untared and all(o.load for o in observations):
+            if not subtracted:
+                raise MissingTareError(
+                    "no tare for the object's poses, and no empty-hand window with joint "
+                    "positions to model the hand from"
+                )
+            notes.append("the tare has no joint positions: subtracted per pose, no bias fit")
+            loads = subtracted
+        for window in loads:
+            add(window, OBJECT_PREFIX + window.pose, True, 0)
+        fit = kinematic_ml(
+            observations,
+            robot.gravity,
+            fit_mount=information == KINEMATICS_MOUNT,
+            drift_rate_sigma=self.bias_drift_rate,
+            calibration=self.calibration,
+        )
+        e = fit.estimate
+        if not self.untared and e.mass < LOAD_SIGMAS * e.sigma_mass:
+            raise NonPositiveMassError(
+                f"no load beyond the hand ({e.mass * 1e3:.3g} +- {e.sigma_mass * 1e3:.2g} g): "
+                "the object was not held (an empty grasp, or it fell)"
+            )
+        drift = fit.drift()[0]
+        force, torque = float(np.linalg.norm(drift[:3])), float(np.linalg.norm(drift[3:]))
+        if force > self.max_drift_f or torque > self.max_drift_tau:
+            notes.append(
+                f"the sensor's bias drifted {force:.3g} N, {torque:.3g} N m since the cached "
+                f"tare (more than {self.max_drift_f:g} N or {self.max_drift_tau:g} N m): the "
+                "fit absorbed it; re-tare"
+            )
+        return fit, observations
+
+
+def check_load_direction(windows: Sequence[Window], tares: Mapping[str, Window]) -> None:
+    """The object's force must point the way the hand's does (both are gravity), and be
+    more than ``LOAD_SIGMAS`` sigma of its own noise along it.
+
+    No load along gravity: the object was not held (an empty grasp, or it fell). A load
+    against gravity: a mass below zero, the tare was taken with the object in the hand.
+    Raises NonPositiveMassError with the pose and the load (g).
+    """
+    for w in windows:
+        along = tares[w.pose].force / np.linalg.norm(tares[w.pose].force)
+        load = float(w.force @ along)  # N, along gravity
+        sd = math.sqrt(max(float(along @ w.cov[:3, :3] @ along), 0.0))
+        if load > LOAD_SIGMAS * sd:
+            continue
+        grams = f"{load / STANDARD_GRAVITY * 1e3:.3g} +- {sd / STANDARD_GRAVITY * 1e3:.2g} g"
+        if load < -LOAD_SIGMAS * sd:
+            raise NonPositiveMassError(
+                f"pose {w.pose!r}: the load's force points against gravity ({grams}; was "
+                f"the tare taken with the object in the hand?)"
+            )
+        raise NonPositiveMassError(
+            f"pose {w.pose!r}: no load beyond the hand ({grams}): the object was not held "
+            f"(an empty grasp, or it fell)"
+        )
