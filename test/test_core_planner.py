@@ -156,7 +156,7 @@ def test_two_pose_prediction_matches_its_monte_carlo_spread_and_differs_from_ml(
     """The paper's estimator on synthetic windows of the sequencer's plan: its spread is
     the two_pose prediction within 10 % (900 runs: the sd's relative standard error is
     1/sqrt(2 * 899) = 2.4 %, so 10 % is 4 standard errors), and 1.8-2.9x the ml
-    prediction (README: the paper's method is 1.8-2.9x the bound with five poses).
+    prediction (docs/estimation.md: the paper's method is 1.8-2.9x the bound with five poses).
     Before the fix predict had no method and gave the ml bound for both."""
     plan = replace(SEQUENCER, com_guess=LOAD.com)
     rng = np.random.default_rng(23)

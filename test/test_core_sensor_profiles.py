@@ -6,7 +6,7 @@ its autocorrelation at lag k is phi^k, its std per sample sigma, and filtering a
 keeping every 7th sample gives the same sequence in distribution. Without correlation and
 calibration the readings are the same numbers, draw for draw, as before either existed. The
 calibration matrix's elements spread as its definition says, and the profiles hold the
-figures the README states.
+figures docs/design.md states (The simulated sensor).
 """
 
 from __future__ import annotations

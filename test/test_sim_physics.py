@@ -25,7 +25,7 @@ from wrench_sim.sensor import WrenchSensor, random_streams
 FORCE_TOL = 1e-3  # N
 TORQUE_TOL = 1e-4  # N m
 # Friction mode (real prismatic fingers): measured error of the static wrench, documented in
-# the README. Gravity across the finger axis: <= 0.08 N, 0.02 N m; along it, Bullet adds the
+# docs/design.md, The simulated sensor. Gravity across the finger axis: <= 0.08 N, 0.02 N m; along it, Bullet adds the
 # finger joints' motor/gear forces, ~0.11 kg x the gravity component along the finger axis.
 FRICTION_ACROSS = (0.08, 0.02)
 FRICTION_ANY = (1.2, 0.13)
@@ -357,7 +357,7 @@ def test_invalid_scene_is_refused():
         ArmWorld(SimConfig(object_com_offset=(0.0, 0.0, 0.5)))
 
 
-# The COM offsets the sim can hold (objects.holdable_com_range), as the README states them.
+# The COM offsets the sim can hold (objects.holdable_com_range), as docs/nodes.md states them.
 STATED_RANGES = {
     "box": "|x|, |y| <= 0.0200 m and |z| <= 0.0400 m",
     "cylinder": "hypot(x, y) <= 0.0200 m and |z| <= 0.0400 m",

@@ -6,7 +6,7 @@ Frame ``ft_sensor`` has the axes and origin of the robot configuration's ``senso
 at the flange (``panda_hand_joint``; ``gripper_fix``). The sensor reads the wrench the load
 beyond it (every link after that joint: hand or gripper base, fingers, and a grasped object)
 exerts on it, expressed in ``ft_sensor``: a static load of mass m with COM p gives
-f = m g_s, tau = p x f (docs/design.md, Conventions).
+f = m g_s, tau = p x f (docs/estimation.md, Conventions).
 
 The physics hands over that true wrench, already through the 2-tap anti-alias filter
 (``wrench_sim.load``, which reads it from pybullet's joint sensor). This stage filters it

@@ -5,7 +5,7 @@ gravity in the sensor frame from joint positions.
 sensor and base frames exist, and maps joint positions (rad, m; by joint name, as
 ``sensor_msgs/JointState`` gives them) to R_base_sensor, the sensor frame's axes in the
 base frame, and to g_s = R_base_sensor^T g_base, gravity in the sensor frame (m/s^2),
-the direction the wrench model's f = m g_s needs (docs/design.md, Conventions). Joints of
+the direction the wrench model's f = m g_s needs (docs/estimation.md, Conventions). Joints of
 the URDF that are not given hold their neutral position only if ``neutral_ok``; else a
 missing joint is an error that names it.
 """

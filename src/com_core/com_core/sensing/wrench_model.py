@@ -1,6 +1,6 @@
 """The static gravity wrench of a grasped load and a model of the F/T sensor reading it.
 
-Convention (docs/design.md): the wrench on the sensor is the wrench the load exerts on it,
+Convention (docs/estimation.md): the wrench on the sensor is the wrench the load exerts on it,
 expressed in the sensor frame ``ft_sensor``. A load of mass ``m`` (kg) with centre of
 mass ``p`` (m, sensor frame) under gravity ``g_s`` (m/s^2, sensor frame) gives
 
