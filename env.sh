@@ -6,6 +6,12 @@ _com_ws="$(cd "$(dirname "${BASH_SOURCE[0]:-$0}")" && pwd)"
 if [ -f "$_com_ws/install/setup.bash" ]; then
     # shellcheck disable=SC1091
     . "$_com_ws/install/setup.bash"
+    # the packages' executables (replay, sim_node, ...) by name, as `ros2 run` finds them
+    for _com_bin in "$_com_ws"/install/*/lib/*/; do
+        case ":$PATH:" in *":${_com_bin%/}:"*) ;; *) PATH="${_com_bin%/}:$PATH" ;; esac
+    done
+    export PATH
+    unset _com_bin
 fi
 # DDS discovery stays on the loopback interface; a per-shell domain keeps parallel runs
 # apart. Both may be overridden before sourcing.

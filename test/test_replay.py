@@ -1,7 +1,6 @@
 """The offline replay (com_estimator.replay) of bags as they reach a user: a copy cut
-short, a run that died before ``done``, a recording without pose labels. All are made
-from the real run kept in bags/sample (its full replay: mass 100.03 +- 0.21 g from 5
-poses, 18824 wrenches, 17 labels)."""
+short, a run that died before ``done``, a recording without pose labels, a damaged chunk,
+a directory of runs. All are made from the real run kept in bags/sample."""
 
 from __future__ import annotations
 
@@ -203,3 +202,52 @@ def test_an_unlabelled_recording_is_tared_by_load_level(tmp_path, capsys, full):
     out = run_replay(capsys, bag, "--information", "wrenches")
     assert "4 object windows left out: no tare window within 2 deg" in out["windows_from"]
     assert out["status"] == "ERROR"
+
+
+# --- a damaged chunk; many runs at once --------------------------------------------------
+
+
+def damage(bag: Path, at: float = 0.5, size: int = 4096) -> None:
+    """Zero ``size`` bytes at fraction ``at`` of the bag's MCAP file (a bad sector)."""
+    path = next(bag.glob("*.mcap"))
+    with path.open("r+b") as stream:
+        stream.seek(int(path.stat().st_size * at))
+        stream.write(bytes(size))
+
+
+def test_a_damaged_chunk_is_skipped_and_the_rest_read(tmp_path, capsys, full):
+    bag = copy_sample(tmp_path, "damaged")
+    damage(bag)
+    result = run_replay(capsys, bag)
+    reading = result["bag"]
+    assert len(reading["damaged"]) == 1 and "CRCValidationError" in reading["damaged"][0]
+    lost = SAMPLE_WRENCHES - result["messages"]
+    assert 0 < lost < 0.05 * SAMPLE_WRENCHES  # one chunk of the 79: 0.1 s of the run
+    assert result["status"] == "WARN" and "damaged chunk" in result["reason"], result["reason"]
+    # the chunk fell in a move: the windows, and so the estimate, are the sample's
+    assert result["window_samples"] == full["window_samples"]
+    assert result["mass"] == pytest.approx(full["mass"], abs=1e-12)
+
+
+def test_many_runs_are_replayed_each_and_tabulated(tmp_path, capsys, full):
+    runs = tmp_path / "bags"
+    runs.mkdir()
+    copy_sample(runs, "a")
+    damage(copy_sample(runs, "b"))
+    (runs / "logs").mkdir()  # no bag: skipped in a directory of runs
+    code = replay.main([str(runs), str(tmp_path / "missing")])
+    out, err = capsys.readouterr()
+    assert code == 2  # the worst: a path that is no bag
+    assert "missing is not a rosbag2 directory" in err
+    table = out[out.index("status") :].splitlines()
+    assert [line.split()[0] for line in table[1:4]] == ["OK", "WARN", "NO"]
+    assert table[-1] == "1 OK, 1 WARN, 1 NO BAG of 3"
+    replay.main([str(runs), "--json"])
+    lines = capsys.readouterr().out.splitlines()
+    assert [json.loads(line)["path"] for line in lines] == [str(runs / "a"), str(runs / "b")]
+
+
+def test_every_option_has_its_help():
+    with pytest.raises(SystemExit) as done, contextlib.redirect_stdout(io.StringIO()) as out:
+        replay.main(["--help"])
+    assert done.value.code == 0 and "--accuracy" in out.getvalue()

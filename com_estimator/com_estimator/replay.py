@@ -1,6 +1,13 @@
-"""Offline replay: the estimate of a recorded exploration, as the node computed it.
+"""Offline replay: the estimate of recorded explorations, as the node computed it.
 
-    replay BAG_DIR [--method ml|two_pose] [--json] [...]
+    replay BAG [BAG ...] [--method ml|two_pose] [--json] [...]
+
+Each BAG is a rosbag2 directory, or a directory of them (every run under ``bags/``):
+each run is replayed on its own, one failing run never stops the others, and more than
+one ends with a table of them. ``--json`` prints one JSON object per run (JSON Lines).
+The exit code is the worst run's: 0 every estimate OK or WARN, 1 a run with status
+ERROR, 2 a path that is no bag or an option out of its range, 3 an internal error (a bug,
+with its traceback).
 
 Reads /ft_sensor/wrench and /exploration_sequencer/pose from a rosbag2 directory
 (MCAP) and feeds them to the same ``com_core.estimation.exploration.Exploration`` the node uses,
@@ -21,9 +28,11 @@ The robot model of a kinematic fit is the bag's /robot_description with the sens
 base frames of the run's robot configuration, BAG/robot.yaml (``--robot``), unless
 ``--sensor-frame`` or ``--base-frame`` set them.
 
-A bag whose MCAP file was cut short (no Footer) is read up to the cut; a labelled run
-without its ``done`` label, or cut before the end of its last window, is reported WARN
-with the reason (its estimate is kept); ``--json`` gives what was read under ``bag``.
+A bag whose MCAP file was cut short (no Footer) is read up to the cut, and one with a
+damaged chunk (a bad sector, a copy gone wrong) is read around it
+(``com_core.bags.reader``); a labelled run without its ``done`` label, cut before the end
+of its last window, or with a damaged chunk is reported WARN with the reason (its
+estimate is kept); ``--json`` gives what was read under ``bag``.
 """
 
 from __future__ import annotations
@@ -32,6 +41,7 @@ import argparse
 import dataclasses
 import json
 import sys
+import traceback
 from pathlib import Path
 
 from com_core.bags.reader import INCOMPLETE_TEXT, BagReading
@@ -64,17 +74,31 @@ ROBOT_FRAMES = ("sensor_frame", "base_frame")
 """The settings a run's robot configuration gives the replay."""
 
 
+INTERNAL_ERROR = 3
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The bag, the estimator's settings as options (``--sigma-f`` for ``sigma_f``, with
     the node's defaults) but ``tare_cache`` (``--tare``), the topics, ``--json``."""
     parser = argparse.ArgumentParser(prog="replay", description=__doc__.split("\n\n")[0])
-    parser.add_argument("bag", type=Path, help="rosbag2 directory (MCAP storage)")
+    parser.add_argument(
+        "bags",
+        type=Path,
+        nargs="+",
+        metavar="BAG",
+        help="rosbag2 directory (MCAP storage), or a directory of them",
+    )
     for name, (default, text) in SETTINGS.items():
         if name != "tare_cache":
             option = "--" + name.replace("_", "-")
+            text = text.replace("%", "%%")  # argparse formats help with %
             if isinstance(default, list):
                 parser.add_argument(
-                    option, type=float, nargs=len(default), default=default, help=text
+                    option,
+                    type=float,
+                    nargs=len(default),
+                    default=default,
+                    help=text,
                 )
             elif name in ROBOT_FRAMES:  # unset: the run's robot configuration's
                 parser.add_argument(option, type=str, default=None, help=text)
@@ -95,15 +119,68 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"robot configuration whose frames the fit takes (default: BAG/{BAG_ROBOT_FILE} "
         "if present)",
     )
-    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument(
+        "--json", action="store_true", help="print one JSON object per run (JSON Lines)"
+    )
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    if not (args.bag / "metadata.yaml").exists() and not any(args.bag.glob("*.mcap")):
+    runs = [run for path in args.bags for run in bag_directories(path)]
+    codes, rows = [], []
+    for bag in runs:
+        try:
+            code, solution = replay(bag, args)
+        except Exception:  # a bug of this program: said, and the other runs go on
+            print(f"replay: {bag}: internal error\n{traceback.format_exc()}", file=sys.stderr)
+            code, solution = INTERNAL_ERROR, None
+        codes.append(code)
+        rows.append((bag, solution))
+    if len(runs) > 1 and not args.json:
+        print(summary_table(rows))
+    return max(codes)
+
+
+def bag_directories(path: Path) -> list[Path]:
+    """``path`` if it is a rosbag2 directory, else the rosbag2 directories in it (sorted;
+    one level down), else ``[path]`` (which replay then refuses by name)."""
+    if is_bag(path) or not path.is_dir():
+        return [path]
+    found = sorted(p for p in path.iterdir() if p.is_dir() and is_bag(p))
+    return found or [path]
+
+
+def is_bag(path: Path) -> bool:
+    """A rosbag2 directory: metadata.yaml or an MCAP file in it."""
+    return (path / "metadata.yaml").is_file() or any(path.glob("*.mcap"))
+
+
+def summary_table(rows: list[tuple[Path, Solution | None]]) -> str:
+    """One line per run: status, mass and COM with their sigmas, the bag; then counts."""
+    lines = ["", f"{'status':7} {'mass g, COM mm (sensor frame)':>61}  bag"]
+    counts: dict[str, int] = {}
+    for bag, solution in rows:
+        status = solution.status if solution else "NO BAG"
+        counts[status] = counts.get(status, 0) + 1
+        e = solution.estimate if solution else None
+        if e is None:
+            numbers = f"{'-':>16} {'-':>44}"
+        else:
+            com = ", ".join(f"{c * 1e3:.2f}" for c in e.com)
+            sigma = ", ".join(f"{c * 1e3:.2f}" for c in e.sigma_com)
+            numbers = f"{e.mass * 1e3:8.2f} +- {e.sigma_mass * 1e3:4.2f} ({com}) +- ({sigma})"
+        lines.append(f"{status:7} {numbers:>61}  {bag}")
+    lines.append(", ".join(f"{n} {status}" for status, n in counts.items()) + f" of {len(rows)}")
+    return "\n".join(lines)
+
+
+def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
+    """One run replayed and printed; (exit code, its solution or None when refused)."""
+    args = argparse.Namespace(**vars(args), bag=bag)
+    if not is_bag(args.bag):
         print(f"replay: {args.bag} is not a rosbag2 directory", file=sys.stderr)
-        return 2
+        return 2, None
     settings = {name: getattr(args, name) for name in SETTINGS if name != "tare_cache"}
     robot_file = args.robot or args.bag / BAG_ROBOT_FILE
     robot = None
@@ -112,14 +189,14 @@ def main(argv: list[str] | None = None) -> int:
             robot = read_robot_config(str(robot_file))
         except RobotConfigError as error:
             print(f"replay: {error}", file=sys.stderr)
-            return 2
+            return 2, None
     for name in ROBOT_FRAMES:  # an option, else the run's configuration, else the default
         if settings[name] is None:
             settings[name] = getattr(robot, name) if robot else SETTINGS[name][0]
     problems = [p for name, v in settings.items() if (p := setting_problem(name, v))]
     if problems:
         print(f"replay: {'; '.join(problems)}", file=sys.stderr)
-        return 2
+        return 2, None
     exploration = exploration_from(settings)
     use_cached_tares(exploration, args.tare or args.bag / BAG_TARE_FILE)
     reading = BagReading()
@@ -142,7 +219,12 @@ def main(argv: list[str] | None = None) -> int:
     reasons = cut_short_reasons(exploration, n_label, reading)
     solution = with_warnings(exploration.solve(), reasons)
     if args.json:
-        extra = {"windows_from": source, "messages": n_wrench, "bag": reading.as_dict()}
+        extra = {
+            "path": str(args.bag),
+            "windows_from": source,
+            "messages": n_wrench,
+            "bag": reading.as_dict(),
+        }
         print(json.dumps(solution.as_dict() | extra))
     else:
         print(f"{args.bag}: {n_wrench} wrenches; windows from {source}")
@@ -151,7 +233,7 @@ def main(argv: list[str] | None = None) -> int:
         if reading.cut_short and n_label and not reasons:
             print("bag: the cut lies after done: every window of the run was read")
         print(format_solution(solution))
-    return 1 if solution.status == ERROR else 0
+    return (1 if solution.status == ERROR else 0), solution
 
 
 def cut_short_reasons(exploration: Exploration, n_label: int, reading: BagReading) -> list[str]:
@@ -172,6 +254,7 @@ def cut_short_reasons(exploration: Exploration, n_label: int, reading: BagReadin
         elif reading.cut_short and (latest is None or latest < done):
             end = "no samples" if latest is None else f"samples end at {latest * 1e-9:.3f} s"
             reasons.append(f"{end}, before done at {done * 1e-9:.3f} s: the last window is cut")
+    reasons += [reading.damaged_text()] if reading.damaged else []
     if reasons or not n_label:
         reasons += [reading.cut_text()] if reading.cut_short else []
         reasons += [INCOMPLETE_TEXT] if reading.complete is False else []

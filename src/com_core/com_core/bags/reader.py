@@ -4,11 +4,14 @@ Messages stay serialized (CDR bytes) end to end: the reader hands them to ``cdr`
 decoding, exactly as the node's raw subscriptions do. Bags are written by
 ``com_core.bags.writer.CrashSafeBagWriter``.
 
-A bag rosbags cannot read is read record by record with the ``mcap`` package instead,
-up to where its MCAP file ends: rosbags needs the file's Footer, which a copy cut short
-(a full disk, an interrupted transfer) does not have, and metadata.yaml, whose topic
-list it trusts (it drops the channels not listed). ``BagReading`` says what was read,
-how, and whether the file was cut.
+A bag rosbags cannot read is read with the ``mcap`` package instead: rosbags needs the
+file's Footer, which a copy cut short (a full disk, an interrupted transfer) does not
+have, and metadata.yaml, whose topic list it trusts (it drops the channels not listed);
+and it stops at the first chunk whose checksum fails. A file with its summary is read
+chunk by chunk through its chunk index, and a damaged chunk (a bad sector, a copy gone
+wrong) is skipped and counted, its lost messages per topic taken from the chunk's message
+index; a file without one is read record by record up to where it ends. ``BagReading``
+says what was read, how, and what was cut or damaged.
 """
 
 from __future__ import annotations
@@ -55,6 +58,10 @@ class BagReading:
     cut_short : an MCAP file ends before its Footer (a truncated file): every message
         in complete records before the cut was read, the rest is lost.
     stopped : the error that ended the read of a cut file, with the file's name.
+    damaged : one line per damaged chunk skipped: file, byte offset, time span, the
+        error, and the messages lost per requested topic where its index tells.
+    lost : messages of requested topics in damaged chunks, per topic, where the chunk's
+        message index survived.
     file_bytes : size of the MCAP files read, bytes.
     robot_description : the last URDF on /robot_description ('' if none was read).
     """
@@ -65,6 +72,8 @@ class BagReading:
     fallback: str = ""
     cut_short: bool = False
     stopped: str = ""
+    damaged: list[str] = field(default_factory=list)
+    lost: dict[str, int] = field(default_factory=dict)
     file_bytes: int = 0
     robot_description: str = ""
 
@@ -89,13 +98,25 @@ class BagReading:
             f"{self.stopped}), read up to the cut: {self.counts_text()}"
         )
 
+    def damaged_text(self) -> str:
+        """One line on the damaged chunks skipped ('' when none)."""
+        if not self.damaged:
+            return ""
+        return (
+            f"{len(self.damaged)} damaged chunk(s) of the MCAP file skipped (the rest read): "
+            f"{'; '.join(self.damaged)}; {self.counts_text()}"
+        )
+
     def notes(self) -> list[str]:
-        """Lines for the user: a fallback read, a cut file, an unclosed recording."""
+        """Lines for the user: a fallback read, a cut file, damaged chunks, an unclosed
+        recording."""
         out = []
         if self.fallback:
-            out.append(f"{self.fallback}: read record by record with the mcap package")
+            out.append(f"{self.fallback}: read with the mcap package")
         if self.cut_short:
             out.append(self.cut_text())
+        if self.damaged:
+            out.append(self.damaged_text())
         if self.complete is False:
             out.append(INCOMPLETE_TEXT)
         return out
@@ -109,6 +130,8 @@ class BagReading:
             "fallback": self.fallback,
             "cut_short": self.cut_short,
             "stopped": self.stopped,
+            "damaged": list(self.damaged),
+            "lost": dict(self.lost),
             "file_bytes": self.file_bytes,
         }
 
@@ -174,12 +197,18 @@ def read_raw(
         reading.fallback = f"metadata.yaml does not list {names}, which the MCAP file holds"
         yield from _stream_mcap_files(_mcap_files(bag, files), wanted, reading)
         return
+    last = None  # log time of the last message read, ns
     try:
         reading.file_bytes = sum(p.stat().st_size for p in _mcap_files(bag, files))
         conns = [c for c in reader.connections if c.topic in wanted]
         for conn, stamp, raw in reader.messages(connections=conns):
             reading.read[conn.topic] = reading.read.get(conn.topic, 0) + 1
+            last = stamp
             yield conn.topic, conn.msgtype, stamp, raw
+    except ReaderError as exc:  # a damaged chunk: the rest, chunk by chunk
+        reading.fallback = f"rosbags stopped reading the bag ({exc})"
+        reading.file_bytes = 0
+        yield from _stream_mcap_files(_mcap_files(bag, files), wanted, reading, after=last)
     finally:
         reader.close()
 
@@ -212,35 +241,122 @@ def _mcap_files(bag: Path, named: list[str]) -> list[Path]:
 
 
 def _stream_mcap_files(
-    paths: list[Path], wanted: set[str], reading: BagReading
+    paths: list[Path], wanted: set[str], reading: BagReading, after: int | None = None
 ) -> Iterator[RawMessage]:
-    """Messages of ``wanted`` topics from MCAP files read record by record, up to where
-    each file ends; a file that ends before its Footer sets ``reading.cut_short``."""
+    """Messages of ``wanted`` topics from MCAP files, logged after ``after`` (ns; None:
+    all): through each file's chunk index when it has a readable summary (damaged chunks
+    skipped, ``_indexed_messages``), else record by record up to where it ends."""
+    from mcap.exceptions import McapError
+    from mcap.reader import make_reader
+
+    for path in paths:
+        reading.file_bytes += path.stat().st_size
+        with path.open("rb") as stream:
+            try:
+                summary = make_reader(stream).get_summary()
+            except (McapError, ValueError, struct.error, OSError):
+                summary = None
+            if summary is not None and summary.chunk_indexes:
+                yield from _indexed_messages(path, stream, summary, wanted, reading, after)
+            else:
+                stream.seek(0)
+                yield from _records(path, stream, wanted, reading, after)
+
+
+def _indexed_messages(
+    path: Path,
+    stream: Any,
+    summary: Any,
+    wanted: set[str],
+    reading: BagReading,
+    after: int | None,
+) -> Iterator[RawMessage]:
+    """The messages of ``wanted`` topics chunk by chunk in the order of the chunk index
+    (a recording's chunks follow one another in time), each chunk's in log-time order;
+    a chunk that cannot be read or fails its checksum is skipped and counted."""
+    from mcap.data_stream import ReadDataStream
+    from mcap.exceptions import McapError
+    from mcap.opcode import Opcode
+    from mcap.records import Chunk, Message, MessageIndex
+    from mcap.stream_reader import breakup_chunk
+
+    topics = {cid: c.topic for cid, c in summary.channels.items() if c.topic in wanted}
+    types = {
+        cid: summary.schemas[c.schema_id].name if c.schema_id in summary.schemas else ""
+        for cid, c in summary.channels.items()
+    }
+    chunks = sorted(
+        summary.chunk_indexes, key=lambda c: (c.message_start_time, c.chunk_start_offset)
+    )
+    for index in chunks:
+        if after is not None and index.message_end_time < after:
+            continue  # read before
+        try:
+            stream.seek(index.chunk_start_offset + 1 + 8)  # past the opcode and length
+            records = breakup_chunk(Chunk.read(ReadDataStream(stream)), validate_crc=True)
+        except (McapError, ValueError, struct.error, OSError, EOFError) as exc:
+            lost: dict[str, int] = {}
+            unknown: list[str] = []
+            for cid, offset in index.message_index_offsets.items():
+                if cid not in topics:
+                    continue
+                try:
+                    stream.seek(offset)
+                    opcode = stream.read(1)
+                    stream.seek(offset + 1 + 8)
+                    message_index = MessageIndex.read(ReadDataStream(stream))
+                    if opcode != bytes([Opcode.MESSAGE_INDEX]) or message_index.channel_id != cid:
+                        raise ValueError("not a message index")
+                except (McapError, ValueError, struct.error, OSError, EOFError):
+                    unknown.append(topics[cid])  # the index is damaged too
+                    continue
+                n = len(message_index.records)
+                lost[topics[cid]] = lost.get(topics[cid], 0) + n
+            for topic, n in lost.items():
+                reading.lost[topic] = reading.lost.get(topic, 0) + n
+            span = f"{index.message_start_time * 1e-9:.3f}-{index.message_end_time * 1e-9:.3f} s"
+            what = ", ".join([f"{n} {t}" for t, n in lost.items()] + [f"? {t}" for t in unknown])
+            reading.damaged.append(
+                f"{path.name} at byte {index.chunk_start_offset} ({span} log time; "
+                f"{type(exc).__name__}: {exc or 'unreadable'}; lost {what or 'nothing wanted'})"
+            )
+            continue
+        messages = [r for r in records if isinstance(r, Message) and r.channel_id in topics]
+        for record in sorted(messages, key=lambda r: r.log_time):
+            if after is not None and record.log_time <= after:
+                continue
+            topic = topics[record.channel_id]
+            reading.read[topic] = reading.read.get(topic, 0) + 1
+            yield topic, types[record.channel_id], record.log_time, record.data
+
+
+def _records(
+    path: Path, stream: Any, wanted: set[str], reading: BagReading, after: int | None
+) -> Iterator[RawMessage]:
+    """Messages of ``wanted`` topics read record by record, up to where the file ends; a
+    file that ends before its Footer sets ``reading.cut_short``."""
     from mcap.exceptions import McapError
     from mcap.reader import StreamReader
     from mcap.records import Channel, Message, Schema
 
-    for path in paths:
-        reading.file_bytes += path.stat().st_size
-        schemas: dict[int, str] = {}
-        channels: dict[int, tuple[str, str]] = {}  # id -> (topic, msgtype)
-        with path.open("rb") as stream:
-            try:
-                for record in StreamReader(stream, validate_crcs=True).records:
-                    if isinstance(record, Message):
-                        channel = channels.get(record.channel_id)
-                        if channel is not None:
-                            topic, msgtype = channel
-                            reading.read[topic] = reading.read.get(topic, 0) + 1
-                            yield topic, msgtype, record.log_time, record.data
-                    elif isinstance(record, Schema):
-                        schemas[record.id] = record.name
-                    elif isinstance(record, Channel) and record.topic in wanted:
-                        msgtype = schemas.get(record.schema_id, "")
-                        channels[record.id] = (record.topic, msgtype)
-            except (McapError, ValueError, struct.error) as exc:
-                # a record that runs past the end of the file: EndOfFile, or a short read
-                # of its header (struct.error), or a chunk whose CRC fails (ValueError)
-                reading.cut_short = True
-                detail = f": {exc}" if str(exc) else ""
-                reading.stopped = f"{path.name}: {type(exc).__name__}{detail}"
+    schemas: dict[int, str] = {}
+    channels: dict[int, tuple[str, str]] = {}  # id -> (topic, msgtype)
+    try:
+        for record in StreamReader(stream, validate_crcs=True).records:
+            if isinstance(record, Message):
+                channel = channels.get(record.channel_id)
+                if channel is not None and (after is None or record.log_time > after):
+                    topic, msgtype = channel
+                    reading.read[topic] = reading.read.get(topic, 0) + 1
+                    yield topic, msgtype, record.log_time, record.data
+            elif isinstance(record, Schema):
+                schemas[record.id] = record.name
+            elif isinstance(record, Channel) and record.topic in wanted:
+                msgtype = schemas.get(record.schema_id, "")
+                channels[record.id] = (record.topic, msgtype)
+    except (McapError, ValueError, struct.error) as exc:
+        # a record that runs past the end of the file: EndOfFile, or a short read of
+        # its header (struct.error), or a chunk whose CRC fails (ValueError)
+        reading.cut_short = True
+        detail = f": {exc}" if str(exc) else ""
+        reading.stopped = f"{path.name}: {type(exc).__name__}{detail}"
