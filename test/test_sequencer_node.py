@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import time
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -693,3 +694,120 @@ def test_the_three_nodes_with_their_defaults_give_an_estimate(start_node, client
     np.testing.assert_allclose(
         com, [truth.com.x, truth.com.y, truth.com.z], atol=float(4.5 * sigma.max())
     )
+
+
+# --- the Explore action -------------------------------------------------------------------
+
+
+class ActionUser:
+    """Sends Explore goals and keeps their feedback, as a ROS user's node does."""
+
+    def __init__(self, node) -> None:
+        from rclpy.action import ActionClient
+
+        from com_interfaces.action import Explore
+
+        self.node, self.Explore = node, Explore
+        self.client = ActionClient(node, Explore, EXPLORE_SERVICE)
+        self.feedback: list = []
+
+    def send(self, **options):
+        """The accepted goal's handle."""
+        assert self.client.wait_for_server(timeout_sec=30.0), "no ~/explore action"
+        future = self.client.send_goal_async(
+            self.Explore.Goal(**options), feedback_callback=lambda m: self.feedback.append(m)
+        )
+        assert spin_until(self.node, future.done, 10.0) and future.result().accepted
+        return future.result()
+
+    def result(self, handle, timeout: float = 120.0):
+        future = handle.get_result_async()
+        assert spin_until(self.node, future.done, timeout), "no result"
+        return future.result().result
+
+
+def test_the_explore_action_gives_progress_the_live_sigma_and_the_estimate(
+    start_node, client, tmp_path
+):
+    """A goal's options over the parameters; feedback as the run goes (phase, progress
+    from the plan, the estimate's sigma once object windows close); one goal at a time;
+    the result holds the estimate, its covariance, the verification and the bag."""
+    start_system(start_node, tmp_path, {"object": "cylinder", "seed": 12})
+    user = ActionUser(client.node)
+    handle = user.send(dwell=0.6)
+    spin_until(client.node, lambda: len(user.feedback) > 2, 30.0)
+    refused = user.result(user.send(tilt=0.4))  # while the first runs
+    assert refused.status == "ERROR" and "still running" in refused.message, refused.message
+    bad = user.result(user.send(tilt=3.0, dwell=-1.0))
+    assert bad.status == "ERROR" and "tilt 3.0" in bad.message and "dwell -1.0" in bad.message
+    result = user.result(handle)
+    assert result.status == "OK", result.message
+    log = next(tmp_path.glob("sequencer_node-*.log")).read_text()
+    assert "dwell 0.6 s; predicted" in log  # the goal's dwell, not the parameter's 0.9
+
+    cov = np.array(result.covariance).reshape(4, 4)
+    sigma = np.sqrt(np.diag(cov))
+    assert np.allclose(cov, cov.T) and np.all(sigma > 0)
+    np.testing.assert_allclose(
+        sigma[1:] * 1e3, numbers(result.message, r"COM \([-\d., ]+\) \+-"), atol=0.006
+    )
+    com = result.estimate.inertia.com
+    truth = [t for t in client.truths if abs(t.inertia.com.z) < 0.2][-1].inertia
+    np.testing.assert_allclose(
+        [com.x, com.y, com.z], [truth.com.x, truth.com.y, truth.com.z], atol=4.5 * sigma[1:].max()
+    )
+    assert result.verification.startswith("verification 'diagonal'")
+    assert (Path(result.bag) / "metadata.yaml").is_file()
+
+    feedback = [m.feedback for m in user.feedback]
+    phases = [f.phase for f in feedback]
+    assert {"tare", "grasp and lift", "object pass"} <= set(phases), phases
+    progress = [f.progress for f in feedback]
+    assert progress[0] < 0.3 and max(progress) > 0.7 and all(0 <= p < 1 for p in progress)
+    assert all(b >= a - 1e-6 for a, b in pairwise(progress))
+    live = [f.sigma_com for f in feedback if np.isfinite(f.sigma_com).all()]
+    assert live, "no live sigma in the feedback"
+    assert min(s.max() for s in live) < 2 * sigma[1:].max()  # it shrinks toward the result
+
+
+def test_a_cancelled_goal_puts_the_object_back_and_the_next_starts_clean(
+    start_node, client, tmp_path, ros_env
+):
+    """Cancel in the object pass: the result is CANCELLED within seconds, the bag ends with
+    a ``cancelled`` label and replays to no estimate of the run, the gripper is open at
+    home; the next goal runs to an estimate."""
+    start_system(start_node, tmp_path, {"object": "box", "seed": 13})
+    user = ActionUser(client.node)
+    handle = user.send()
+    assert spin_until(
+        client.node, lambda: any(m.feedback.phase == "object pass" for m in user.feedback), 90.0
+    )
+    cancel = handle.cancel_goal_async()
+    asked = time.monotonic()
+    result = user.result(handle, timeout=30.0)
+    assert result.status == "CANCELLED", result.message
+    assert time.monotonic() - asked < 10.0
+    assert spin_until(client.node, cancel.done, 1.0)
+    labels = [decode_header(raw)[1] for *_, raw in read_raw(Path(result.bag), (POSE_TOPIC,))]
+    assert "cancelled" in labels and "done" not in labels
+    offline = replay_json_status(Path(result.bag), ros_env)
+    assert offline["status"] == "ERROR" and "cancelled" in offline["reason"], offline
+
+    again = user.result(user.send())
+    assert again.status == "OK", again.message
+
+
+def replay_json_status(bag: Path, env: dict[str, str]) -> dict:
+    """The replay's --json answer, whatever its exit code (1 for an ERROR)."""
+    import json
+
+    from com_core.runtime.processes import executable
+
+    done = subprocess.run(
+        [str(executable("com_estimator", "replay")), str(bag), "--json"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    return json.loads(done.stdout)

@@ -9,7 +9,9 @@ Publishes
     usable estimates (``Solution.usable``: status OK, or WARN for dropped input with a
     consistent fit); an inconsistent fit (the object moved) is on /diagnostics only,
     /diagnostics (diagnostic_msgs/DiagnosticArray: ``com_estimator: exploration`` with the
-    status, reason, sigmas, chi-square of each solution; ``com_estimator: input`` at 1 Hz
+    status, reason, sigmas, chi-square of each solution; ``com_estimator: live`` with the
+    estimate so far each time an object window closes (progress: it never goes to
+    ~/estimate, as no verification has checked it yet); ``com_estimator: input`` at 1 Hz
     with the wrench rate and the stamps of the latest wrench and label, so a sequencer
     knows the estimator hears the sensor and its labels).
     /ft_sensor/wrench_compensated (geometry_msgs/WrenchStamped; best effort): each wrench
@@ -52,6 +54,7 @@ from std_srvs.srv import Trigger
 
 from com_core.bags.cdr import decode_header, decode_wrench, decode_wrenches, with_wrench
 from com_core.contract import (
+    CANCELLED,
     COMPENSATED_TOPIC,
     COMPENSATION_STATUS_NAME,
     DIAGNOSTIC_NAME,
@@ -66,6 +69,8 @@ from com_core.contract import (
     JOINT_STATES_TOPIC,
     LATEST_LABEL_KEY,
     LATEST_STAMP_KEY,
+    LIVE_STATUS_NAME,
+    OBJECT_PREFIX,
     OK,
     POSE_TOPIC,
     ROBOT_DESCRIPTION_TOPIC,
@@ -97,6 +102,11 @@ from com_core.robot.model import RobotModel
 from com_core.runtime.rosenv import keep_dds_local, stop_on_signals
 
 MAX_MESSAGE_LENGTH = 1000  # characters of a diagnostic message
+LIVE_KEYS = frozenset(
+    ["mass", "sigma_mass", "information"]
+    + [f"{k}_{a}" for k in ("com", "sigma_com") for a in "xyz"]
+)
+"""What the live status carries of a solution (and its windows' ``samples <label>``)."""
 
 PARAMETERS = SETTINGS | {
     "solve_timeout": (1.0, "s (wall) to wait after 'done' for samples up to its stamp"),
@@ -135,6 +145,7 @@ class EstimatorNode(Node):
         self._exploration = self._new_exploration()
         self._done_stamp: int | None = None
         self._done_wall = 0.0
+        self._live_stamp: int | None = None  # an object window closed here: solve so far
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self._estimate_pub = self.create_publisher(InertiaStamped, ESTIMATE_TOPIC, latched)
         self._diag_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10)
@@ -207,14 +218,19 @@ class EstimatorNode(Node):
             self.get_logger().error(f"robot model: {exploration.robot_problem}")
         return exploration
 
-    def _solve(self, until_ns: int) -> Solution:
-        """Solve the current exploration with the parameters in force now."""
+    def _solution(self, until_ns: int) -> Solution:
+        """The current exploration solved up to ``until_ns`` with the parameters in force
+        now; a defect is an ERROR solution, with its traceback in the log."""
         try:
             use_cached_tares(self._exploration, self._param("tare_cache"))
-            solution = self._exploration.solve(until_ns=until_ns)
+            return self._exploration.solve(until_ns=until_ns)
         except Exception as exc:  # a defect must not kill the node: report it as ERROR
             self.get_logger().error(f"solve failed: {traceback.format_exc()}")
-            solution = Solution(ERROR, f"internal error: {exc!r}", self._param("method"))
+            return Solution(ERROR, f"internal error: {exc!r}", self._param("method"))
+
+    def _solve(self, until_ns: int) -> Solution:
+        """Solve the current exploration and publish it (``_publish``)."""
+        solution = self._solution(until_ns)
         payload = self._payload_of(solution)
         if payload is not None:
             self._payload, self._payload_source = payload, f"estimate of {payload.time}"
@@ -392,7 +408,13 @@ class EstimatorNode(Node):
             self._exploration.count_dropped("undecodable (malformed CDR)", 1, labels=True)
             return
         stale = self._exploration.stale_drops
+        labels = self._exploration.labels
+        if labels and labels[-1][1].startswith(OBJECT_PREFIX):  # this label closes it
+            self._live_stamp = stamp
         self._exploration.add_label(stamp, label)
+        if label == CANCELLED:
+            self.get_logger().warning("the run was cancelled: its windows are dropped")
+            self._done_stamp = self._live_stamp = None
         self._latest_label = stamp
         self.get_logger().info(f"pose {shorten(label)!r} from t={stamp * 1e-9:.3f} s")
         if self._exploration.stale_drops > stale:
@@ -453,13 +475,17 @@ class EstimatorNode(Node):
 
     def drain_callback(self) -> None:
         self._drain()
+        latest = self._exploration.latest_stamp
+        if self._live_stamp is not None and latest is not None and latest >= self._live_stamp:
+            self._publish_live(self._solution(self._live_stamp))
+            self._live_stamp = None
         if self._done_stamp is None:
             return
-        latest = self._exploration.latest_stamp
         caught_up = latest is not None and latest >= self._done_stamp
         if caught_up or time.monotonic() - self._done_wall > self._param("solve_timeout"):
             self._solve(self._done_stamp)
             self._exploration, self._done_stamp = self._new_exploration(), None
+            self._live_stamp = None
 
     # --- services -----------------------------------------------------------------
 
@@ -480,6 +506,7 @@ class EstimatorNode(Node):
         self._drain()
         n = self._exploration.sample_count
         self._exploration, self._done_stamp = self._new_exploration(), None
+        self._live_stamp = None
         response.success, response.message = True, f"cleared {n} samples"
         self.get_logger().info(response.message)
         return response
@@ -508,6 +535,24 @@ class EstimatorNode(Node):
         return response
 
     # --- output -------------------------------------------------------------------
+
+    def _publish_live(self, solution: Solution) -> None:
+        """The estimate so far on ``com_estimator: live`` (contract.LIVE_STATUS_NAME)."""
+        values = [
+            KeyValue(key=k, value=v)
+            for k, v in solution.diagnostic_values()
+            if k in LIVE_KEYS or k.startswith("samples ")
+        ]
+        status = DiagnosticStatus(
+            level=level_of(solution.status),
+            name=LIVE_STATUS_NAME,
+            message=shorten(solution.reason, MAX_MESSAGE_LENGTH),
+            hardware_id=self._param("expected_frame") or "ft_sensor",
+            values=values,
+        )
+        msg = DiagnosticArray(status=[status])
+        msg.header.stamp = self.get_clock().now().to_msg()
+        self._diag_pub.publish(msg)
 
     def _publish(self, solution: Solution, stamp_ns: int, payload: bool = False) -> None:
         """The solution on the logs, ~/estimate (usable only) and /diagnostics, whose

@@ -240,18 +240,22 @@ def cut_short_reasons(exploration: Exploration, n_label: int, reading: BagReadin
     """Why the bag may hold only part of the exploration ([] when it holds all of it).
 
     A labelled run is whole when it has its ``done`` label and, if its MCAP file was cut,
-    samples up to the ``done`` stamp (ns, sensor time). An unlabelled bag cannot tell, so
-    a cut file or a recording never closed is reason enough.
+    samples up to the ``done`` stamp (ns, sensor time); a cancelled run says so. An
+    unlabelled bag cannot tell, so a cut file or a recording never closed is reason
+    enough.
     """
     reasons = []
+    if exploration.cancelled:
+        when = ", ".join(f"{t * 1e-9:.3f} s" for t in exploration.cancelled)
+        reasons.append(f"the run was cancelled (at {when}): its windows were dropped")
     if n_label:
         done = exploration.done_stamp()
         latest = exploration.latest_stamp
-        if done is None:
+        if done is None and not exploration.cancelled:
             reasons.append(
                 f"the run has no done label: cut short after {last_window(exploration)}"
             )
-        elif reading.cut_short and (latest is None or latest < done):
+        elif done is not None and reading.cut_short and (latest is None or latest < done):
             end = "no samples" if latest is None else f"samples end at {latest * 1e-9:.3f} s"
             reasons.append(f"{end}, before done at {done * 1e-9:.3f} s: the last window is cut")
     reasons += [reading.damaged_text()] if reading.damaged else []

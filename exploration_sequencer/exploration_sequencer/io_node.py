@@ -6,6 +6,7 @@ service node, so a running exploration never stalls them; and the waits of a run
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterable
@@ -19,6 +20,7 @@ from com_core.contract import (
     DIAGNOSTIC_NAME,
     DIAGNOSTICS_TOPIC,
     JOINT_STATES_TOPIC,
+    LIVE_STATUS_NAME,
     heard_stamps,
 )
 from exploration_sequencer.recorder import Recorder
@@ -34,11 +36,17 @@ class TimeoutRunError(RunError):
     """Something the sim answers did not happen in time (e.g. the arm was blocked)."""
 
 
+class CancelledRunError(RunError):
+    """The run was cancelled (a goal's cancel, or the node stopping)."""
+
+
 class IoNode(Node):
     """High-rate inputs: joint states, the estimator's answers, the sim clock, recording.
 
     ``sim_timeout`` (s, wall) is how long ``wait`` goes without /joint_states before it
-    says the simulator stopped answering.
+    says the simulator stopped answering. ``cancel``, once set, makes every ``wait``
+    raise ``CancelledRunError``. ``live`` holds the values of the estimator's latest live
+    status (the estimate so far), {} before one.
     """
 
     def __init__(self) -> None:
@@ -51,6 +59,8 @@ class IoNode(Node):
         self.diagnostics: list = []
         self.estimator_latest = _NEVER  # ns: the latest wrench the estimator has heard
         self.estimator_label = _NEVER  # ns: stamp of the latest label it has heard
+        self.cancel = threading.Event()
+        self.live: dict[str, str] = {}
         self.create_subscription(JointState, JOINT_STATES_TOPIC, self.joint_state_callback, 100)
         self.create_subscription(DiagnosticArray, DIAGNOSTICS_TOPIC, self.diagnostics_callback, 10)
         self.recorder = Recorder(self)
@@ -77,6 +87,8 @@ class IoNode(Node):
             if heard is not None:
                 self.estimator_latest, label = heard
                 self.estimator_label = _NEVER if label is None else label
+            if status.name == LIVE_STATUS_NAME:
+                self.live = {kv.key: kv.value for kv in status.values}
             if status.name == DIAGNOSTIC_NAME:
                 stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
                 self.diagnostics.append((stamp, status))
@@ -90,6 +102,8 @@ class IoNode(Node):
         did), TimeoutRunError after ``wall_timeout`` s (None: no limit)."""
         start = time.monotonic()
         while not done():
+            if self.cancel.is_set():
+                raise CancelledRunError(f"cancelled while {what}")
             age = time.monotonic() - self.joints_wall
             if age > self.sim_timeout and time.monotonic() - start > self.sim_timeout:
                 if math.isinf(age):

@@ -1,6 +1,13 @@
 """exploration_sequencer node: tare, grasp, tilt, release; one recorded bag per run.
 
-Service ``~/explore`` (std_srvs/Trigger) runs one exploration and answers with a one-line
+Action ``~/explore`` (com_interfaces/action/Explore) runs one exploration with this
+goal's options over the parameters, with feedback (phase, progress as time done over time
+planned, time remaining, the estimate so far as windows close) and cancel: the arm puts
+back what it holds and goes home, the bag gets a ``cancelled`` label and is closed, the
+estimator drops the run's windows, and the result says CANCELLED. Stopping the node
+(SIGINT) cancels a running exploration the same way. One goal at a time: another one is
+answered ERROR with the reason. The service ``~/explore`` (std_srvs/Trigger), for
+scripts, runs the same exploration with the parameters and answers with a one-line
 summary (status, mass, COM, sigma, predicted sigma, bag path); ``success`` is true only
 when the estimator's status is OK (a WARN, e.g. the object moved in the grasp, answers
 false with the reason). A second call while one runs is refused. Each run starts from a
@@ -31,14 +38,18 @@ from __future__ import annotations
 import math
 import sys
 import threading
+import time
 import traceback
 from collections.abc import Callable
 from datetime import datetime
 from pathlib import Path
 
 import rclpy
+from diagnostic_msgs.msg import DiagnosticStatus
+from rcl_interfaces.msg import Parameter as ParameterMsg
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rcl_interfaces.srv import GetParameters, SetParameters
+from rclpy.action import ActionServer, CancelResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
@@ -53,7 +64,9 @@ from std_srvs.srv import Trigger
 
 from com_core.bags.cdr import decode_wrench_batch
 from com_core.contract import (
+    CANCELLED,
     DONE,
+    ERROR,
     ESTIMATOR_PARAMETERS_SERVICE,
     ESTIMATOR_RESET_SERVICE,
     ESTIMATOR_SAVE_PAYLOAD_SERVICE,
@@ -71,7 +84,7 @@ from com_core.contract import (
     status_of,
 )
 from com_core.estimation.exploration import Exploration
-from com_core.estimation.fits import WRENCHES
+from com_core.estimation.fits import INFORMATION, WRENCHES
 from com_core.estimation.solution import noise_line, vector_value, verification_lines
 from com_core.estimation.tare_cache import (
     BAG_TARE_FILE,
@@ -96,6 +109,7 @@ from com_core.planning.decisions import (
     parameter_problem,
     plan_for_target,
     plan_within_reach,
+    planned_run_time,
     planning_noise,
     tare_cache_path,
     tare_decision,
@@ -114,8 +128,9 @@ from com_core.robot.config import (
 from com_core.runtime.rosenv import keep_dds_local, stop_on_signals
 from com_core.sensing.calibration import Calibration
 from com_core.sensing.noise import NoiseModel
+from com_interfaces.action import Explore
 from exploration_sequencer.arm import Arm
-from exploration_sequencer.io_node import IoNode, RunError, TimeoutRunError
+from exploration_sequencer.io_node import CancelledRunError, IoNode, RunError, TimeoutRunError
 
 PARAMETERS: dict[str, tuple[object, str]] = {
     "tilt": (math.pi / 6, "rad; wrist tilt from home about each axis"),
@@ -168,7 +183,39 @@ PARAMETERS: dict[str, tuple[object, str]] = {
     "min_load": (0.005, "kg; the grasp must hold at least this before the object pass"),
     "grasp_check_dwell": (0.2, "s of samples at home after lifting that check the grasp"),
 }
+CANCEL_TIMEOUT = 8.0  # s (wall) a node stopping mid-run gives the way back (SIGINT: 10 s)
+FEEDBACK_PERIOD = 0.5  # s (wall) between an action's feedback messages
 LABEL_ACK_TIMEOUT = 2.0  # s (wall) a pose label waits for its readers' acknowledgement
+
+
+def goal_options(goal: Explore.Goal) -> tuple[dict[str, object], list[str]]:
+    """(the parameters an Explore goal sets for its run, the problems of its values): a
+    field left at its default (0, ``Explore.Goal.PARAMETER``, '') keeps the parameter;
+    each value set is checked as the parameter would be (``parameter_problem``)."""
+    options: dict[str, object] = {}
+    for name in ("target_com_sigma", "tilt", "max_tilt", "dwell"):
+        value = getattr(goal, name)
+        if value != 0.0:
+            options[name] = 0.0 if name == "target_com_sigma" and math.isinf(value) else value
+    for name in ("raise_tilt", "fewer_poses"):
+        value = getattr(goal, name)
+        if value != Explore.Goal.PARAMETER:
+            options[name] = value
+    if goal.information:
+        options["information"] = goal.information
+    problems = []
+    for name, value in options.items():
+        if name == "information":
+            if value not in INFORMATION:
+                problems.append(f"information {value!r} is not one of {', '.join(INFORMATION)}")
+        elif name in ("raise_tilt", "fewer_poses"):
+            if value not in (Explore.Goal.NO, Explore.Goal.YES):
+                problems.append(f"{name} {value} is not PARAMETER (-1), NO (0) or YES (1)")
+            options[name] = value == Explore.Goal.YES
+        elif not math.isfinite(value) or (bad := parameter_problem(name, value)):
+            why = "must be finite" if not math.isfinite(value) else bad
+            problems.append(f"{name} {value!r}: {why}")
+    return options, problems
 
 
 class SequencerNode(Node):
@@ -181,6 +228,7 @@ class SequencerNode(Node):
             "exploration_sequencer",
             parameter_overrides=[Parameter("use_sim_time", Parameter.Type.BOOL, False)],
         )
+        self._overrides: dict[str, object] = {}  # the running goal's options (``p``)
         for name, (default, text) in PARAMETERS.items():
             self.declare_parameter(name, default, ParameterDescriptor(description=text))
         robot = ParameterDescriptor(
@@ -213,6 +261,21 @@ class SequencerNode(Node):
         self._window_seen: dict[str, tuple[float, dict[str, float]]] = {}
         group = ReentrantCallbackGroup()
         self.create_service(Trigger, EXPLORE_SERVICE, self.explore_callback, callback_group=group)
+        self._restore: dict[str, object] = {}  # the estimator's parameters a goal changed
+        self._status: DiagnosticStatus | None = None  # the estimator's answer to the run
+        self._bag: Path | None = None
+        self._goal = None  # the running goal's handle
+        self._phase = ""
+        self._start_ns, self._planned_s = 0, math.inf  # the run's start (sim ns), plan (s)
+        ActionServer(
+            self,
+            Explore,
+            EXPLORE_SERVICE,
+            execute_callback=self.execute_goal,
+            cancel_callback=lambda _: CancelResponse.ACCEPT,
+            callback_group=group,
+        )
+        self.create_timer(FEEDBACK_PERIOD, self.feedback_callback, callback_group=group)
         self._estimator_reset = self.create_client(
             Trigger, ESTIMATOR_RESET_SERVICE, callback_group=group
         )
@@ -230,6 +293,9 @@ class SequencerNode(Node):
     # --- parameters ------------------------------------------------------------------
 
     def p(self, name: str):
+        """The parameter ``name``, or the running goal's option of that name."""
+        if name in self._overrides:
+            return self._overrides[name]
         return self.get_parameter(name).value
 
     def validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
@@ -308,26 +374,160 @@ class SequencerNode(Node):
     # --- the service ---------------------------------------------------------------------
 
     def explore_callback(self, request: Trigger.Request, response: Trigger.Response):
+        status, response.message = self._run({})
+        response.success = status == OK
+        return response
+
+    def execute_goal(self, goal_handle) -> Explore.Result:
+        """The action: the goal's options over the parameters, checked before anything
+        moves; the result with the estimate, its covariance and the bag."""
+        overrides, problems = goal_options(goal_handle.request)
+        if problems:
+            status, message = ERROR, f"refused: {'; '.join(problems)}"
+            self.get_logger().error(message)
+        else:
+            status, message = self._run(overrides, goal_handle)
+        result = self._result(status, message)
+        if status == Explore.Result.CANCELLED:
+            goal_handle.canceled()
+        elif status == OK:
+            goal_handle.succeed()
+        else:
+            goal_handle.abort()
+        return result
+
+    def _run(self, overrides: dict[str, object], goal_handle=None) -> tuple[str, str]:
+        """One exploration with ``overrides`` over the parameters; (status: OK, WARN,
+        ERROR or CANCELLED, the summary). A second one while one runs is refused."""
         if not self._lock.acquire(blocking=False):
-            response.success = False
-            response.message = f"refused: exploration {self._running} is still running"
-            self.get_logger().warning(response.message)
-            return response
+            message = f"refused: exploration {self._running} is still running"
+            self.get_logger().warning(message)
+            return ERROR, message
         run_id = datetime.now().strftime("%Y%m%d-%H%M%S-%f")[:-3]
-        self._running = run_id
+        self._running, self._overrides, self._goal = run_id, overrides, goal_handle
+        self._status, self._bag = None, None
+        self.io.cancel.clear()
         try:
-            response.success, response.message = self.explore(run_id)
+            success, message = self.explore(run_id)
+            status = OK if success else status_of(self._status.level) if self._status else ERROR
+        except CancelledRunError as exc:
+            status, message = Explore.Result.CANCELLED, self._cancel(run_id, str(exc))
         except Exception as exc:  # a run error, or a defect: the call fails, the node lives
             text = str(exc) if isinstance(exc, RunError) else f"internal error {exc!r}"
-            response.success, response.message = False, f"run {run_id} failed: {text}"
-            self.get_logger().error(response.message)
+            status, message = ERROR, f"run {run_id} failed: {text}"
+            self.get_logger().error(message)
             if not isinstance(exc, RunError):
                 self.get_logger().error(traceback.format_exc())
             self._stop_recording()
         finally:
-            self._running = None
+            self._restore_estimator()
+            self._running, self._overrides, self._goal = None, {}, None
+            self._phase = ""
+            self.io.cancel.clear()
             self._lock.release()
-        return response
+        return status, message
+
+    @property
+    def running(self) -> bool:
+        return self._running is not None
+
+    def cancel_run(self) -> bool:
+        """Cancel the running exploration (the node is stopping); False when none runs."""
+        if self._running is None:
+            return False
+        self.io.cancel.set()
+        return True
+
+    def _cancel(self, run_id: str, why: str) -> str:
+        """After a cancel: the run's windows dropped (a ``cancelled`` label), the object
+        put back and the arm home, the bag closed; the summary."""
+        log = self.get_logger()
+        log.warning(f"run {run_id}: {why}")
+        self.io.cancel.clear()  # the way back must move
+        self._label(self.io.now_ns(), CANCELLED)
+        self._label(self.io.now_ns(), MOVING)
+        self._phase = "cancelling"
+        try:
+            self._to_known_state(list(self.config.home_joints), list(self.config.pick_joints))
+        except RunError as exc:
+            log.error(f"run {run_id}: not back home after the cancel: {exc}")
+        self._stop_recording()
+        bag = f"; bag {self._bag}" if self._bag else ""
+        return f"[CANCELLED] run {run_id} cancelled: {why}{bag}"
+
+    def feedback_callback(self) -> None:
+        """The running goal's feedback; a cancel it asked for stops the run."""
+        goal = self._goal
+        if goal is None or not goal.is_active:
+            return
+        if goal.is_cancel_requested:
+            self.io.cancel.set()
+        feedback = Explore.Feedback(phase=self._phase or "starting")
+        if self._start_ns and math.isfinite(self._planned_s):
+            done = (self.io.now_ns() - self._start_ns) * 1e-9
+            feedback.progress = min(done / self._planned_s, 0.99)
+            feedback.time_remaining = max(self._planned_s - done, 0.0)
+        live = self.io.live
+        feedback.sigma_mass = float(live.get("sigma_mass", "nan"))
+        feedback.sigma_com = [float(live.get(f"sigma_com_{a}", "nan")) for a in "xyz"]
+        goal.publish_feedback(feedback)
+
+    def _result(self, status: str, message: str) -> Explore.Result:
+        """The action's result from the run's status, summary, estimator status and bag."""
+        result = Explore.Result(status=status, message=message, bag=str(self._bag or ""))
+        result.covariance = [math.nan] * 16
+        values = {kv.key: kv.value for kv in self._status.values} if self._status else {}
+        if "mass" in values and status != Explore.Result.CANCELLED:
+            result.estimate.header.frame_id = self._status.hardware_id
+            result.estimate.inertia.m = float(values["mass"])
+            com = result.estimate.inertia.com
+            com.x, com.y, com.z = (float(values[f"com_{a}"]) for a in "xyz")
+            result.covariance = [float(v) for v in values["cov"].split(",")]
+            result.verification = "; ".join(verification_lines(values))
+        return result
+
+    def _run_time(self, plan: Plan, tare_pass: bool, bracket: bool) -> float:
+        """s (sim) the run is planned to take (``planned_run_time``)."""
+        return planned_run_time(
+            plan,
+            tare_pass=tare_pass,
+            bias_dwell=self.p("bias_dwell"),
+            grasp_check_dwell=self.p("grasp_check_dwell"),
+            verify_dwell=self.p("verify_dwell"),
+            bracket=bracket,
+            release=self.p("release"),
+        )
+
+    def _set_estimator(self, name: str, value: object) -> None:
+        """Set the estimator's parameter ``name`` for this run (restored after it)."""
+        answer = self._call(
+            self._estimator_params, GetParameters.Request(names=[name]), f"reading {name}"
+        )
+        previous = Parameter.from_parameter_msg(ParameterMsg(name=name, value=answer.values[0]))
+        self._restore.setdefault(name, previous.value)
+        request = SetParameters.Request(
+            parameters=[Parameter(name, value=value).to_parameter_msg()]
+        )
+        answer = self._call(self._estimator_set_params, request, f"setting the estimator's {name}")
+        if not answer.results[0].successful:
+            raise RunError(f"the estimator refused {name}={value!r}: {answer.results[0].reason}")
+
+    def _restore_estimator(self) -> None:
+        """The estimator's parameters as they were before the run's options."""
+        for name, value in self._restore.items():
+            request = SetParameters.Request(
+                parameters=[Parameter(name, value=value).to_parameter_msg()]
+            )
+            try:
+                self._call(self._estimator_set_params, request, f"restoring {name}")
+            except RunError as exc:
+                self.get_logger().error(f"the estimator's {name} not restored: {exc}")
+        self._restore.clear()
+
+    def _enter(self, phase: str, line: str) -> None:
+        """Log the phase's line; the feedback names it."""
+        self._phase = phase
+        self.get_logger().info(line)
 
     def explore(self, run_id: str) -> tuple[bool, str]:
         """One exploration; returns (success, summary). Raises RunError."""
@@ -368,6 +568,8 @@ class SequencerNode(Node):
             "accuracy",
             "full_scale",
         ]
+        if information := self._overrides.get("information"):
+            self._set_estimator("information", information)
         request = GetParameters.Request(names=names)
         answer = self._call(self._estimator_params, request, "reading the estimator's settings")
         method, information, estimator_cache = (value.string_value for value in answer.values[:3])
@@ -388,17 +590,22 @@ class SequencerNode(Node):
         bag = Path(self.p("bag_dir")).resolve() / run_id
         self._labels = []
         self.io.recorder.start(bag)
+        self._bag = bag
+        self._start_ns, self._planned_s = (
+            self.io.now_ns(),
+            self._run_time(plan, True, information != WRENCHES),
+        )
         write_robot_config(config, bag / BAG_ROBOT_FILE)  # the replay's frames
 
         self._to_known_state(home, pick)
         self.arm.gripper(close=False)
         tare_home = self._tare(plan, motion, bag, estimator_cache, information != WRENCHES)
-        log.info("phase 2/4: grasp and lift")
+        self._enter("grasp and lift", "phase 2/4: grasp and lift")
         self.arm.move(home, "home")
         self.arm.move(pick, "the object")
         self.arm.gripper(close=True, wait=0.6)
         self._check_grasp(home, tare_home, pick)
-        log.info("phase 3/4: object pass")
+        self._enter("object pass", "phase 3/4: object pass")
         start = self.io.now_ns()
         self._pass(OBJECT_PREFIX, poses, plan.dwell)
         end = self._labels[-1][0]  # the last window's end: the same windows if "moving" is lost
@@ -409,11 +616,11 @@ class SequencerNode(Node):
             if verify is None:
                 log.warning(f"no verification: its pose is out of reach ({reason})")
             else:
-                log.info("verification pose: a tilt no fit uses")
+                self._enter("verification", "verification pose: a tilt no fit uses")
                 self._pass(VERIFY_PREFIX, [(VERIFY_POSE, verify)], self.p("verify_dwell"))
                 end = self._labels[-1][0]
         release = self.p("release")
-        log.info("phase 4/4: return and release" if release else "phase 4/4: return, holding")
+        self._enter("return", f"phase 4/4: return{' and release' if release else ', holding'}")
         if bracket and release:  # the bias's drift (kinematic information): done after it
             self.arm.put_back(home, pick)
             after = f"{poses[0][0]}{BIAS_AFTER_SUFFIX}"
@@ -425,7 +632,7 @@ class SequencerNode(Node):
             self.arm.move(home, "home")
         elif not bracket:
             self.arm.put_back(home, pick)
-        status = self._estimator_answer(end)
+        status = self._status = self._estimator_answer(end)
         if (
             status is not None
             and {kv.key: kv.value for kv in status.values}.get("payload") == "True"
@@ -473,7 +680,7 @@ class SequencerNode(Node):
             )
         if decision.check and cache is not None:
             what = "this run's bias" if hand_model else "drift check of the cached tare"
-            log.info(f"phase 1/4: {what} ({cache.age():.0f} s old), empty hand at home")
+            self._enter("tare", f"phase 1/4: {what} ({cache.age():.0f} s old), empty hand at home")
             self.arm.move(home, "home")
             check = f"{home_name}{BIAS_WINDOW_SUFFIX}"  # matches no object window
             fresh = self._captured_tares([(check, home)], self.p("bias_dwell"))[0].get(check)
@@ -482,9 +689,10 @@ class SequencerNode(Node):
                 use_tares(path, cache)
                 use_tares(bag / BAG_TARE_FILE, cache)
                 log.info(f"tare: reusing the cache ({reuse.verdict})")
+                self._planned_s = self._run_time(plan, False, hand_model)
                 return reuse.home
             log.warning(f"tare not reusable ({reuse.verdict}): new tare pass")
-        log.info("phase 1/4: tare pass with the empty hand")
+        self._enter("tare", "phase 1/4: tare pass with the empty hand")
         windows, noise = self._captured_tares(tare_poses, plan.tare_dwell or plan.dwell)
         if home_name not in windows:
             raise RunError(f"the tare window at {home_name} was not recorded")
@@ -719,6 +927,10 @@ def main(args: list[str] | None = None) -> int:
     try:
         while rclpy.ok() and not stopping.is_set():
             io_executor.spin_once(timeout_sec=0.1)
+        if node.cancel_run():  # stopped mid-run: put back, home, the bag closed
+            deadline = time.monotonic() + CANCEL_TIMEOUT
+            while node.running and time.monotonic() < deadline and rclpy.ok():
+                io_executor.spin_once(timeout_sec=0.1)
     except ExternalShutdownException:
         pass
     finally:

@@ -17,6 +17,7 @@ __all__ = [
     "APPLY_WRENCH_TOPIC",
     "ARM_COMMAND_TOPIC",
     "BEST_EFFORT_TOPICS",
+    "CANCELLED",
     "CLOCK_TOPIC",
     "COMPENSATED_TOPIC",
     "COMPENSATION_STATUS_NAME",
@@ -38,6 +39,7 @@ __all__ = [
     "LATCHED_TOPICS",
     "LATEST_LABEL_KEY",
     "LATEST_STAMP_KEY",
+    "LIVE_STATUS_NAME",
     "MOVING",
     "OBJECT_PREFIX",
     "OBJECT_TOPIC",
@@ -125,6 +127,7 @@ BEST_EFFORT_TOPICS = frozenset({CLOCK_TOPIC, WRENCH_TOPIC, COMPENSATED_TOPIC, JO
 
 # --- services -----------------------------------------------------------------------
 EXPLORE_SERVICE = "/exploration_sequencer/explore"
+"""std_srvs/Trigger, and the com_interfaces/action/Explore action of the same name."""
 ESTIMATOR_SOLVE_SERVICE = "/com_estimator/solve"
 ESTIMATOR_RESET_SERVICE = "/com_estimator/reset"
 ESTIMATOR_SAVE_PAYLOAD_SERVICE = "/com_estimator/save_payload"
@@ -144,6 +147,8 @@ MOVING = "moving"
 """Ends a window; the arm moves (also the handshake label)."""
 DONE = "done"
 """Ends the exploration: solve from the windows before it."""
+CANCELLED = "cancelled"
+"""Ends an exploration that was cancelled: its windows are dropped, nothing is solved."""
 
 
 def done_stamp(labels: Sequence[tuple[int, str]]) -> int | None:
@@ -167,6 +172,9 @@ def done_stamp(labels: Sequence[tuple[int, str]]) -> int | None:
 # --- the estimator's statuses on DIAGNOSTICS_TOPIC ------------------------------------
 DIAGNOSTIC_NAME = "com_estimator: exploration"
 """The status of each solution: level, reason, mass, com_x..z, sigmas, chi2, ..."""
+LIVE_STATUS_NAME = "com_estimator: live"
+"""The estimate so far, each time an object window closes (mass, com_x..z and their
+sigmas, the windows it has): progress, never a result (not on ESTIMATE_TOPIC)."""
 INPUT_STATUS_NAME = "com_estimator: input"
 """The 1 Hz status of the wrench input."""
 COMPENSATION_STATUS_NAME = "com_estimator: compensation"

@@ -17,6 +17,8 @@ across topics, so the estimator node and the offline replay keep the same input:
   run that stopped (a killed sequencer) and are dropped (``stale_drops``), so two runs'
   windows of the same name never merge; labels longer than ``MAX_LABEL_LENGTH``
   characters are refused;
+- a ``cancelled`` label ends a run that was cancelled: its labels and samples up to the
+  label's stamp are dropped, so nothing of it is estimated (``cancelled``, the stamps);
 - joint states (sensor_msgs/JointState: rad or m, by joint name) are kept with their
   stamps, for each window's orientation under the kinematic information.
 """
@@ -29,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from com_core.contract import OBJECT_PREFIX, TARE_PREFIX, VERIFY_PREFIX, done_stamp
+from com_core.contract import CANCELLED, OBJECT_PREFIX, TARE_PREFIX, VERIFY_PREFIX, done_stamp
 
 __all__ = [
     "IDLE_KEEP",
@@ -69,6 +71,7 @@ class Inbox:
         new exploration (0: never).
     dropped, dropped_labels : samples and labels refused, counted by why.
     time_resets : restarted clocks seen. stale_drops : stopped runs dropped.
+    cancelled : stamps (ns) of the ``cancelled`` labels whose runs were dropped.
     """
 
     expected_frame: str = "ft_sensor"
@@ -82,6 +85,7 @@ class Inbox:
     dropped_labels: dict[str, int] = field(default_factory=dict)
     time_resets: int = 0
     stale_drops: int = 0
+    cancelled: list[int] = field(default_factory=list)
 
     @property
     def sample_count(self) -> int:
@@ -178,12 +182,20 @@ class Inbox:
             latest = max(t for t, _ in self._labels)
             if stamp_ns - latest > self.max_label_gap * 1e9:
                 self._drop_before(stamp_ns)
+        if label == CANCELLED:
+            self._forget(stamp_ns + 1)
+            self.cancelled.append(stamp_ns)
+            return
         self._labels.append((stamp_ns, label))
 
     def _drop_before(self, stamp_ns: int) -> None:
         """Forget the labels and the samples before ``stamp_ns``: they belong to an
         exploration that stopped (see module); counted in ``stale_drops``."""
         self.stale_drops += 1
+        self._forget(stamp_ns)
+
+    def _forget(self, stamp_ns: int) -> None:
+        """Forget the labels, the counts and the samples stamped before ``stamp_ns``."""
         self._labels.clear()
         self.dropped.clear()
         self.dropped_labels.clear()

@@ -178,7 +178,8 @@ class Solution:
         return out
 
     def as_dict(self) -> dict:
-        """JSON-ready summary: mass (kg), com (m, sensor frame), their sigmas, status."""
+        """JSON-ready summary: mass (kg), com (m, sensor frame), their sigmas and
+        covariance (``cov``: of (mass, com_x, com_y, com_z), row-major, kg and m), status."""
         out: dict = {
             "status": self.status,
             "usable": self.usable,
@@ -196,6 +197,7 @@ class Solution:
                 "com": e.com.tolist(),
                 "sigma_mass": e.sigma_mass,
                 "sigma_com": e.sigma_com.tolist(),
+                "cov": e.cov.ravel().tolist(),
             }
         if self.wrenches_sigma_com is not None:
             out["wrenches_sigma_com"] = self.wrenches_sigma_com.tolist()

@@ -42,6 +42,7 @@ __all__ = [
     "BIAS_AFTER_SUFFIX",
     "BIAS_WINDOW_SUFFIX",
     "GRIPPER_HOLDING",
+    "GRIPPER_TIME",
     "PlanInfeasible",
     "PlannedRun",
     "Poses",
@@ -58,6 +59,7 @@ __all__ = [
     "parameter_problem",
     "plan_for_target",
     "plan_within_reach",
+    "planned_run_time",
     "planning_noise",
     "reachable_tilt",
     "requested_plan",
@@ -67,6 +69,8 @@ __all__ = [
     "timed_plan",
 ]
 
+GRIPPER_TIME = 0.6
+"""s (sim) the fingers are given to close or open."""
 GRIPPER_HOLDING = 0.025
 """A gripper closed beyond this fraction of its stroke may hold an object (a run that
 stopped): it is put back on the stand before a run."""
@@ -417,3 +421,28 @@ def grasp_holds(mass: float, min_load: float) -> bool:
     """The grasp holds the object: ``mass`` (kg, ``held_mass``) is not below
     ``min_load`` kg."""
     return not mass < min_load
+
+
+def planned_run_time(
+    plan: Plan,
+    *,
+    tare_pass: bool,
+    bias_dwell: float,
+    grasp_check_dwell: float,
+    verify_dwell: float,
+    bracket: bool,
+    release: bool,
+) -> float:
+    """s (sim) a run of ``plan`` is planned to take, the measure of its progress: the
+    tare (a pass of every pose at the tare dwell, else one ``bias_dwell`` window at home),
+    the grasp (home, the object, the fingers, lift and weigh), the object pass, with
+    kinematic information (``bracket``) the verification window, and the return (the
+    object back on its stand, then the empty hand's window; or home, holding). Each move
+    takes the plan's ``move_time`` and ``settle``."""
+    move = plan.move_time + plan.settle
+    tare = plan.tare_plan().duration() if tare_pass else move + bias_dwell
+    grasp = 3 * move + GRIPPER_TIME + grasp_check_dwell
+    verify = 2 * move + verify_dwell if bracket and verify_dwell > 0 else 0.0
+    back = 2 * move + GRIPPER_TIME if release else move
+    after = move + bias_dwell if bracket and release else 0.0
+    return tare + grasp + plan.duration() + verify + back + after
