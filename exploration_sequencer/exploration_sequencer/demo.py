@@ -7,7 +7,9 @@ starts the three with the robot's configuration (``--params-file``; ``com_core``
 ``config/<robot>.yaml`` or a file of your own) and matching parameters (no launch files), calls
 /exploration_sequencer/explore, prints the sequencer's progress and a final summary
 (estimate, sigma, truth, error, time, bag and report paths), and stops the nodes with
-SIGINT. Logs of the simulator and the estimator go to <bag-dir>/logs/.
+SIGINT, the sequencer first: Ctrl-C cancels a running exploration (the object put back,
+the arm home, the bag closed with a ``cancelled`` label) before the simulator stops. Logs
+of the simulator and the estimator go to <bag-dir>/logs/.
 """
 
 from __future__ import annotations
@@ -163,10 +165,14 @@ def main(argv: list[str] | None = None) -> int:
                     [executable(package, name), *ros_args(params, params_file=params_file)],
                     stdout=out,
                     stderr=subprocess.STDOUT if out else None,
+                    start_new_session=True,  # Ctrl-C is the demo's: it stops them in order
                 )
             )
             print(f"started {package}/{name}" + (f" (log: {log})" if log else ""), flush=True)
         return run_exploration(args, started)
+    except KeyboardInterrupt:  # the sequencer, stopped first, cancels the run cleanly
+        print("\ndemo: interrupted: cancelling the run, then stopping the nodes", flush=True)
+        return 130
     finally:
         for proc in reversed(procs):
             stop(proc)
@@ -176,7 +182,7 @@ def run_exploration(args: argparse.Namespace, started: float) -> int:
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
     from geometry_msgs.msg import InertiaStamped, WrenchStamped
-    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from std_srvs.srv import Trigger
 
@@ -242,6 +248,8 @@ def run_exploration(args: argparse.Namespace, started: float) -> int:
                 f"({', '.join(f'{v * 1e3:.2f}' for v in sd[3:])}) mN m (contact: none)"
             )
         return 0 if result.success else 1
+    except ExternalShutdownException:  # Ctrl-C: rclpy's handler shut the context down
+        raise KeyboardInterrupt from None
     finally:
         executor.shutdown()
         node.destroy_node()

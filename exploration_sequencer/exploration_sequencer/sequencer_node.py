@@ -448,7 +448,8 @@ class SequencerNode(Node):
         self._label(self.io.now_ns(), MOVING)
         self._phase = "cancelling"
         try:
-            self._to_known_state(list(self.config.home_joints), list(self.config.pick_joints))
+            home, pick = list(self.config.home_joints), list(self.config.pick_joints)
+            self._to_known_state(home, pick, "after the cancel")
         except RunError as exc:
             log.error(f"run {run_id}: not back home after the cancel: {exc}")
         self._stop_recording()
@@ -704,7 +705,9 @@ class SequencerNode(Node):
             log.info(f"tare: saved to {path}")
         return windows[home_name]
 
-    def _to_known_state(self, home: list[float], pick: list[float]) -> None:
+    def _to_known_state(
+        self, home: list[float], pick: list[float], when: str = "before the run"
+    ) -> None:
         """Start from the empty hand at home: fingers that are not open may hold an object
         (a run that stopped mid-way), so it is put back on the stand first; an arm away
         from home goes home."""
@@ -713,11 +716,11 @@ class SequencerNode(Node):
         if may_hold_object(closed):
             log.warning(
                 f"the gripper is {closed:.0%} closed: the hand may hold an object; putting "
-                "it back on the stand before the run"
+                f"it back on the stand {when}"
             )
             self.arm.put_back(home, pick)
         elif not self.arm.at(home):
-            log.warning("the arm is away from home: moving it home before the run")
+            log.warning(f"the arm is away from home: moving it home {when}")
             self.arm.move(home, "home")
 
     def _check_grasp(self, home: list[float], tare_home: Window, pick: list[float]) -> None:
@@ -815,7 +818,7 @@ class SequencerNode(Node):
                 f"{LABEL_ACK_TIMEOUT:g} s: a reader that falls this far behind may miss it"
             )
         self._labels.append((stamp_ns, label))
-        if label != MOVING:
+        if label.startswith((TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX)):
             self.get_logger().info(f"window {label} from t={stamp_ns * 1e-9:.3f} s")
 
     def _call(self, client, request, what: str):
