@@ -201,7 +201,11 @@ def estimator_node() -> list[str]:
             "in",
             "best effort, depth 5000; raw CDR decoded in batches with numpy",
         ),
-        interface(c.POSE_TOPIC, "in", "the sequencer's pose labels (latched)"),
+        interface(
+            c.POSE_TOPIC,
+            "in",
+            "the sequencer's pose labels (latched); `cancelled` drops the run's windows",
+        ),
         interface(c.JOINT_STATES_TOPIC, "in", "each window's orientation; the compensation"),
         interface(c.ROBOT_DESCRIPTION_TOPIC, "in", "the URDF, unless `robot_description` is set"),
         interface(
@@ -213,7 +217,9 @@ def estimator_node() -> list[str]:
         interface(
             c.DIAGNOSTICS_TOPIC,
             "out",
-            f"`{c.DIAGNOSTIC_NAME}` at each solution; `{c.INPUT_STATUS_NAME}` and "
+            f"`{c.DIAGNOSTIC_NAME}` at each solution; `{c.LIVE_STATUS_NAME}` each time an "
+            "object window closes (the estimate so far, never on `~/estimate`); "
+            f"`{c.INPUT_STATUS_NAME}` and "
             f"`{c.COMPENSATION_STATUS_NAME}` once a second (keys: [design.md, Wire contract]"
             "(design.md#wire-contract))",
         ),
@@ -279,15 +285,19 @@ def estimator_node() -> list[str]:
         "exploration before it (a sequencer that died mid-run), so two runs' windows of one "
         "name never merge.",
         "",
-        "### `replay BAG`",
+        "### `replay BAG [BAG ...]`",
         "",
-        "Reads a bag's wrenches and labels and feeds them to the same core code with the "
-        "node's defaults: the same messages give the same numbers (`--json` prints one "
-        "object: mass, com, sigmas, chi2, status, method, samples per window, and under "
-        "`bag` what was read). A kinematic fit takes the sensor and base frames of the run's "
-        "robot configuration, `robot.yaml` beside the bag (the sequencer writes it; `--robot "
-        "FILE` for another, `--sensor-frame` / `--base-frame` win over both), and the tare "
-        "the run reused, `tare.json` beside the bag (`--tare FILE` for another).",
+        "On PATH after `source ./env.sh`. Reads a bag's wrenches and labels and feeds them to "
+        "the same core code with the node's defaults: the same messages give the same numbers "
+        "(`--json` prints one object per run: mass, com, sigmas, covariance, chi2, status, "
+        "method, samples per window, and under `bag` what was read). A BAG may be a "
+        "directory of runs (`replay bags/`): each run is replayed on its own, one that fails "
+        "never stops the others, and a table of them ends the output (`--json`: JSON Lines). "
+        "The exit code is the worst run's: 0 OK or WARN, 1 ERROR, 2 no bag or an option out "
+        "of range, 3 an internal error. A kinematic fit takes the sensor and base frames of "
+        "the run's robot configuration, `robot.yaml` beside the bag (the sequencer writes "
+        "it; `--robot FILE` for another, `--sensor-frame` / `--base-frame` win over both), "
+        "and the tare the run reused, `tare.json` beside the bag (`--tare FILE` for another).",
         "",
         "A bag without labels is cut into static windows by the core (blocks of 50 ms at the "
         "noise level, joined while their means agree within 6 standard errors, kept when "
@@ -307,7 +317,12 @@ def estimator_node() -> list[str]:
         "the wrenches; at 90 %: 88 %, every window). A labelled run without its `done` (a run "
         "that died), or cut before the end of its last window, is WARN with the reason (`the "
         "run has no done label: cut short after object/tilt_x+`, and whether metadata.yaml "
-        "says its recorder never closed it); the estimate is kept.",
+        "says its recorder never closed it); the estimate is kept. A chunk whose checksum fails "
+        "(a bad sector, a copy gone wrong) is skipped and the rest of the file read through "
+        "its chunk index; the run is WARN with the chunk, its time span and the messages lost "
+        "per topic where its message index survived. A run that was cancelled (its "
+        "`cancelled` label) has its windows dropped, as the node drops them: ERROR, the "
+        "reason says it was cancelled.",
         "",
         "### `synthetic_exploration`",
         "",
@@ -332,8 +347,18 @@ def sequencer_node() -> list[str]:
         interface(c.ROBOT_DESCRIPTION_TOPIC, "in", "the URDF the poses are solved on"),
     ]  # fmt: skip
     services = [
-        interface(c.EXPLORE_SERVICE, "server", "one exploration; answers with a one-line "
-                  "summary, `success` only for OK; a call while one runs is refused at once",
+        interface(c.EXPLORE_SERVICE, "action server", "one exploration with the goal's "
+                  "options over the parameters (0, `PARAMETER` or '' keeps a parameter; values "
+                  "are checked before the arm moves); feedback every 0.5 s: `phase`, "
+                  "`progress` (time done over the run time planned), `time_remaining` and, "
+                  "as object windows close, the live estimate's `sigma_mass` and `sigma_com`; "
+                  "the result: `status` (OK, WARN, ERROR, CANCELLED), `message`, `estimate` "
+                  "with its 4x4 `covariance`, `verification` and `bag`; one goal at a time "
+                  "(another is answered ERROR, still running); cancel puts back what the hand "
+                  "holds, goes home, labels the bag `cancelled` and closes it",
+                  "com_interfaces/action/Explore"),
+        interface(c.EXPLORE_SERVICE, "server", "the same exploration with the parameters, "
+                  "for scripts; answers with the one-line summary, `success` only for OK",
                   TRIGGER),
         interface(c.ESTIMATOR_RESET_SERVICE, "client", "at the start of each run", TRIGGER),
         interface(c.ESTIMATOR_PARAMETERS_SERVICE, "client", "the estimator's `method`, to "
@@ -350,7 +375,8 @@ def sequencer_node() -> list[str]:
     return [
         "## exploration_sequencer: `sequencer_node`",
         "",
-        "Runs one exploration per `~/explore` call: tare, grasp, tilt, label, record, report "
+        "Runs one exploration per `~/explore` goal or call: tare, grasp, tilt, label, record, "
+        "report "
         "([design.md, Run lifecycle](design.md#run-lifecycle-and-recovery); its plan: "
         "[Planner rules](design.md#planner-rules); its poses: [Robots](design.md#robots); its "
         "tare: [The tare cache](design.md#the-tare-cache)). A label goes out only once the "
@@ -388,8 +414,8 @@ def sequencer_node() -> list[str]:
         "",
         "`python -m exploration_sequencer.demo` (`make demo ARGS=...`) starts the three "
         "nodes as processes, calls `~/explore`, prints the progress and a summary (estimate, "
-        "sigma, truth, error, time, bag and report paths) and stops the nodes; `--help` "
-        "lists its options.",
+        "sigma, truth, error, time, bag and report paths) and stops the nodes, the sequencer "
+        "first: Ctrl-C cancels the run cleanly; `--help` lists its options.",
         "",
     ]
 
