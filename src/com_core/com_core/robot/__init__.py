@@ -2,6 +2,17 @@
 kinematics, and the choreography of an exploration's poses.
 """
 
+from com_core.robot.choreography import (
+    AXES,
+    MAX_PIVOT_SHIFT,
+    QUINTIC_PEAK,
+    VERIFY_AXIS,
+    VERIFY_POSE,
+    VERIFY_TILT,
+    Choreography,
+    PoseUnreachable,
+    TiltPlan,
+)
 from com_core.robot.config import (
     BAG_ROBOT_FILE,
     CONFIG_DIR,
@@ -28,15 +39,24 @@ from com_core.robot.model import (
 )
 
 __all__ = [
+    "AXES",
     "BAG_ROBOT_FILE",
     "CONFIG_DIR",
     "DEFAULT_GRAVITY",
+    "MAX_PIVOT_SHIFT",
+    "QUINTIC_PEAK",
     "ROBOTS",
+    "VERIFY_AXIS",
+    "VERIFY_POSE",
+    "VERIFY_TILT",
+    "Choreography",
     "IkResult",
     "KinematicsError",
+    "PoseUnreachable",
     "RobotConfig",
     "RobotConfigError",
     "RobotModel",
+    "TiltPlan",
     "default_robot_config",
     "grasp_point",
     "largest_reachable_tilt",

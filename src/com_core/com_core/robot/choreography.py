@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,9 +35,6 @@ from com_core.robot.config import RobotConfig, RobotConfigError, grasp_point, ro
 from com_core.robot.inverse_kinematics import largest_reachable_tilt, solve_pose
 from com_core.robot.model import KinematicsError, RobotModel
 from com_core.sensing.wrench_model import rotation_about
-
-if TYPE_CHECKING:  # the planner imports the robot wing: no import of it at run time
-    from com_core.planning.planner import Plan
 
 __all__ = [
     "AXES",
@@ -48,7 +45,18 @@ __all__ = [
     "VERIFY_TILT",
     "Choreography",
     "PoseUnreachable",
+    "TiltPlan",
 ]
+
+
+class TiltPlan(Protocol):
+    """What the choreography takes of a plan (``com_core.planning.Plan`` is one; the
+    planning wing stands above this one): its tilt (rad) and its poses, home first."""
+
+    tilt: float
+
+    def poses(self) -> list[tuple[str, NDArray[np.float64]]]: ...
+
 
 VERIFY_POSE, VERIFY_TILT = "diagonal", math.radians(20.0)
 VERIFY_AXIS = (math.sqrt(0.5), math.sqrt(0.5), 0.0)
@@ -126,7 +134,7 @@ class Choreography:
             return None, result.reason
         return [result.joints[name] for name in self.arm_joints], ""
 
-    def pose_joints(self, plan: Plan) -> list[tuple[str, list[float]]]:
+    def pose_joints(self, plan: TiltPlan) -> list[tuple[str, list[float]]]:
         """(pose name, arm joints in rad) for every pose of ``plan``, home first, in the
         pass's order (see module). PoseUnreachable for the first pose no solution
         reaches."""
