@@ -25,8 +25,9 @@ from wrench_sim.sensor import WrenchSensor, random_streams
 FORCE_TOL = 1e-3  # N
 TORQUE_TOL = 1e-4  # N m
 # Friction mode (real prismatic fingers): measured error of the static wrench, documented in
-# docs/design.md, The simulated sensor. Gravity across the finger axis: <= 0.08 N, 0.02 N m; along it, Bullet adds the
-# finger joints' motor/gear forces, ~0.11 kg x the gravity component along the finger axis.
+# docs/design.md, The simulated sensor. Gravity across the finger axis: <= 0.08 N, 0.02 N m;
+# along it, Bullet adds the finger joints' motor/gear forces, ~0.11 kg x the gravity
+# component along the finger axis.
 FRICTION_ACROSS = (0.08, 0.02)
 FRICTION_ANY = (1.2, 0.13)
 COM_OFFSET = (0.01, -0.005, 0.02)

@@ -18,7 +18,8 @@ Bullet feeds the motor, limit and coupling forces of movable joints beyond the s
 the sensor joint's reading as a false wrench. In ``rigid`` mode there are none, and the
 reading equals the gravity wrench of hand + object at any orientation; in ``friction`` mode
 the fingers are real prismatic joints and the static error grows with the gravity component
-along the finger axis (figures: docs/design.md, The simulated sensor; bench/README.md, Simulation rate).
+along the finger axis (figures: docs/design.md, The simulated sensor; bench/README.md,
+Simulation rate).
 """
 
 from __future__ import annotations
