@@ -48,8 +48,8 @@ import numpy as np
 import yaml
 from numpy.typing import ArrayLike, NDArray
 
-from com_core.estimation.exploration import Solution
 from com_core.estimation.known_gravity import _rotation, mount_rpy
+from com_core.estimation.solution import Solution
 from com_core.robot.model import DEFAULT_GRAVITY, RobotModel
 from com_core.sensing.noise import NoiseModel
 from com_core.sensing.wrench_model import skew
