@@ -1,0 +1,59 @@
+"""The core's wings stand in the pipeline's order (docs/design.md, Architecture): a module
+imports from its own wing or from the wings below it, never from one above; ``bags``
+depends on nothing of the core; ``runtime`` stands apart."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+CORE = Path(__file__).resolve().parents[1] / "src" / "com_core" / "com_core"
+FLOORS = {
+    "contract": 0,
+    "bags": 0,
+    "runtime": 0,
+    "sensing": 1,
+    "robot": 2,
+    "estimation": 3,
+    "planning": 4,
+    "payload": 4,
+    "report": 4,
+    "paper": 5,
+}
+"""The wings from the bottom up; wings on one floor do not import each other."""
+
+
+def wing_of(module: str) -> str | None:
+    parts = module.split(".")
+    return parts[1] if parts[0] == "com_core" and len(parts) > 1 else None
+
+
+def core_imports(path: Path) -> set[str]:
+    """The com_core modules ``path`` imports, at any depth of the file (also under
+    TYPE_CHECKING and inside functions)."""
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            out.add(node.module)
+        elif isinstance(node, ast.Import):
+            out |= {alias.name for alias in node.names}
+    return {m for m in out if m.startswith("com_core.")}
+
+
+def test_every_wing_has_a_floor():
+    modules = {p.stem for p in CORE.glob("*.py")} - {"__init__"}
+    packages = {p.name for p in CORE.iterdir() if (p / "__init__.py").is_file()}
+    assert modules | packages == set(FLOORS)
+
+
+def test_nothing_imports_upward_nor_sideways():
+    wrong = []
+    for path in CORE.rglob("*.py"):
+        here = path.relative_to(CORE).parts[0].removesuffix(".py")
+        if here == "__init__":
+            continue
+        for module in core_imports(path):
+            there = wing_of(module)
+            if there != here and FLOORS[there] >= FLOORS[here]:
+                wrong.append(f"{path.relative_to(CORE)} imports {module}")
+    assert not wrong, "\n".join(sorted(wrong))
