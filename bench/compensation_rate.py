@@ -8,7 +8,7 @@ This process publishes /robot_description (latched; pybullet_data's Panda URDF),
 starts at a home pose and moves every arm joint at 0.02 rad/s, so each sample needs its
 own forward kinematics; ``--still``: the arm at rest) and WrenchStamped on
 /ft_sensor/wrench, each stamped with the wall clock (``time.time_ns()``) when it is
-published. It writes a payload.yaml (``com_core.payload.model.write_payload_files``) and starts
+published. It writes a payload.yaml (``com_core.payload.files.write_payload_files``) and starts
 the estimator with ``payload_file``, so the estimator publishes
 /ft_sensor/wrench_compensated. A receiver process (this script, ``--receiver``:
 EventsExecutor, raw bytes, the estimator's QoS) takes both streams and keeps, for each
@@ -63,7 +63,8 @@ from com_core.contract import (
     WRENCH_TOPIC,
 )
 from com_core.payload.compensation import Compensator
-from com_core.payload.model import PAYLOAD_FILE, Payload, payload_wrench, write_payload_files
+from com_core.payload.files import PAYLOAD_FILE, write_payload_files
+from com_core.payload.model import Payload, payload_wrench
 from com_core.robot.config import read_robot_config
 from com_core.robot.model import RobotModel
 from com_core.runtime.processes import executable, ros_args, stop

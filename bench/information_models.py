@@ -33,7 +33,8 @@ from com_core.estimation.estimators import crlb, ml
 from com_core.estimation.known_gravity import Observation, kinematic_ml
 from com_core.estimation.windows import window_from_mean
 from com_core.paper.study import PAPER_LOAD
-from com_core.planning.planner import Plan, plan_observations, predict
+from com_core.planning.planner import Plan
+from com_core.planning.prediction import plan_observations, predict
 from com_core.robot.model import DEFAULT_GRAVITY
 from com_core.sensing.wrench_model import (
     STANDARD_GRAVITY,
@@ -55,7 +56,7 @@ def cell(
     """(spreads (3 models, 4), bounds (3 models, 4)) of (m, com x, y, z) for one cell, and
     per model the trials it refused (TooFewPosesError). ``wrenches`` fits the object's
     windows minus a tare of the same length per pose; the kinematic models fit the run as
-    the pipeline sees it (``planner.plan_observations``: the cached tare pass, the
+    the pipeline sees it (``com_core.planning.plan_observations``: the cached tare pass, the
     bracketing bias windows, the object's windows), the sensor rolled ``mount`` rad."""
     plan = Plan(
         tilt=tilt,

@@ -57,7 +57,8 @@ from com_core.estimation.settings import (
     use_cached_tares,
 )
 from com_core.estimation.tare_cache import BAG_TARE_FILE
-from com_core.planning.planner import Plan, dwell_for_target
+from com_core.planning.dwell import dwell_for_target
+from com_core.planning.planner import Plan
 from com_core.report.run import read_run
 from com_core.robot.config import BAG_ROBOT_FILE, read_robot_config
 from com_core.sensing.calibration import Calibration

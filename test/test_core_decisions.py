@@ -36,7 +36,7 @@ from com_core.planning.decisions import (
     tare_decision,
     tare_reuse,
 )
-from com_core.planning.planner import predict
+from com_core.planning.prediction import predict
 from com_core.sensing.noise import ar1_noise
 from com_core.sensing.wrench_model import STANDARD_GRAVITY
 

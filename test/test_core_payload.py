@@ -1,4 +1,4 @@
-"""com_core.payload.model: a payload compensates the wrench it predicts exactly, its gravity
+"""com_core.payload: a payload compensates the wrench it predicts exactly, its gravity
 follows the mounting and the tilt, control_toolbox's filter with its parameters removes
 the same wrench but the bias, payload.yaml reads back to the same doubles and names the
 field it refuses, a kinematic fit gives the payload, pinocchio reads the URDF fragment,
@@ -21,21 +21,23 @@ from com_core.estimation.fits import KINEMATICS_MOUNT, WRENCHES
 from com_core.estimation.known_gravity import Observation, kinematic_ml
 from com_core.estimation.solution import Solution
 from com_core.estimation.windows import window_from_mean
-from com_core.payload.model import (
+from com_core.payload.files import (
     GRAVITY_COMPENSATION_FILE,
     PAYLOAD_FILE,
     URDF_FILE,
-    Payload,
-    PayloadError,
-    compensate,
     gravity_compensation_parameters,
-    gravity_in_sensor,
-    payload_from_solution,
-    payload_wrench,
     payload_yaml,
     read_payload,
     urdf_snippet,
     write_payload_files,
+)
+from com_core.payload.model import (
+    Payload,
+    PayloadError,
+    compensate,
+    payload_from_solution,
+    payload_gravity,
+    payload_wrench,
 )
 from com_core.robot.model import RobotModel
 from com_core.sensing.noise import ar1_noise
@@ -133,17 +135,17 @@ def test_compensate_removes_the_payload_wrench_exactly():
 def test_payload_wrench_is_the_bias_and_the_gravity_of_hand_and_object():
     payload = make_payload()
     rotations = random_rotations(20, seed=3)
-    g_s = gravity_in_sensor(payload, rotations)
+    g_s = payload_gravity(payload, rotations)
     expected = BIAS + gravity_wrench(HAND_MASS, HAND_COM, g_s) + gravity_wrench(MASS, COM, g_s)
     np.testing.assert_allclose(payload_wrench(payload, rotations), expected, atol=1e-12)
     np.testing.assert_allclose(payload_wrench(payload, rotations[4]), expected[4], atol=1e-12)
 
 
-def test_gravity_in_sensor_by_hand():
+def test_payload_gravity_by_hand():
     quarter = math.pi / 2
     # the sensor turned 90 deg about x in its URDF frame: its y axis points up the base's z
     mounted = make_payload(mount=[quarter, 0.0, 0.0], base_tilt=np.zeros(3))
-    np.testing.assert_allclose(gravity_in_sensor(mounted, np.eye(3)), [0, -G, 0], atol=1e-12)
+    np.testing.assert_allclose(payload_gravity(mounted, np.eye(3)), [0, -G, 0], atol=1e-12)
     # a base tilted by a about y, the URDF sensor frame turned 90 deg about z in the base:
     # R(tilt) g = (-g sin a, 0, -g cos a); R^T maps (x, y, z) to (y, -x, z); the mount
     # (x, y, z) to (x, z, -y)
@@ -151,15 +153,15 @@ def test_gravity_in_sensor_by_hand():
     tilted = make_payload(mount=[quarter, 0.0, 0.0], base_tilt=[0.0, a, 0.0])
     turned = rotation_about("z", quarter)
     expected = G * np.array([0.0, -math.cos(a), -math.sin(a)])
-    np.testing.assert_allclose(gravity_in_sensor(tilted, turned), expected, atol=1e-12)
+    np.testing.assert_allclose(payload_gravity(tilted, turned), expected, atol=1e-12)
     level = make_payload(mount=np.zeros(3), base_tilt=[0.0, a, 0.0])
     expected = G * np.array([0.0, math.sin(a), -math.cos(a)])
-    np.testing.assert_allclose(gravity_in_sensor(level, turned), expected, atol=1e-12)
+    np.testing.assert_allclose(payload_gravity(level, turned), expected, atol=1e-12)
     stack = np.stack([np.eye(3), turned, turned.T])
-    each = [gravity_in_sensor(tilted, r) for r in stack]
-    np.testing.assert_allclose(gravity_in_sensor(tilted, stack), each, atol=1e-15)
+    each = [payload_gravity(tilted, r) for r in stack]
+    np.testing.assert_allclose(payload_gravity(tilted, stack), each, atol=1e-15)
     with pytest.raises(ValueError, match="shape"):
-        gravity_in_sensor(tilted, np.eye(4))
+        payload_gravity(tilted, np.eye(4))
 
 
 def control_toolbox_filter(

@@ -1,4 +1,4 @@
-"""com_core.planning.planner: predictions against Monte Carlo spreads, and its inversion."""
+"""com_core.planning: predictions against Monte Carlo spreads, and its inversion."""
 
 from __future__ import annotations
 
@@ -12,7 +12,9 @@ import pytest
 from com_core.estimation.estimators import ml, two_pose
 from com_core.estimation.windows import reduce_window, subtract_tare
 from com_core.paper.synthetic import Load, exploration_samples, object_windows
-from com_core.planning.planner import Plan, dwell_for_target, predict
+from com_core.planning.dwell import dwell_for_target
+from com_core.planning.planner import Plan
+from com_core.planning.prediction import predict
 from com_core.sensing.wrench_model import SensorModel
 
 LOAD = Load(0.1, (0.01, -0.02, 0.08))

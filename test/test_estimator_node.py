@@ -27,16 +27,16 @@ from com_core.contract import (
     ROBOT_DESCRIPTION_TOPIC,
     WRENCH_TOPIC,
 )
-from com_core.payload.model import (
+from com_core.payload.files import (
     GRAVITY_COMPENSATION_FILE,
     PAYLOAD_FILE,
     URDF_FILE,
-    Payload,
-    payload_wrench,
     read_payload,
     write_payload_files,
 )
-from com_core.planning.planner import Plan, predict
+from com_core.payload.model import Payload, payload_wrench
+from com_core.planning.planner import Plan
+from com_core.planning.prediction import predict
 from com_core.robot.model import RobotModel
 from com_core.sensing.wrench_model import SensorModel
 

@@ -5,6 +5,7 @@ a directory of runs. All are made from the real run kept in bags/sample."""
 from __future__ import annotations
 
 import contextlib
+import csv
 import io
 import json
 import os
@@ -234,17 +235,26 @@ def test_many_runs_are_replayed_each_and_tabulated(tmp_path, capsys, full):
     runs.mkdir()
     copy_sample(runs, "a")
     damage(copy_sample(runs, "b"))
+    cut = copy_sample(runs, "c")
+    mcap = next(cut.glob("*.mcap"))
+    os.truncate(mcap, mcap.stat().st_size // 2)
     (runs / "logs").mkdir()  # no bag: skipped in a directory of runs
-    code = replay.main([str(runs), str(tmp_path / "missing")])
+    code = replay.main([str(runs), str(tmp_path / "missing"), "--csv", str(tmp_path / "r.csv")])
     out, err = capsys.readouterr()
     assert code == 2  # the worst: a path that is no bag
-    assert "missing is not a rosbag2 directory" in err
+    assert "missing is not a rosbag2 directory" in err and "[4/4]" in err
     table = out[out.index("status") :].splitlines()
-    assert [line.split()[0] for line in table[1:4]] == ["OK", "WARN", "NO"]
-    assert table[-1] == "1 OK, 1 WARN, 1 NO BAG of 3"
-    replay.main([str(runs), "--json"])
-    lines = capsys.readouterr().out.splitlines()
-    assert [json.loads(line)["path"] for line in lines] == [str(runs / "a"), str(runs / "b")]
+    assert [line.split()[0] for line in table[1:5]] == ["OK", "WARN", "WARN", "NO"]
+    assert table[-1] == "1 OK, 2 WARN, 1 NO BAG of 4"
+    rows = list(csv.DictReader((tmp_path / "r.csv").open()))
+    assert [r["status"] for r in rows] == ["OK", "WARN", "WARN", "NO BAG"]
+    assert float(rows[0]["mass"]) == full["mass"]
+
+    assert replay.main([str(runs), "--json", "-j", "2"]) == 0
+    lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [r["path"] for r in lines] == [str(runs / name) for name in "abc"]
+    assert "damaged chunk" in lines[1]["reason"] and "cut short" in lines[2]["reason"]
+    assert lines[0]["mass"] == full["mass"]  # the same numbers from another process
 
 
 def test_every_option_has_its_help():

@@ -24,7 +24,7 @@ Publishes
 Services
     ~/solve (std_srvs/Trigger): estimate now from what has arrived; success only on OK.
     ~/reset (std_srvs/Trigger): forget the current exploration.
-    ~/save_payload (std_srvs/Trigger): write the payload files (``com_core.payload.model``) to
+    ~/save_payload (std_srvs/Trigger): write the payload files (``com_core.payload.files``) to
     the directory ``payload_save_dir`` (set it first); the answer names them, or why not.
 The estimation is ``com_core.estimation.exploration``; this node only moves messages in and out.
 The compensation runs here, not in a node of its own: this node holds the fit (bias,
@@ -90,13 +90,8 @@ from com_core.estimation.settings import (
 )
 from com_core.estimation.solution import Solution, format_solution
 from com_core.payload.compensation import MAX_JOINT_STATE_AGE, Compensator
-from com_core.payload.model import (
-    Payload,
-    PayloadError,
-    payload_from_solution,
-    read_payload,
-    write_payload_files,
-)
+from com_core.payload.files import read_payload, write_payload_files
+from com_core.payload.model import Payload, PayloadError, payload_from_solution
 from com_core.robot.config import default_robot_config
 from com_core.robot.model import RobotModel
 from com_core.runtime.rosenv import keep_dds_local, stop_on_signals

@@ -4,7 +4,8 @@
 
 Each BAG is a rosbag2 directory, or a directory of them (every run under ``bags/``):
 each run is replayed on its own, one failing run never stops the others, and more than
-one ends with a table of them. ``--json`` prints one JSON object per run (JSON Lines).
+one ends with a table of them (``--csv FILE``: also as CSV; ``-j N``: N runs at once).
+``--json`` prints one JSON object per run (JSON Lines).
 The exit code is the worst run's: 0 every estimate OK or WARN, 1 a run with status
 ERROR, 2 a path that is no bag or an option out of its range, 3 an internal error (a bug,
 with its traceback).
@@ -38,10 +39,15 @@ estimate is kept); ``--json`` gives what was read under ``bag``.
 from __future__ import annotations
 
 import argparse
+import builtins
+import csv
 import dataclasses
+import io
 import json
 import sys
 import traceback
+from concurrent.futures import ProcessPoolExecutor
+from contextlib import nullcontext, redirect_stderr, redirect_stdout
 from pathlib import Path
 
 from com_core.bags.reader import INCOMPLETE_TEXT, BagReading
@@ -122,24 +128,62 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--json", action="store_true", help="print one JSON object per run (JSON Lines)"
     )
+    parser.add_argument("--csv", type=Path, help="also write one row per run to this file")
+    parser.add_argument(
+        "-j", "--jobs", type=int, default=1, help="runs replayed at once (processes)"
+    )
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.jobs < 1:
+        parser.error(f"-j {args.jobs}: must be 1 or more")
     runs = [run for path in args.bags for run in bag_directories(path)]
     codes, rows = [], []
-    for bag in runs:
-        try:
-            code, solution = replay(bag, args)
-        except Exception:  # a bug of this program: said, and the other runs go on
-            print(f"replay: {bag}: internal error\n{traceback.format_exc()}", file=sys.stderr)
-            code, solution = INTERNAL_ERROR, None
-        codes.append(code)
-        rows.append((bag, solution))
+    with ProcessPoolExecutor(args.jobs) if args.jobs > 1 else nullcontext() as pool:
+        mapped = (pool or builtins).map(replay_captured, runs, [args] * len(runs))
+        for k, (bag, (code, solution, out, err)) in enumerate(zip(runs, mapped, strict=True)):
+            sys.stdout.write(out)
+            sys.stderr.write(err)
+            if len(runs) > 1:  # progress, apart from the output
+                status = solution.status if solution else "NO BAG"
+                print(f"replay: [{k + 1}/{len(runs)}] {status} {bag}", file=sys.stderr)
+            codes.append(code)
+            rows.append((bag, solution))
     if len(runs) > 1 and not args.json:
         print(summary_table(rows))
+    if args.csv is not None:
+        write_csv(args.csv, rows)
     return max(codes)
+
+
+def replay_captured(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None, str, str]:
+    """``replay`` of one run with what it prints kept: (exit code, solution, stdout,
+    stderr); a bug of this program is said with its traceback, and the other runs go on."""
+    out, err = io.StringIO(), io.StringIO()
+    with redirect_stdout(out), redirect_stderr(err):
+        try:
+            code, solution = replay(bag, args)
+        except Exception:
+            print(f"replay: {bag}: internal error\n{traceback.format_exc()}", file=sys.stderr)
+            code, solution = INTERNAL_ERROR, None
+    return code, solution, out.getvalue(), err.getvalue()
+
+
+def write_csv(path: Path, rows: list[tuple[Path, Solution | None]]) -> None:
+    """One row per run: the bag, status, mass and COM with their sigmas (kg, m), reason."""
+    columns = ["bag", "status", "mass", "sigma_mass"]
+    columns += [f"{k}_{a}" for k in ("com", "sigma_com") for a in "xyz"] + ["reason"]
+    with path.open("w", newline="") as stream:
+        writer = csv.writer(stream)
+        writer.writerow(columns)
+        for bag, solution in rows:
+            e = solution.estimate if solution else None
+            numbers = [e.mass, e.sigma_mass, *e.com, *e.sigma_com] if e is not None else [""] * 8
+            status = solution.status if solution else "NO BAG"
+            writer.writerow([str(bag), status, *numbers, solution.reason if solution else ""])
 
 
 def bag_directories(path: Path) -> list[Path]:

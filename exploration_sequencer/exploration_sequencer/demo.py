@@ -34,11 +34,13 @@ from com_core.contract import (
 )
 from com_core.estimation.fits import INFORMATION
 from com_core.estimation.solution import noise_line, vector_value, verification_lines
-from com_core.payload.model import PAYLOAD_FILE
+from com_core.payload.files import PAYLOAD_FILE
 from com_core.robot.config import ROBOTS, RobotConfigError, read_robot_config, robot_config_path
 from com_core.runtime.processes import executable, ros_args, stop
 from com_core.runtime.rosenv import keep_dds_local
 from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES
+
+CANCEL_WAIT = 8.0  # s for a cancelled goal's result before the nodes are stopped
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -182,11 +184,14 @@ def run_exploration(args: argparse.Namespace, started: float) -> int:
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
     from geometry_msgs.msg import InertiaStamped, WrenchStamped
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.action import ActionClient
+    from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-    from std_srvs.srv import Trigger
+    from rclpy.signals import SignalHandlerOptions
 
-    rclpy.init()
+    from com_interfaces.action import Explore
+
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)  # Ctrl-C: cancel the goal
     node = rclpy.create_node("demo")
     latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
     truths: list[InertiaStamped] = []
@@ -217,21 +222,35 @@ def run_exploration(args: argparse.Namespace, started: float) -> int:
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
-        client = node.create_client(Trigger, EXPLORE_SERVICE)
-        if not client.wait_for_service(timeout_sec=60.0):
+        client = ActionClient(node, Explore, EXPLORE_SERVICE)
+        if not client.wait_for_server(timeout_sec=60.0):
             print("demo: the sequencer did not come up", file=sys.stderr)
             return 1
-        print(f"calling {EXPLORE_SERVICE}", flush=True)
-        future = client.call_async(Trigger.Request())
-        executor.spin_until_future_complete(future, timeout_sec=args.timeout)
+        print(f"sending a goal to {EXPLORE_SERVICE}", flush=True)
+        sent = client.send_goal_async(Explore.Goal(), feedback_callback=show_progress)
+        executor.spin_until_future_complete(sent, timeout_sec=30.0)
+        if not sent.done() or not sent.result().accepted:
+            print("demo: the sequencer did not take the goal", file=sys.stderr)
+            return 1
+        goal = sent.result()
+        future = goal.get_result_async()
+        try:
+            executor.spin_until_future_complete(future, timeout_sec=args.timeout)
+        except KeyboardInterrupt:
+            print("\ndemo: interrupted: cancelling the run", flush=True)
+            goal.cancel_goal_async()
+            executor.spin_until_future_complete(future, timeout_sec=CANCEL_WAIT)
+            if future.done():
+                print(f"explore: {future.result().result.message}", flush=True)
+            return 130
         if not future.done():
             print(f"demo: no answer within {args.timeout:g} s", file=sys.stderr)
             return 1
         end = time.monotonic() + 2.0  # the status, and the estimate if it is published
         while time.monotonic() < end and not (statuses and estimates):
             executor.spin_once(timeout_sec=0.1)
-        result = future.result()
-        if args.hold and result.success:
+        result = future.result().result
+        if args.hold and result.status == "OK":
             compensated.clear()
             end = time.monotonic() + 1.0
             while time.monotonic() < end:
@@ -247,20 +266,30 @@ def run_exploration(args: argparse.Namespace, started: float) -> int:
                 f"({', '.join(f'{v * 1e3:+.2f}' for v in mean[3:])}) +- "
                 f"({', '.join(f'{v * 1e3:.2f}' for v in sd[3:])}) mN m (contact: none)"
             )
-        return 0 if result.success else 1
-    except ExternalShutdownException:  # Ctrl-C: rclpy's handler shut the context down
-        raise KeyboardInterrupt from None
+        return 0 if result.status == "OK" else 1
     finally:
         executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown()
 
 
+def show_progress(message) -> None:
+    """One line per feedback that says something new: phase, percentage, time left and,
+    once object windows closed, the live COM sigma."""
+    f = message.feedback
+    line = f"progress: {f.progress:4.0%} {f.phase}, {f.time_remaining:.0f} s (sim) left"
+    if all(math.isfinite(s) for s in f.sigma_com):
+        line += f"; COM sigma so far ({', '.join(f'{s * 1e3:.2f}' for s in f.sigma_com)}) mm"
+    if line != getattr(show_progress, "last", ""):
+        show_progress.last = line
+        print(line, flush=True)
+
+
 def print_summary(result, estimates, truths, statuses, wall: float) -> None:
     """The service's answer, the estimate (from the estimator's status, with whether it
     was published on ~/estimate), the ground truth held in the hand, the error."""
     print("\n=== summary ===")
-    print(f"explore: {'success' if result.success else 'FAILED'}: {result.message}")
+    print(f"explore: {'success' if result.status == 'OK' else 'FAILED'}: {result.message}")
     stamp, status = statuses[-1] if statuses else (0, None)
     values = {kv.key: kv.value for kv in status.values} if status else {}
     if "mass" in values:

@@ -115,7 +115,8 @@ from com_core.planning.decisions import (
     tare_decision,
     tare_reuse,
 )
-from com_core.planning.planner import Plan, predict
+from com_core.planning.planner import Plan
+from com_core.planning.prediction import predict
 from com_core.robot.choreography import VERIFY_POSE, Choreography
 from com_core.robot.config import (
     BAG_ROBOT_FILE,
@@ -469,6 +470,10 @@ class SequencerNode(Node):
             feedback.progress = min(done / self._planned_s, 0.99)
             feedback.time_remaining = max(self._planned_s - done, 0.0)
         live = self.io.live
+        if "mass" in live:
+            feedback.estimate.inertia.m = float(live["mass"])
+            com = feedback.estimate.inertia.com
+            com.x, com.y, com.z = (float(live[f"com_{a}"]) for a in "xyz")
         feedback.sigma_mass = float(live.get("sigma_mass", "nan"))
         feedback.sigma_com = [float(live.get(f"sigma_com_{a}", "nan")) for a in "xyz"]
         goal.publish_feedback(feedback)

@@ -7,22 +7,24 @@ from com_core.payload.compensation import (
     RATE_STEP,
     Compensator,
 )
-from com_core.payload.model import (
+from com_core.payload.files import (
     FILTER_PLUGIN,
     GRAVITY_COMPENSATION_FILE,
     PAYLOAD_FILE,
     URDF_FILE,
-    Payload,
-    PayloadError,
-    compensate,
     gravity_compensation_parameters,
-    gravity_in_sensor,
-    payload_from_solution,
-    payload_wrench,
     payload_yaml,
     read_payload,
     urdf_snippet,
     write_payload_files,
+)
+from com_core.payload.model import (
+    Payload,
+    PayloadError,
+    compensate,
+    payload_from_solution,
+    payload_gravity,
+    payload_wrench,
 )
 
 __all__ = [
@@ -37,8 +39,8 @@ __all__ = [
     "PayloadError",
     "compensate",
     "gravity_compensation_parameters",
-    "gravity_in_sensor",
     "payload_from_solution",
+    "payload_gravity",
     "payload_wrench",
     "payload_yaml",
     "read_payload",

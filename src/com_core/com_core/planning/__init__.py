@@ -1,5 +1,8 @@
 """Before the arm moves: the accuracy a plan will give, and the plan a target asks for."""
 
+from com_core.planning.advice import (
+    Advice,
+)
 from com_core.planning.decisions import (
     BIAS_AFTER_SUFFIX,
     BIAS_WINDOW_SUFFIX,
@@ -30,15 +33,20 @@ from com_core.planning.decisions import (
     tare_reuse,
     timed_plan,
 )
+from com_core.planning.dwell import (
+    dwell_for_target,
+)
 from com_core.planning.planner import (
     HOME,
-    METHODS,
-    Advice,
     Plan,
+)
+from com_core.planning.prediction import (
+    METHODS,
     Prediction,
-    dwell_for_target,
     plan_observations,
     predict,
+)
+from com_core.planning.search import (
     within_max_tilt,
 )
 

@@ -32,7 +32,9 @@ from com_core.estimation.tare_cache import (
     reusable,
 )
 from com_core.estimation.windows import Window
-from com_core.planning.planner import Plan, dwell_for_target, within_max_tilt
+from com_core.planning.dwell import dwell_for_target
+from com_core.planning.planner import Plan
+from com_core.planning.search import within_max_tilt
 from com_core.robot.choreography import Choreography, PoseUnreachable
 from com_core.sensing.calibration import Calibration
 from com_core.sensing.noise import NoiseModel, ar1_noise

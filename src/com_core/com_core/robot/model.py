@@ -17,7 +17,7 @@ from collections.abc import Iterable, Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from com_core.sensing.wrench_model import STANDARD_GRAVITY
+from com_core.sensing.wrench_model import STANDARD_GRAVITY, gravity_in_sensor
 
 __all__ = ["DEFAULT_GRAVITY", "KinematicsError", "RobotModel"]
 
@@ -134,5 +134,6 @@ class RobotModel:
         return data.oMf[self._base_id].rotation.T @ data.oMf[self._sensor_id].rotation
 
     def gravity_in_sensor(self, joints: Mapping[str, float]) -> NDArray[np.float64]:
-        """g_s (3,), m/s^2: gravity in the sensor frame at these joint positions."""
-        return self.sensor_rotation(joints).T @ self.gravity
+        """g_s (3,), m/s^2: gravity in the sensor frame at these joint positions
+        (``wrench_model.gravity_in_sensor`` of R_base_sensor and the base's gravity)."""
+        return gravity_in_sensor(self.sensor_rotation(joints), self.gravity)

@@ -1,6 +1,6 @@
 """Named sets of a simulated wrist F/T sensor's parts, one home for their figures.
 
-- ``ideal``: none of it, the physics floor (the simulator's static error, 2e-4 N).
+- ``ideal``: none of it, the physics floor (the simulator's static error).
 - ``white``: independent Gaussian noise of 0.1 N and 0.005 N m per sample, nothing else.
 - ``realistic`` (the default of the simulator and of ``make demo``): a strain-gauge wrist
   sensor of the ATI Mini45 class (SI-290-10 calibration: range 290 N, 10 N m) read through
@@ -18,8 +18,7 @@
   - the arm's structure: two lightly damped modes, 12 Hz (damping ratio 0.03) and 27 Hz
     (0.02), of the order of collaborative arms' first structural modes, excited at the end
     of every move by 1 m/s^2 of the load's acceleration per m/s of the move's peak speed,
-    decaying at zeta w (``wrench_sim.vibration``): the Panda's lift with the object leaves
-    ~0.3 N of ringing, a 30 deg tilt ~0.1 N.
+    decaying at zeta w (``wrench_sim.vibration``).
 
 These are assumptions of a sensor's class, not a datasheet: each part is a parameter of
 the simulator that a user sets to their sensor's figures.

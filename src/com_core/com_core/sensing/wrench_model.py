@@ -67,14 +67,26 @@ def rotation_about(axis: str | ArrayLike, angle: float) -> NDArray[np.float64]:
 
 
 def gravity_in_sensor(
-    R_world_sensor: ArrayLike, g: float = STANDARD_GRAVITY
+    R_world_sensor: ArrayLike, g: float | ArrayLike = STANDARD_GRAVITY
 ) -> NDArray[np.float64]:
-    """Gravity (m/s^2) expressed in the sensor frame, for world gravity (0, 0, -g).
+    """g_s = R_world_sensor^T g_world: gravity (m/s^2) expressed in the sensor frame.
 
-    ``R_world_sensor`` (3, 3) maps sensor-frame vectors to the world frame.
+    R_world_sensor : (3, 3) or a stack (n, 3, 3); maps sensor-frame vectors to the world
+        frame.
+    g : m/s^2; a number g for world gravity (0, 0, -g) (a base standing upright, z up),
+        or the world's gravity vector, shape (3,) (a tilted or wall-mounted base).
+
+    Returns (3,) or (n, 3). Raises ValueError for other shapes.
     """
     R = np.asarray(R_world_sensor, dtype=np.float64)
-    return R.T @ np.array([0.0, 0.0, -g])
+    if R.ndim not in (2, 3) or R.shape[-2:] != (3, 3):
+        raise ValueError(f"rotations must have shape (3, 3) or (n, 3, 3), got {R.shape}")
+    g_world = np.asarray(g, dtype=np.float64)
+    if g_world.ndim == 0:
+        g_world = np.array([0.0, 0.0, -float(g_world)])
+    elif g_world.shape != (3,):
+        raise ValueError(f"g must be a number or shape (3,), got shape {g_world.shape}")
+    return g_world @ R  # as rows, g_s^T = g^T R: for one R or a stack of them
 
 
 def calibration_matrix(
