@@ -155,7 +155,9 @@ class EstimatorNode(Node):
         )
         pose_qos = QoSProfile(depth=100, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.create_subscription(Header, POSE_TOPIC, self.pose_callback, pose_qos, raw=True)
-        joint_qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)  # any
+        # best effort (any publisher); 2 s at 100 Hz sim and a real-time factor of 5, so a
+        # live solve (~0.2 s) never costs a window its joint states
+        joint_qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT)
         self.create_subscription(
             JointState, JOINT_STATES_TOPIC, self.joint_state_callback, joint_qos
         )
@@ -404,8 +406,9 @@ class EstimatorNode(Node):
             return
         stale = self._exploration.stale_drops
         labels = self._exploration.labels
-        if labels and labels[-1][1].startswith(OBJECT_PREFIX):  # this label closes it
-            self._live_stamp = stamp
+        objects = {lbl for _, lbl in labels if lbl.startswith(OBJECT_PREFIX)}
+        if labels and labels[-1][1].startswith(OBJECT_PREFIX) and len(objects) > 1:
+            self._live_stamp = stamp  # this label closes the second object window or later
         self._exploration.add_label(stamp, label)
         if label == CANCELLED:
             self.get_logger().warning("the run was cancelled: its windows are dropped")

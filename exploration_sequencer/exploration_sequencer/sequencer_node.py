@@ -84,7 +84,7 @@ from com_core.contract import (
     status_of,
 )
 from com_core.estimation.exploration import Exploration
-from com_core.estimation.fits import INFORMATION, WRENCHES
+from com_core.estimation.fits import WRENCHES
 from com_core.estimation.solution import noise_line, vector_value, verification_lines
 from com_core.estimation.tare_cache import (
     BAG_TARE_FILE,
@@ -131,6 +131,7 @@ from com_core.sensing.calibration import Calibration
 from com_core.sensing.noise import NoiseModel
 from com_interfaces.action import Explore
 from exploration_sequencer.arm import Arm
+from exploration_sequencer.explore_action import feedback_of, goal_options, result_of
 from exploration_sequencer.io_node import CancelledRunError, IoNode, RunError, TimeoutRunError
 
 PARAMETERS: dict[str, tuple[object, str]] = {
@@ -187,36 +188,6 @@ PARAMETERS: dict[str, tuple[object, str]] = {
 CANCEL_TIMEOUT = 8.0  # s (wall) a node stopping mid-run gives the way back (SIGINT: 10 s)
 FEEDBACK_PERIOD = 0.5  # s (wall) between an action's feedback messages
 LABEL_ACK_TIMEOUT = 2.0  # s (wall) a pose label waits for its readers' acknowledgement
-
-
-def goal_options(goal: Explore.Goal) -> tuple[dict[str, object], list[str]]:
-    """(the parameters an Explore goal sets for its run, the problems of its values): a
-    field left at its default (0, ``Explore.Goal.PARAMETER``, '') keeps the parameter;
-    each value set is checked as the parameter would be (``parameter_problem``)."""
-    options: dict[str, object] = {}
-    for name in ("target_com_sigma", "tilt", "max_tilt", "dwell"):
-        value = getattr(goal, name)
-        if value != 0.0:
-            options[name] = 0.0 if name == "target_com_sigma" and math.isinf(value) else value
-    for name in ("raise_tilt", "fewer_poses"):
-        value = getattr(goal, name)
-        if value != Explore.Goal.PARAMETER:
-            options[name] = value
-    if goal.information:
-        options["information"] = goal.information
-    problems = []
-    for name, value in options.items():
-        if name == "information":
-            if value not in INFORMATION:
-                problems.append(f"information {value!r} is not one of {', '.join(INFORMATION)}")
-        elif name in ("raise_tilt", "fewer_poses"):
-            if value not in (Explore.Goal.NO, Explore.Goal.YES):
-                problems.append(f"{name} {value} is not PARAMETER (-1), NO (0) or YES (1)")
-            options[name] = value == Explore.Goal.YES
-        elif not math.isfinite(value) or (bad := parameter_problem(name, value)):
-            why = "must be finite" if not math.isfinite(value) else bad
-            problems.append(f"{name} {value!r}: {why}")
-    return options, problems
 
 
 class SequencerNode(Node):
@@ -388,7 +359,9 @@ class SequencerNode(Node):
             self.get_logger().error(message)
         else:
             status, message = self._run(overrides, goal_handle)
-        result = self._result(status, message)
+        values = {kv.key: kv.value for kv in self._status.values} if self._status else {}
+        frame = self._status.hardware_id if self._status else ""
+        result = result_of(status, message, self._bag, values, frame)
         if status == Explore.Result.CANCELLED:
             goal_handle.canceled()
         elif status == OK:
@@ -449,8 +422,9 @@ class SequencerNode(Node):
         self._label(self.io.now_ns(), MOVING)
         self._phase = "cancelling"
         try:
-            home, pick = list(self.config.home_joints), list(self.config.pick_joints)
-            self._to_known_state(home, pick, "after the cancel")
+            if self.arm.motion is not None:  # else cancelled before anything moved
+                home, pick = list(self.config.home_joints), list(self.config.pick_joints)
+                self._to_known_state(home, pick, "after the cancel")
         except RunError as exc:
             log.error(f"run {run_id}: not back home after the cancel: {exc}")
         self._stop_recording()
@@ -464,33 +438,9 @@ class SequencerNode(Node):
             return
         if goal.is_cancel_requested:
             self.io.cancel.set()
-        feedback = Explore.Feedback(phase=self._phase or "starting")
-        if self._start_ns and math.isfinite(self._planned_s):
-            done = (self.io.now_ns() - self._start_ns) * 1e-9
-            feedback.progress = min(done / self._planned_s, 0.99)
-            feedback.time_remaining = max(self._planned_s - done, 0.0)
-        live = self.io.live
-        if "mass" in live:
-            feedback.estimate.inertia.m = float(live["mass"])
-            com = feedback.estimate.inertia.com
-            com.x, com.y, com.z = (float(live[f"com_{a}"]) for a in "xyz")
-        feedback.sigma_mass = float(live.get("sigma_mass", "nan"))
-        feedback.sigma_com = [float(live.get(f"sigma_com_{a}", "nan")) for a in "xyz"]
+        elapsed = (self.io.now_ns() - self._start_ns) * 1e-9 if self._start_ns else 0.0
+        feedback = feedback_of(self._phase or "starting", elapsed, self._planned_s, self.io.live)
         goal.publish_feedback(feedback)
-
-    def _result(self, status: str, message: str) -> Explore.Result:
-        """The action's result from the run's status, summary, estimator status and bag."""
-        result = Explore.Result(status=status, message=message, bag=str(self._bag or ""))
-        result.covariance = [math.nan] * 16
-        values = {kv.key: kv.value for kv in self._status.values} if self._status else {}
-        if "mass" in values and status != Explore.Result.CANCELLED:
-            result.estimate.header.frame_id = self._status.hardware_id
-            result.estimate.inertia.m = float(values["mass"])
-            com = result.estimate.inertia.com
-            com.x, com.y, com.z = (float(values[f"com_{a}"]) for a in "xyz")
-            result.covariance = [float(v) for v in values["cov"].split(",")]
-            result.verification = "; ".join(verification_lines(values))
-        return result
 
     def _run_time(self, plan: Plan, tare_pass: bool, bracket: bool) -> float:
         """s (sim) the run is planned to take (``planned_run_time``)."""
