@@ -338,7 +338,7 @@ def estimator_node() -> list[str]:
 def sequencer_node() -> list[str]:
     rows = [
         interface(c.POSE_TOPIC, "out", "the pose labels: latched, depth 1, each waiting for "
-                  "every reader's acknowledgement (up to 2 s) before the next"),
+                  "every reader's acknowledgement (up to 10 s) before the next"),
         interface(c.ARM_COMMAND_TOPIC, "out", "the poses' joint trajectories, each stamped "
                   "to start at the previous window's end"),
         interface(c.HAND_COMMAND_TOPIC, "out", "open and close"),

@@ -187,7 +187,7 @@ PARAMETERS: dict[str, tuple[object, str]] = {
 }
 CANCEL_TIMEOUT = 8.0  # s (wall) a node stopping mid-run gives the way back (SIGINT: 10 s)
 FEEDBACK_PERIOD = 0.5  # s (wall) between an action's feedback messages
-LABEL_ACK_TIMEOUT = 2.0  # s (wall) a pose label waits for its readers' acknowledgement
+LABEL_ACK_TIMEOUT = 10.0  # s (wall) a pose label waits for its readers' acknowledgement
 
 
 class SequencerNode(Node):
