@@ -778,7 +778,9 @@ def test_a_cancelled_goal_puts_the_object_back_and_the_next_starts_clean(
     """Cancel in the object pass: the result is CANCELLED within seconds, the bag ends with
     a ``cancelled`` label and replays to no estimate of the run; the next goal (from
     examples/explore_action.py) runs to an estimate."""
-    start_system(start_node, tmp_path, {"object": "box", "seed": 13})
+    # a real-time factor of 2: this test also starts a client process beside the three
+    # nodes, and two cores at 5x drop best-effort wrenches (a window without samples)
+    start_system(start_node, tmp_path, {"object": "box", "seed": 13, "real_time_factor": 2.0})
     user = ActionUser(client.node)
     handle = user.send()
     assert spin_until(

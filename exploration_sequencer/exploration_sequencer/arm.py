@@ -116,6 +116,16 @@ class Arm:
         io.sleep_until(ready, f"settling at {what}")
         return ready
 
+    def come_to_rest(self, wall_timeout: float = 10.0) -> None:
+        """Wait until the arm's joints are slower than REST_SPEED (a move under way ends
+        where it was going): a new move starts from rest, as every move is planned."""
+        names = self.config.arm_joints
+        self._io.wait(
+            lambda: all(abs(self._io.joints[j][1]) < REST_SPEED for j in names),
+            "the arm coming to rest",
+            wall_timeout,
+        )
+
     def gripper(self, close: bool, wait: float = 0.0) -> None:
         """Close (or open) the gripper and wait ``wait`` s (sim)."""
         command = self.config.gripper_closed if close else self.config.gripper_open

@@ -226,6 +226,7 @@ class SequencerNode(Node):
             QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL),
         )
         self._lock = threading.Lock()
+        self._cancel_lock = threading.Lock()  # a cancel, and the way back from one
         self._running: str | None = None
         self._labels: list[tuple[int, str]] = []  # this run's labels
         # each window's middle (s, sim time) and mean joint positions (rad, m), by label:
@@ -380,6 +381,7 @@ class SequencerNode(Node):
         run_id = datetime.now().strftime("%Y%m%d-%H%M%S-%f")[:-3]
         self._running, self._overrides, self._goal = run_id, overrides, goal_handle
         self._status, self._bag = None, None
+        self._start_ns, self._planned_s = 0, math.inf  # no progress before the plan
         self.io.cancel.clear()
         try:
             success, message = self.explore(run_id)
@@ -409,7 +411,9 @@ class SequencerNode(Node):
         """Cancel the running exploration (the node is stopping); False when none runs."""
         if self._running is None:
             return False
-        self.io.cancel.set()
+        with self._cancel_lock:
+            if self._phase != "cancelling":
+                self.io.cancel.set()
         return True
 
     def _cancel(self, run_id: str, why: str) -> str:
@@ -417,12 +421,14 @@ class SequencerNode(Node):
         put back and the arm home, the bag closed; the summary."""
         log = self.get_logger()
         log.warning(f"run {run_id}: {why}")
-        self.io.cancel.clear()  # the way back must move
+        with self._cancel_lock:  # the way back must move: no cancel from here on
+            self._phase = "cancelling"
+            self.io.cancel.clear()
         self._label(self.io.now_ns(), CANCELLED)
         self._label(self.io.now_ns(), MOVING)
-        self._phase = "cancelling"
         try:
             if self.arm.motion is not None:  # else cancelled before anything moved
+                self.arm.come_to_rest()
                 home, pick = list(self.config.home_joints), list(self.config.pick_joints)
                 self._to_known_state(home, pick, "after the cancel")
         except RunError as exc:
@@ -436,8 +442,9 @@ class SequencerNode(Node):
         goal = self._goal
         if goal is None or not goal.is_active:
             return
-        if goal.is_cancel_requested:
-            self.io.cancel.set()
+        with self._cancel_lock:
+            if goal.is_cancel_requested and self._phase != "cancelling":
+                self.io.cancel.set()
         elapsed = (self.io.now_ns() - self._start_ns) * 1e-9 if self._start_ns else 0.0
         feedback = feedback_of(self._phase or "starting", elapsed, self._planned_s, self.io.live)
         goal.publish_feedback(feedback)
