@@ -645,7 +645,9 @@ def test_the_compensated_stream_shows_a_push_without_gravity_and_payload_files_l
     raw = {s: w for s, _, w in streams["raw"]}
     during = [s for s in compensated if start + 0.5e9 <= s <= stop]  # the arm recovered
     before = [s for s in compensated if start - 1.0e9 <= s < start - 0.5e9]
-    assert len(during) > 300 and len(before) > 300, (len(during), len(before))
+    # of 500 each; a best-effort subscriber on two cores may miss some; with 200 the
+    # tolerances below are 4.5 standard errors of the difference of two means
+    assert len(during) > 200 and len(before) > 200, (len(during), len(before))
     mean = lambda stamps, d: np.mean([d[s] for s in stamps], axis=0)  # noqa: E731
     pushed = mean(during, applied) if all(s in applied for s in during) else None
     assert pushed is not None, "compensated samples without an applied wrench"
