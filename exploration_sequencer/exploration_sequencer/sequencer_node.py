@@ -520,6 +520,8 @@ class SequencerNode(Node):
             f"waiting for the estimator to hear {WRENCH_TOPIC} and {POSE_TOPIC}",
             wall_timeout=self.p("estimate_timeout"),
         )
+        if information := self._overrides.get("information"):  # before the reset: the
+            self._set_estimator("information", information)  # estimator reads it there
         self._call(self._estimator_reset, Trigger.Request(), "resetting the estimator")
         self.io.diagnostics.clear()  # only this run's answers from here on
         home, pick = list(config.home_joints), list(config.pick_joints)
@@ -531,8 +533,6 @@ class SequencerNode(Node):
             "accuracy",
             "full_scale",
         ]
-        if information := self._overrides.get("information"):
-            self._set_estimator("information", information)
         request = GetParameters.Request(names=names)
         answer = self._call(self._estimator_params, request, "reading the estimator's settings")
         method, information, estimator_cache = (value.string_value for value in answer.values[:3])
