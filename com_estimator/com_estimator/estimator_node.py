@@ -541,13 +541,7 @@ class EstimatorNode(Node):
             for k, v in solution.diagnostic_values()
             if k in LIVE_KEYS or k.startswith("samples ")
         ]
-        status = DiagnosticStatus(
-            level=level_of(solution.status),
-            name=LIVE_STATUS_NAME,
-            message=shorten(solution.reason, MAX_MESSAGE_LENGTH),
-            hardware_id=self._param("expected_frame") or "ft_sensor",
-            values=values,
-        )
+        status = _status(solution, LIVE_STATUS_NAME, self._param("expected_frame"), values)
         msg = DiagnosticArray(status=[status])
         msg.header.stamp = self.get_clock().now().to_msg()
         self._diag_pub.publish(msg)
@@ -580,14 +574,19 @@ class EstimatorNode(Node):
         values = [KeyValue(key=k, value=v) for k, v in solution.diagnostic_values()]
         values.append(KeyValue(key="samples", value=str(self._exploration.sample_count)))
         values.append(KeyValue(key="payload", value=str(payload)))
-        status = DiagnosticStatus(
-            level=level_of(solution.status),
-            name=DIAGNOSTIC_NAME,
-            message=shorten(solution.reason, MAX_MESSAGE_LENGTH),
-            hardware_id=header.frame_id,
-            values=values,
-        )
+        status = _status(solution, DIAGNOSTIC_NAME, header.frame_id, values)
         self._diag_pub.publish(DiagnosticArray(header=header, status=[status]))
+
+
+def _status(solution: Solution, name: str, frame: str, values: list[KeyValue]) -> DiagnosticStatus:
+    """A solution's diagnostics status ``name``: its level and reason, ``values``."""
+    return DiagnosticStatus(
+        level=level_of(solution.status),
+        name=name,
+        message=shorten(solution.reason, MAX_MESSAGE_LENGTH),
+        hardware_id=frame or "ft_sensor",
+        values=values,
+    )
 
 
 def main(args: list[str] | None = None) -> None:
