@@ -6,7 +6,7 @@ from what ``ros2 param describe`` says:
 - ``sim_node``: ``wrench_sim.parameters.PARAMETERS``;
 - ``estimator_node``: ``com_core.estimation.settings.SETTINGS`` (the replay's options too)
   and the node's own rows of ``com_estimator.estimator_node.PARAMETERS``;
-- ``sequencer_node``: ``exploration_sequencer.sequencer_node.PARAMETERS``;
+- ``sequencer_node``: ``exploration_sequencer.parameters.PARAMETERS``;
 - the robot configuration's keys (sim and sequencer, read-only):
   ``com_core.robot.config.default_robot_config().parameters()``.
 
@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 import sys
+from collections.abc import Iterable
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -31,9 +32,10 @@ for _tree in ("exploration_sequencer", "com_estimator", "wrench_sim", "src/com_c
 
 from com_core import contract as c  # noqa: E402
 from com_core.estimation.settings import SETTINGS  # noqa: E402
-from com_core.robot.config import KEYS, default_robot_config  # noqa: E402
+from com_core.inputs import Input  # noqa: E402
+from com_core.robot.config import default_robot_config  # noqa: E402
 from com_estimator.estimator_node import PARAMETERS as ESTIMATOR_PARAMETERS  # noqa: E402
-from exploration_sequencer.sequencer_node import PARAMETERS as SEQUENCER_PARAMETERS  # noqa: E402
+from exploration_sequencer.parameters import PARAMETERS as SEQUENCER_PARAMETERS  # noqa: E402
 from wrench_sim.parameters import PARAMETERS as SIM_PARAMETERS  # noqa: E402
 
 TRIGGER = "std_srvs/srv/Trigger"
@@ -78,6 +80,16 @@ def interface(name: str, kind: str, notes: str, type_: str | None = None) -> tup
 
 
 INTERFACE_HEADER = ("name", "type", "", "what")
+PARAMETER_HEADER = ("parameter", "default", "takes", "what")
+
+
+def parameter_rows(rows: Iterable[Input]) -> list[tuple[str, ...]]:
+    """A parameter table's rows: name, default, what it takes (refused otherwise, before
+    anything moves), meaning."""
+    return [
+        (f"`{row.name}`", f"`{value_text(row.default)}`", row.allowed(), row.description)
+        for row in rows
+    ]
 
 
 def sim_node() -> list[str]:
@@ -141,12 +153,7 @@ def sim_node() -> list[str]:
             "sample's stamp while it acts, then one zero",
         ),
     ]
-    params = []
-    for name, default, description, _read_only, low in SIM_PARAMETERS:
-        if name in KEYS:
-            continue
-        text = description if low is None else f"{description} (>= {low:g})"
-        params.append((f"`{name}`", f"`{value_text(default)}`", text))
+    params = parameter_rows(SIM_PARAMETERS.values())
     return [
         "## wrench_sim: `sim_node`",
         "",
@@ -172,7 +179,7 @@ def sim_node() -> list[str]:
         "these, every key of the robot configuration, read-only ([Robot configuration]"
         "(#robot-configuration)).",
         "",
-        *table(("parameter", "default", "what"), params),
+        *table(PARAMETER_HEADER, params),
         "`object_com_offset` is the COM minus the body's geometric centre, in the object's "
         "frame (z up, y the fingers' axis). Only the inertial frame moves: the body stands "
         "centred on its stand between the open pads (its centre on the grasp centre at "
@@ -241,15 +248,10 @@ def estimator_node() -> list[str]:
                   "`payload_save_dir`; the answer names them, or why not", TRIGGER),
     ]  # fmt: skip
     settings = [
-        (f"`{name}`", f"`{value_text(default)}`", text, f"`--{name.replace('_', '-')}`")
-        for name, (default, text) in SETTINGS.items()
+        (*row, "`--tare`" if name == "tare_cache" else f"`--{name.replace('_', '-')}`")
+        for name, row in zip(SETTINGS, parameter_rows(SETTINGS.values()), strict=True)
     ]
-    settings = [(n, d, t, "`--tare`" if n == "`tare_cache`" else o) for n, d, t, o in settings]
-    own = [
-        (f"`{name}`", f"`{value_text(default)}`", text)
-        for name, (default, text) in ESTIMATOR_PARAMETERS.items()
-        if name not in SETTINGS
-    ]
+    own = parameter_rows(row for name, row in ESTIMATOR_PARAMETERS.items() if name not in SETTINGS)
     return [
         "## com_estimator: `estimator_node`",
         "",
@@ -270,10 +272,10 @@ def estimator_node() -> list[str]:
         "The estimator's settings, `com_core.estimation.settings.SETTINGS`: the node's "
         "parameters and the replay's options alike, so the replay uses the node's defaults.",
         "",
-        *table(("parameter", "default", "what", "replay"), settings),
+        *table((*PARAMETER_HEADER, "replay"), settings),
         "The node's own, from `com_estimator.estimator_node.PARAMETERS`:",
         "",
-        *table(("parameter", "default", "what"), own),
+        *table(PARAMETER_HEADER, own),
         "Bad input never stops it: NaN/inf samples, another frame, duplicate stamps, samples "
         "out of time order, labels longer than 128 characters are dropped and counted (WARN); "
         "a window with motion in it is dropped (WARN, or ERROR if too few poses remain); "
@@ -369,10 +371,7 @@ def sequencer_node() -> list[str]:
         interface(c.ESTIMATOR_SAVE_PAYLOAD_SERVICE, "client", "the payload files beside the "
                   "bag, when the run's estimate became the payload", TRIGGER),
     ]  # fmt: skip
-    params = [
-        (f"`{name}`", f"`{value_text(default)}`", text)
-        for name, (default, text) in SEQUENCER_PARAMETERS.items()
-    ]
+    params = parameter_rows(SEQUENCER_PARAMETERS.values())
     return [
         "## exploration_sequencer: `sequencer_node`",
         "",
@@ -407,10 +406,10 @@ def sequencer_node() -> list[str]:
         "",
         "### Parameters",
         "",
-        "From `exploration_sequencer.sequencer_node.PARAMETERS`; besides these, every key of "
+        "From `exploration_sequencer.parameters.PARAMETERS`; besides these, every key of "
         "the robot configuration, read-only ([Robot configuration](#robot-configuration)).",
         "",
-        *table(("parameter", "default", "what"), params),
+        *table(PARAMETER_HEADER, params),
         "### `demo`",
         "",
         "`python -m exploration_sequencer.demo` (`make demo ARGS=...`) starts the three "

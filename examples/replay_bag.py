@@ -10,7 +10,7 @@ from pathlib import Path
 from com_core.bags import BagReading
 from com_core.estimation import (
     BAG_TARE_FILE,
-    SETTINGS,
+    defaults,
     exploration_from,
     feed_bag,
     format_solution,
@@ -23,7 +23,7 @@ from com_core.robot import BAG_ROBOT_FILE, read_robot_config
 bag = Path(sys.argv[1] if len(sys.argv) > 1 else Path(__file__).parents[1] / "bags/sample")
 
 # the node's default settings, with the frames of the run's robot configuration
-settings = {name: default for name, (default, _) in SETTINGS.items()}
+settings = defaults()
 robot = read_robot_config(str(bag / BAG_ROBOT_FILE))
 settings |= {"sensor_frame": robot.sensor_frame, "base_frame": robot.base_frame}
 

@@ -26,7 +26,6 @@ from com_core.planning.decisions import (
     held_mass,
     may_hold_object,
     newest_hand_model,
-    parameter_problem,
     plan_for_target,
     plan_within_reach,
     planning_noise,
@@ -89,31 +88,6 @@ def test_settings_take_their_parameters_and_lists_become_tuples():
     assert SETTINGS.tilt_axes == ("y", "x") and SETTINGS.com_guess == (0.0,)
     assert SETTINGS.dwell == 0.9 and SETTINGS.max_object_time == 20.0
     assert not hasattr(SETTINGS, "hand_id")
-
-
-@pytest.mark.parametrize(
-    ("name", "value", "problem"),
-    [
-        ("tilt", 0.0, "must be in (0, pi/2) rad"),
-        ("max_tilt", math.pi / 2, "must be in (0, pi/2) rad"),
-        ("tilt", 1.5, ""),
-        ("tilt_axes", [], "must be a non-empty list of 'x' and 'y'"),
-        ("tilt_axes", ["x", "z"], "must be a non-empty list of 'x' and 'y'"),
-        ("tilt_axes", ["x"], ""),
-        ("com_guess", [0.0], ""),
-        ("com_guess", [0.01, 0.0, 0.05], ""),
-        ("com_guess", [0.01, 0.0], "must be 3 values (m) or [0.0] for the grasp centre"),
-        ("com_guess", [0.1], "must be 3 values (m) or [0.0] for the grasp centre"),
-        ("dwell", 0.0, "must be > 0"),
-        ("grasp_check_dwell", -0.1, "must be > 0"),
-        ("settle", 0.0, ""),
-        ("min_load", -1e-3, "must be >= 0"),
-        ("verify_dwell", 0.0, ""),
-        ("max_object_time", -1.0, ""),  # no rule of its own
-    ],
-)
-def test_a_parameter_refuses_values_outside_its_range(name, value, problem):
-    assert parameter_problem(name, value) == problem
 
 
 def test_the_tare_cache_is_beside_the_bags_unless_named(tmp_path):

@@ -10,6 +10,7 @@ from pathlib import Path
 CORE = Path(__file__).resolve().parents[1] / "src" / "com_core" / "com_core"
 FLOORS = {
     "contract": 0,
+    "inputs": 0,
     "bags": 0,
     "runtime": 0,
     "sensing": 1,

@@ -243,34 +243,38 @@ def test_the_ideal_sensor_reads_the_world_as_is():
 
 def test_the_sensor_parts_parameters_are_checked():
     """Each part's parameter: unset (NaN, [-1.0]) leaves the profile's; a value out of its
-    range is refused naming the parameter, the value and the range."""
+    range is refused naming the parameter, the value and the range; parts that make no
+    sensor together are refused naming the part and the fix."""
     pytest.importorskip("rclpy")
     from rclpy.parameter import Parameter
 
+    from com_core.inputs import InputError
     from wrench_sim.parameters import check_parameter, sensor_profile
 
-    def reason(name: str, value: object) -> str | None:
+    def reason(name: str, value: object) -> str:
         return check_parameter(Parameter(name, value=value))
 
-    for name, value in (
-        ("sigma_f", -0.1),
-        ("correlation_time", math.inf),
-        ("warmup_time", -1.0),
-        ("random_walk_tau", -1e-5),
-        ("vibration_hz", [12.0, -27.0]),
+    for name, value, allowed in (
+        ("sigma_f", -0.1, "[0, 100] N"),
+        ("correlation_time", math.inf, "[0, 1]"),
+        ("warmup_time", -1.0, "[0, 1e+06] s"),
+        ("random_walk_tau", -1e-5, "[0, 1] N m/sqrt(s)"),
+        ("vibration_hz", [12.0, -27.0], "(0, 500) Hz"),
+        ("calibration_accuracy", 1.5, "[0, 1)"),
+        ("vibration_damping", [0.03, 1.2], "[0, 1)"),
     ):
         refusal = reason(name, value)
-        assert refusal is not None and name in refusal and repr(value) in refusal, refusal
-        assert ">= 0" in refusal
-    assert "[0, 1)" in reason("calibration_accuracy", 1.5)
-    assert "[0, 1)" in reason("vibration_damping", [0.03, 1.2])
+        assert refusal.startswith(f"{name}={value!r} refused: ") and allowed in refusal, refusal
     assert "realistic" in reason("sensor_profile", "noisy")
     for name, value in (("sigma_f", math.nan), ("vibration_hz", [-1.0]), ("limit_f", 0.0)):
-        assert reason(name, value) is None
+        assert reason(name, value) == ""
     realistic = PROFILES["realistic"]
     unset = {"sensor_profile": "realistic", "sigma_f": math.nan, "vibration_hz": [-1.0]}
     assert sensor_profile(unset) == realistic
     assert sensor_profile(unset | {"sigma_f": 0.3}) == realistic.with_overrides(sigma_f=0.3)
     assert sensor_profile(unset | {"vibration_hz": [0.0]}).modes == ()
-    with pytest.raises(ValueError, match="same length"):
-        _ = sensor_profile(unset | {"vibration_hz": [12.0]}).modes
+    with pytest.raises(InputError, match="one damping ratio per mode"):
+        sensor_profile(unset | {"vibration_hz": [12.0]})
+    with pytest.raises(InputError, match=r"sigma_f=0.0 refused: below half the resolution_f"):
+        sensor_profile(unset | {"sigma_f": 0.0})
+    assert sensor_profile(unset | {"sigma_f": 0.0, "resolution_f": 0.0}).sigma_f == 0.0

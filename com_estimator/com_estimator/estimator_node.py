@@ -34,6 +34,7 @@ hand, payload) the moment it is made, and already decodes every wrench.
 from __future__ import annotations
 
 import math
+import sys
 import time
 import traceback
 
@@ -42,6 +43,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import InertiaStamped, WrenchStamped
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.clock import Clock, ClockType
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
@@ -66,6 +68,7 @@ from com_core.contract import (
     ESTIMATOR_SAVE_PAYLOAD_SERVICE,
     ESTIMATOR_SOLVE_SERVICE,
     INPUT_STATUS_NAME,
+    INTERNAL_ERROR,
     JOINT_STATES_TOPIC,
     LATEST_LABEL_KEY,
     LATEST_STAMP_KEY,
@@ -85,10 +88,10 @@ from com_core.estimation.settings import (
     SETTINGS,
     exploration_from,
     robot_from,
-    setting_problem,
     use_cached_tares,
 )
 from com_core.estimation.solution import Solution, format_solution
+from com_core.inputs import Input, problems, table_of
 from com_core.payload.compensation import MAX_JOINT_STATE_AGE, Compensator
 from com_core.payload.files import read_payload, write_payload_files
 from com_core.payload.model import Payload, PayloadError, payload_from_solution
@@ -103,23 +106,18 @@ LIVE_KEYS = frozenset(
 )
 """What the live status carries of a solution (and its windows' ``samples <label>``)."""
 
-PARAMETERS = SETTINGS | {
-    "solve_timeout": (1.0, "s (wall) to wait after 'done' for samples up to its stamp"),
-    "payload_file": (
-        "",
-        "payload.yaml to compensate with from the start ('': none); read at start",
-    ),
-    "payload_save_dir": ("", "directory ~/save_payload writes the payload files to"),
-    "hand_id": (
-        default_robot_config().hand_id,
-        "names the hand; a payload file of another hand is refused (robot configuration)",
-    ),
-    "max_joint_state_age": (
-        MAX_JOINT_STATE_AGE,
-        "s; a wrench this much past the latest joint state is not compensated",
-    ),
-}
-_READ_AT_START = ("payload_file",)
+PARAMETERS = SETTINGS | table_of([
+    Input("solve_timeout", 1.0, "(wall) to wait after 'done' for samples up to its stamp",
+          unit="s", low=0.0, high=60.0, low_open=True),
+    Input("payload_file", "", "payload.yaml to compensate with from the start ('': none); "
+          "read at start", kind="str", read_only=True),
+    Input("payload_save_dir", "", "directory ~/save_payload writes the payload files to",
+          kind="str"),
+    Input("hand_id", default_robot_config().hand_id, "names the hand; a payload file of "
+          "another hand is refused (robot configuration)", kind="str"),
+    Input("max_joint_state_age", MAX_JOINT_STATE_AGE, "a wrench this much past the latest "
+          "joint state is not compensated", unit="s", low=0.0, high=60.0, low_open=True),
+])  # fmt: skip
 
 
 class EstimatorNode(Node):
@@ -127,10 +125,12 @@ class EstimatorNode(Node):
 
     def __init__(self) -> None:
         super().__init__("com_estimator")
-        for name, (default, text) in PARAMETERS.items():
-            self.declare_parameter(name, default, ParameterDescriptor(description=text))
+        # checked from the first value on: one given at start is refused as a set one is
         self.add_on_set_parameters_callback(self.validate_parameters)
+        for row in PARAMETERS.values():
+            self.declare_parameter(row.name, row.default, ParameterDescriptor(**row.descriptor()))
         self._raw: list[bytes] = []
+        self.internal_errors = 0  # defects that reached a solve's top level (INTERNAL_ERROR)
         self._urdf = ""  # the latest /robot_description
         self._robot: RobotModel | None = None  # its model, for the compensation
         self._payload: Payload | None = None
@@ -190,19 +190,12 @@ class EstimatorNode(Node):
         return self.get_parameter(name).value
 
     def validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
-        """Refuse a value ``setting_problem`` refuses (they apply from the next exploration)."""
-        for p in params:
-            if p.name in ("solve_timeout", "max_joint_state_age"):
-                problem = None if p.value > 0.0 else f"{p.name}={p.value!r} refused: > 0 s"
-            elif p.name in _READ_AT_START:
-                problem = f"{p.name} is read at start; set it when starting the node"
-            elif p.name in SETTINGS:
-                problem = setting_problem(p.name, p.value)
-            else:  # rclpy's own (use_sim_time, ...)
-                continue
-            if problem:
-                self.get_logger().error(problem)
-                return SetParametersResult(successful=False, reason=problem)
+        """Refuse a value its row in ``PARAMETERS`` refuses (settings apply from the next
+        exploration)."""
+        values = {p.name: p.value for p in params if p.name in PARAMETERS}
+        if refused := problems(PARAMETERS, values):
+            self.get_logger().error("; ".join(refused))
+            return SetParametersResult(successful=False, reason="; ".join(refused))
         return SetParametersResult(successful=True)
 
     def _settings(self) -> dict:
@@ -222,8 +215,10 @@ class EstimatorNode(Node):
             use_cached_tares(self._exploration, self._param("tare_cache"))
             return self._exploration.solve(until_ns=until_ns)
         except Exception as exc:  # a defect must not kill the node: report it as ERROR
-            self.get_logger().error(f"solve failed: {traceback.format_exc()}")
-            return Solution(ERROR, f"internal error: {exc!r}", self._param("method"))
+            self.internal_errors += 1
+            why = f"{INTERNAL_ERROR} #{self.internal_errors}: {exc!r}"
+            self.get_logger().error(f"solve failed: {why}\n{traceback.format_exc()}")
+            return Solution(ERROR, why, self._param("method"))
 
     def _solve(self, until_ns: int) -> Solution:
         """Solve the current exploration and publish it (``_publish``)."""
@@ -589,11 +584,16 @@ def _status(solution: Solution, name: str, frame: str, values: list[KeyValue]) -
     )
 
 
-def main(args: list[str] | None = None) -> None:
+def main(args: list[str] | None = None) -> int:
     keep_dds_local()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     stopping = stop_on_signals()
-    node = EstimatorNode()
+    try:
+        node = EstimatorNode()
+    except ParameterException as error:  # a parameter refused (com_core.inputs)
+        rclpy.logging.get_logger("com_estimator").error(f"cannot start: {error}")
+        rclpy.try_shutdown()
+        return 1
     executor = EventsExecutor()
     executor.add_node(node)
     try:
@@ -604,7 +604,8 @@ def main(args: list[str] | None = None) -> None:
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -68,12 +68,12 @@ from com_core.estimation.settings import (
     SETTINGS,
     exploration_from,
     robot_from,
-    setting_problem,
     use_cached_tares,
 )
 from com_core.estimation.solution import Solution, format_solution
 from com_core.estimation.static_windows import find_static_windows, split_load_levels
 from com_core.estimation.tare_cache import BAG_TARE_FILE
+from com_core.inputs import problems
 from com_core.robot.config import BAG_ROBOT_FILE, RobotConfigError, read_robot_config
 
 ROBOT_FRAMES = ("sensor_frame", "base_frame")
@@ -94,22 +94,18 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="BAG",
         help="rosbag2 directory (MCAP storage), or a directory of them",
     )
-    for name, (default, text) in SETTINGS.items():
+    for name, row in SETTINGS.items():
         if name != "tare_cache":
             option = "--" + name.replace("_", "-")
-            text = text.replace("%", "%%")  # argparse formats help with %
-            if isinstance(default, list):
+            text = f"{row.description}; {row.allowed()}".replace("%", "%%")  # argparse's %
+            if isinstance(row.default, list):
                 parser.add_argument(
-                    option,
-                    type=float,
-                    nargs=len(default),
-                    default=default,
-                    help=text,
+                    option, type=float, nargs=len(row.default), default=row.default, help=text
                 )
             elif name in ROBOT_FRAMES:  # unset: the run's robot configuration's
                 parser.add_argument(option, type=str, default=None, help=text)
             else:
-                parser.add_argument(option, type=type(default), default=default, help=text)
+                parser.add_argument(option, type=type(row.default), default=row.default, help=text)
     parser.add_argument("--wrench-topic", default=WRENCH_TOPIC)
     parser.add_argument("--pose-topic", default=POSE_TOPIC)
     parser.add_argument(
@@ -140,6 +136,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.jobs < 1:
         parser.error(f"-j {args.jobs}: must be 1 or more")
+    if refused := problems(SETTINGS, option_settings(args)):
+        parser.error("; ".join(refused))  # before any run is read: exit code 2
     runs = [run for path in args.bags for run in bag_directories(path)]
     codes, rows = [], []
     with ProcessPoolExecutor(args.jobs) if args.jobs > 1 else nullcontext() as pool:
@@ -157,6 +155,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.csv is not None:
         write_csv(args.csv, rows)
     return max(codes)
+
+
+def option_settings(args: argparse.Namespace) -> dict[str, object]:
+    """The estimator settings the options give (the frames only when given)."""
+    names = [name for name in SETTINGS if name != "tare_cache"]
+    return {name: getattr(args, name) for name in names if getattr(args, name) is not None}
 
 
 def replay_captured(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None, str, str]:
@@ -225,7 +229,7 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
     if not is_bag(args.bag):
         print(f"replay: {args.bag} is not a rosbag2 directory", file=sys.stderr)
         return 2, None
-    settings = {name: getattr(args, name) for name in SETTINGS if name != "tare_cache"}
+    settings = option_settings(args)
     robot_file = args.robot or args.bag / BAG_ROBOT_FILE
     robot = None
     if args.robot is not None or robot_file.is_file():
@@ -235,12 +239,8 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
             print(f"replay: {error}", file=sys.stderr)
             return 2, None
     for name in ROBOT_FRAMES:  # an option, else the run's configuration, else the default
-        if settings[name] is None:
-            settings[name] = getattr(robot, name) if robot else SETTINGS[name][0]
-    problems = [p for name, v in settings.items() if (p := setting_problem(name, v))]
-    if problems:
-        print(f"replay: {'; '.join(problems)}", file=sys.stderr)
-        return 2, None
+        if name not in settings:
+            settings[name] = getattr(robot, name) if robot else SETTINGS[name].default
     exploration = exploration_from(settings)
     use_cached_tares(exploration, args.tare or args.bag / BAG_TARE_FILE)
     reading = BagReading()

@@ -8,18 +8,24 @@ starts the three with the robot's configuration (``--params-file``; ``com_core``
 /exploration_sequencer/explore, prints the sequencer's progress and a final summary
 (estimate, sigma, truth, error, time, bag and report paths), and stops the nodes with
 SIGINT, the sequencer first: Ctrl-C cancels a running exploration (the object put back,
-the arm home, the bag closed with a ``cancelled`` label) before the simulator stops. Logs
-of the simulator and the estimator go to <bag-dir>/logs/.
+the arm home, the bag closed with a ``cancelled`` label) before the simulator stops. Each
+node's output goes to <bag-dir>/logs/<package>.log (the sequencer's to the terminal as well).
+A node that ends on its own (a parameter it refuses, a crash) ends the wait at once: the
+summary names it, with its exit code and its last error line, and the demo exits with 1.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import signal
 import subprocess
 import sys
+import threading
 import time
+from collections.abc import Sequence
 from pathlib import Path
+from typing import IO, NamedTuple
 
 import numpy as np
 
@@ -36,11 +42,24 @@ from com_core.estimation.fits import INFORMATION
 from com_core.estimation.solution import noise_line, vector_value, verification_lines
 from com_core.payload.files import PAYLOAD_FILE
 from com_core.robot.config import ROBOTS, RobotConfigError, read_robot_config, robot_config_path
-from com_core.runtime.processes import executable, ros_args, stop
+from com_core.runtime.processes import executable, last_error_line, ros_args, stop
 from com_core.runtime.rosenv import keep_dds_local
 from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES
 
 CANCEL_WAIT = 8.0  # s for a cancelled goal's result before the nodes are stopped
+POLL = 0.2  # s between checks that the nodes still run, while waiting on the sequencer
+CANCEL_REQUEST_WAIT = 1.0  # s for the sequencer to take a cancel when another node ended
+
+
+class Child(NamedTuple):
+    """A node process the demo started: its package, the file that holds its output, and
+    the thread that copies its output there and to the terminal (None: the process
+    writes the file itself)."""
+
+    package: str
+    process: subprocess.Popen
+    log: Path
+    copier: threading.Thread | None = None
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -154,33 +173,93 @@ def main(argv: list[str] | None = None) -> int:
         if value is not None:  # else the sequencer's own default
             sequencer_params[key] = value
     started = time.monotonic()
-    procs: list[subprocess.Popen] = []
+    children: list[Child] = []
     try:
-        for package, name, params, log in (
-            ("wrench_sim", "sim_node", sim_params, logs / "wrench_sim.log"),
-            ("com_estimator", "estimator_node", estimator_params, logs / "com_estimator.log"),
-            ("exploration_sequencer", "sequencer_node", sequencer_params, None),
+        for package, name, params, echo in (
+            ("wrench_sim", "sim_node", sim_params, False),
+            ("com_estimator", "estimator_node", estimator_params, False),
+            ("exploration_sequencer", "sequencer_node", sequencer_params, True),
         ):
-            out = open(log, "w") if log else None  # noqa: SIM115 - closed with the process
-            procs.append(
-                subprocess.Popen(
-                    [executable(package, name), *ros_args(params, params_file=params_file)],
-                    stdout=out,
-                    stderr=subprocess.STDOUT if out else None,
-                    start_new_session=True,  # Ctrl-C is the demo's: it stops them in order
-                )
-            )
-            print(f"started {package}/{name}" + (f" (log: {log})" if log else ""), flush=True)
-        return run_exploration(args, started)
+            command = [str(executable(package, name)), *ros_args(params, params_file=params_file)]
+            children.append(start_child(package, command, logs / f"{package}.log", echo))
+            print(f"started {package}/{name} (log: {children[-1].log})", flush=True)
+        return run_exploration(args, started, children)
     except KeyboardInterrupt:  # the sequencer, stopped first, cancels the run cleanly
         print("\ndemo: interrupted: cancelling the run, then stopping the nodes", flush=True)
         return 130
     finally:
-        for proc in reversed(procs):
-            stop(proc)
+        for child in reversed(children):
+            stop(child.process)
+            if child.copier is not None:  # the rest of its output, up to its end
+                child.copier.join(timeout=2.0)
 
 
-def run_exploration(args: argparse.Namespace, started: float) -> int:
+def start_child(package: str, command: list[str], log: Path, echo: bool) -> Child:
+    """``command`` as a process in a session of its own (Ctrl-C is the demo's: it stops
+    the nodes in order), its stdout and stderr to ``log`` and, with ``echo``, to the
+    terminal too (copied line by line by a thread)."""
+    out = open(log, "w")  # noqa: SIM115 - the process's, or the copier's, which closes it
+    if not echo:
+        with out:
+            process = subprocess.Popen(
+                command, stdout=out, stderr=subprocess.STDOUT, start_new_session=True
+            )
+        return Child(package, process, log)
+    process = subprocess.Popen(
+        command,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        errors="replace",
+        bufsize=1,
+        start_new_session=True,
+    )
+    copier = threading.Thread(target=copy_output, args=(process.stdout, out), daemon=True)
+    copier.start()
+    return Child(package, process, log, copier)
+
+
+def copy_output(source: IO[str], out: IO[str]) -> None:
+    """Each line of ``source`` (a process's output) to the terminal and to ``out`` as it
+    comes, until the process closes it; then closes both."""
+    with source, out:
+        for line in source:
+            sys.stdout.write(line)
+            sys.stdout.flush()
+            out.write(line)
+            out.flush()
+
+
+def exited(children: Sequence[Child]) -> list[Child]:
+    """The children whose process has ended."""
+    return [child for child in children if child.process.poll() is not None]
+
+
+def wait_for(executor, future, children: Sequence[Child], timeout: float) -> list[Child]:
+    """Spin ``executor`` until ``future`` is done, a child has ended (checked every POLL s)
+    or ``timeout`` s passed: the children that ended (empty if none did)."""
+    deadline = time.monotonic() + timeout
+    while not (ended := exited(children)) and not future.done():
+        left = deadline - time.monotonic()
+        if left <= 0.0:
+            break
+        executor.spin_until_future_complete(future, timeout_sec=min(POLL, left))
+    return ended
+
+
+def cancel(executor, sent, children: Sequence[Child]) -> None:
+    """Cancel the goal of ``sent`` (its ``send_goal_async`` future) once it is accepted, as
+    Ctrl-C would, so that the sequencer ends its run before it is stopped: spins at most
+    CANCEL_REQUEST_WAIT s in all, and no longer than the children still running do."""
+    deadline = time.monotonic() + CANCEL_REQUEST_WAIT
+    running = [child for child in children if child.process.poll() is None]
+    if wait_for(executor, sent, running, CANCEL_REQUEST_WAIT) or not sent.done():
+        return
+    if sent.result().accepted:
+        wait_for(executor, sent.result().cancel_goal_async(), running, deadline - time.monotonic())
+
+
+def run_exploration(args: argparse.Namespace, started: float, children: Sequence[Child]) -> int:
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
     from geometry_msgs.msg import InertiaStamped, WrenchStamped
@@ -223,38 +302,52 @@ def run_exploration(args: argparse.Namespace, started: float) -> int:
     executor.add_node(node)
     try:
         client = ActionClient(node, Explore, EXPLORE_SERVICE)
-        if not client.wait_for_server(timeout_sec=60.0):
-            print("demo: the sequencer did not come up", file=sys.stderr)
+        deadline = time.monotonic() + 60.0
+        while not (ended := exited(children)) and not client.wait_for_server(POLL):
+            if time.monotonic() > deadline:
+                print("demo: the sequencer did not come up", file=sys.stderr)
+                return 1
+        if ended:
+            summarise_ended(ended, started)
             return 1
         print(f"sending a goal to {EXPLORE_SERVICE}", flush=True)
         sent = client.send_goal_async(Explore.Goal(), feedback_callback=show_progress)
-        executor.spin_until_future_complete(sent, timeout_sec=30.0)
+        if ended := wait_for(executor, sent, children, 30.0):
+            summarise_ended(ended, started)
+            cancel(executor, sent, children)
+            return 1
         if not sent.done() or not sent.result().accepted:
             print("demo: the sequencer did not take the goal", file=sys.stderr)
             return 1
         goal = sent.result()
         future = goal.get_result_async()
         try:
-            executor.spin_until_future_complete(future, timeout_sec=args.timeout)
+            ended = wait_for(executor, future, children, args.timeout)
         except KeyboardInterrupt:
             print("\ndemo: interrupted: cancelling the run", flush=True)
             goal.cancel_goal_async()
-            executor.spin_until_future_complete(future, timeout_sec=CANCEL_WAIT)
-            if future.done():
+            if ended := wait_for(executor, future, children, CANCEL_WAIT):
+                print_ended(ended)
+            elif future.done():
                 print(f"explore: {future.result().result.message}", flush=True)
             return 130
+        if ended:
+            summarise_ended(ended, started)
+            cancel(executor, sent, children)
+            return 1
         if not future.done():
             print(f"demo: no answer within {args.timeout:g} s", file=sys.stderr)
             return 1
         end = time.monotonic() + 2.0  # the status, and the estimate if it is published
-        while time.monotonic() < end and not (statuses and estimates):
+        while time.monotonic() < end and not ((statuses and estimates) or exited(children)):
             executor.spin_once(timeout_sec=0.1)
         result = future.result().result
         if args.hold and result.status == "OK":
             compensated.clear()
             end = time.monotonic() + 1.0
-            while time.monotonic() < end:
+            while time.monotonic() < end and not exited(children):
                 executor.spin_once(timeout_sec=0.05)
+        ended = exited(children)
         print_summary(result, estimates, truths, statuses, time.monotonic() - started)
         if compensated:
             w = np.array(compensated)
@@ -266,6 +359,9 @@ def run_exploration(args: argparse.Namespace, started: float) -> int:
                 f"({', '.join(f'{v * 1e3:+.2f}' for v in mean[3:])}) +- "
                 f"({', '.join(f'{v * 1e3:.2f}' for v in sd[3:])}) mN m (contact: none)"
             )
+        if ended:
+            print_ended(ended)
+            return 1
         return 0 if result.status == "OK" else 1
     finally:
         executor.shutdown()
@@ -283,6 +379,30 @@ def show_progress(message) -> None:
     if line != getattr(show_progress, "last", ""):
         show_progress.last = line
         print(line, flush=True)
+
+
+def print_ended(ended: Sequence[Child]) -> None:
+    """Per child that ended: its package, its exit code (negative: minus the signal that
+    ended it, named), its last error line (``last_error_line`` of its log) and its log's path."""
+    for child in ended:
+        if child.copier is not None:  # its last lines, up to the end of its output
+            child.copier.join(timeout=2.0)
+        try:
+            line = last_error_line(child.log.read_text(errors="replace")) or "(no output)"
+        except OSError as error:
+            line = f"(no log: {error})"
+        code = child.process.returncode
+        killed = f" ({signal.strsignal(-code)})" if code < 0 else ""
+        print(f"exited:   {child.package}, exit code {code}{killed}: {line}")
+        print(f"          log: {child.log}")
+
+
+def summarise_ended(ended: Sequence[Child], started: float) -> None:
+    """The summary of a run cut short by children that ended: ``print_ended`` and the wall
+    time since ``started``."""
+    print("\n=== summary ===")
+    print_ended(ended)
+    print(f"time:     {time.monotonic() - started:.1f} s wall in all", flush=True)
 
 
 def print_summary(result, estimates, truths, statuses, wall: float) -> None:

@@ -14,42 +14,37 @@ from pathlib import Path
 
 from geometry_msgs.msg import InertiaStamped
 
-from com_core.estimation.fits import INFORMATION
+from com_core.estimation.settings import SETTINGS
 from com_core.estimation.solution import verification_lines
-from com_core.planning.decisions import parameter_problem
+from com_core.inputs import problems, refusal
 from com_interfaces.action import Explore
+from exploration_sequencer.parameters import PARAMETERS
 
 __all__ = ["feedback_of", "goal_options", "result_of"]
 
 
 def goal_options(goal: Explore.Goal) -> tuple[dict[str, object], list[str]]:
-    """(the parameters an Explore goal sets for its run, the problems of its values): a
+    """(the parameters an Explore goal sets for its run, the refusals of its values): a
     field left at its default (0, ``Explore.Goal.PARAMETER``, '') keeps the parameter;
-    each value set is checked as the parameter would be (``parameter_problem``)."""
+    each value set is checked by the parameter's row (``PARAMETERS``; ``information``:
+    the estimator's setting)."""
     options: dict[str, object] = {}
     for name in ("target_com_sigma", "tilt", "max_tilt", "dwell"):
         value = getattr(goal, name)
         if value != 0.0:
-            options[name] = 0.0 if name == "target_com_sigma" and math.isinf(value) else value
+            options[name] = 0.0 if name == "target_com_sigma" and value == math.inf else value
+    refused = []
     for name in ("raise_tilt", "fewer_poses"):
         value = getattr(goal, name)
-        if value != Explore.Goal.PARAMETER:
-            options[name] = value
+        if value in (Explore.Goal.NO, Explore.Goal.YES):
+            options[name] = value == Explore.Goal.YES
+        elif value != Explore.Goal.PARAMETER:
+            refused.append(refusal(name, value, "must be PARAMETER (-1), NO (0) or YES (1)"))
+    refused += problems(PARAMETERS, options)
     if goal.information:
         options["information"] = goal.information
-    problems = []
-    for name, value in options.items():
-        if name == "information":
-            if value not in INFORMATION:
-                problems.append(f"information {value!r} is not one of {', '.join(INFORMATION)}")
-        elif name in ("raise_tilt", "fewer_poses"):
-            if value not in (Explore.Goal.NO, Explore.Goal.YES):
-                problems.append(f"{name} {value} is not PARAMETER (-1), NO (0) or YES (1)")
-            options[name] = value == Explore.Goal.YES
-        elif not math.isfinite(value) or (bad := parameter_problem(name, value)):
-            why = "must be finite" if not math.isfinite(value) else bad
-            problems.append(f"{name} {value!r}: {why}")
-    return options, problems
+        refused += problems(SETTINGS, {"information": goal.information})
+    return options, refused
 
 
 def _fill_inertia(msg: InertiaStamped, values: Mapping[str, str]) -> None:

@@ -72,6 +72,7 @@ from com_core.contract import (
     ESTIMATOR_SAVE_PAYLOAD_SERVICE,
     ESTIMATOR_SET_PARAMETERS_SERVICE,
     EXPLORE_SERVICE,
+    INTERNAL_ERROR,
     JOINT_STATES_TOPIC,
     MOVING,
     OBJECT_PREFIX,
@@ -93,6 +94,7 @@ from com_core.estimation.tare_cache import (
     use_tares,
 )
 from com_core.estimation.windows import Window
+from com_core.inputs import problems
 from com_core.planning.decisions import (
     BIAS_AFTER_SUFFIX,
     BIAS_WINDOW_SUFFIX,
@@ -106,7 +108,6 @@ from com_core.planning.decisions import (
     held_mass,
     may_hold_object,
     newest_hand_model,
-    parameter_problem,
     plan_for_target,
     plan_within_reach,
     planned_run_time,
@@ -133,58 +134,8 @@ from com_interfaces.action import Explore
 from exploration_sequencer.arm import Arm
 from exploration_sequencer.explore_action import feedback_of, goal_options, result_of
 from exploration_sequencer.io_node import CancelledRunError, IoNode, RunError, TimeoutRunError
+from exploration_sequencer.parameters import PARAMETERS
 
-PARAMETERS: dict[str, tuple[object, str]] = {
-    "tilt": (math.pi / 6, "rad; wrist tilt from home about each axis"),
-    "tilt_axes": (["y", "x"], "sensor axes to tilt about (y and/or x; the pass visits y first)"),
-    "both_directions": (True, "tilt +tilt and -tilt about each axis (false: the paper's one)"),
-    "dwell": (0.9, "s of samples per object window"),
-    "tare_dwell": (5.0, "s of samples per tare window (empty hand; cached per hand)"),
-    "settle": (0.3, "s to wait after a motion before a window starts"),
-    "speed": (1.35, "rad/s mean joint speed, capped per joint by the URDF's velocity limits"),
-    "max_tilt": (math.pi / 6, "rad; the largest tilt the object allows (a full mug: small)"),
-    "raise_tilt": (False, "with target_com_sigma: the tilt may be raised up to max_tilt"),
-    "target_com_sigma": (0.0, "m; extend dwell until the predicted COM sigma meets it (0: off)"),
-    "fewer_poses": (False, "with target_com_sigma: the planner may drop poses for a shorter pass"),
-    "max_object_time": (20.0, "s (sim) the object pass may take when meeting target_com_sigma"),
-    "sigma_f": (
-        0.1,
-        "N; the sensor's force noise per sample, for the prediction until a tare pass of "
-        "the hand in the tare cache has learnt the noise",
-    ),
-    "sigma_tau": (0.005, "N m; the sensor's torque noise per sample (as sigma_f)"),
-    "correlation_time": (
-        0.005,
-        "s; the sensor's noise correlation time (its first-order low-pass), for the "
-        "prediction until a tare pass has learnt the noise (as sigma_f)",
-    ),
-    "rate": (1000.0, "Hz; the sensor's rate (for the prediction)"),
-    "mass_guess": (0.1, "kg; a guess of the object's mass (for the prediction)"),
-    "com_guess": ([0.0], "m; a guess of the COM in ft_sensor ([0.0]: the grasp centre)"),
-    "sim_timeout": (5.0, "s (wall) without /joint_states before a run fails"),
-    "estimate_timeout": (10.0, "s (wall) to wait for the estimator: to hear us, to answer"),
-    "bag_dir": ("bags", "directory that receives one rosbag2 directory per run"),
-    "tare_cache": ("", "file of the cached tare pass ('': <bag_dir>/tare_cache.json)"),
-    "tare_max_age": (3600.0, "s; a cached tare older than this is taken again"),
-    "bias_dwell": (
-        3.0,
-        "s of the empty-hand windows at home before the grasp (with a cached tare) and, "
-        "with kinematic information, after the release: they give the run's sensor bias "
-        "and its drift (with the wrenches alone, the first checks the cache's drift)",
-    ),
-    "verify_dwell": (
-        2.0,
-        "s of the window at the verification pose (20 deg about the sensor's diagonal, no "
-        "fit uses it) after the object pass, with kinematic information; 0: none",
-    ),
-    "release": (
-        True,
-        "put the object back on its stand after the run (false: the run ends holding it at "
-        "home, for the compensated wrench; no empty-hand window after it)",
-    ),
-    "min_load": (0.005, "kg; the grasp must hold at least this before the object pass"),
-    "grasp_check_dwell": (0.2, "s of samples at home after lifting that check the grasp"),
-}
 CANCEL_TIMEOUT = 8.0  # s (wall) a node stopping mid-run gives the way back (SIGINT: 10 s)
 FEEDBACK_PERIOD = 0.5  # s (wall) between an action's feedback messages
 LABEL_ACK_TIMEOUT = 10.0  # s (wall) a pose label waits for its readers' acknowledgement
@@ -201,8 +152,10 @@ class SequencerNode(Node):
             parameter_overrides=[Parameter("use_sim_time", Parameter.Type.BOOL, False)],
         )
         self._overrides: dict[str, object] = {}  # the running goal's options (``p``)
-        for name, (default, text) in PARAMETERS.items():
-            self.declare_parameter(name, default, ParameterDescriptor(description=text))
+        # checked from the first value on: one given at start is refused as a set one is
+        self.add_on_set_parameters_callback(self.validate_parameters)
+        for row in PARAMETERS.values():
+            self.declare_parameter(row.name, row.default, ParameterDescriptor(**row.descriptor()))
         robot = ParameterDescriptor(
             description="robot configuration (robot_config; read at start-up)",
             read_only=True,
@@ -210,7 +163,6 @@ class SequencerNode(Node):
         )
         for name, default in default_robot_config().parameters().items():
             self.declare_parameter(name, default, robot)
-        self.add_on_set_parameters_callback(self.validate_parameters)
         self.io = io
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.pose_pub = self.create_publisher(Header, POSE_TOPIC, latched)  # the current label
@@ -228,6 +180,7 @@ class SequencerNode(Node):
         self._lock = threading.Lock()
         self._cancel_lock = threading.Lock()  # a cancel, and the way back from one
         self._running: str | None = None
+        self.internal_errors = 0  # defects that reached a run's top level (INTERNAL_ERROR)
         self._labels: list[tuple[int, str]] = []  # this run's labels
         # each window's middle (s, sim time) and mean joint positions (rad, m), by label:
         # a tare window's are cached with it
@@ -272,11 +225,11 @@ class SequencerNode(Node):
         return self.get_parameter(name).value
 
     def validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
-        for prm in params:
-            if bad := parameter_problem(prm.name, prm.value):
-                reason = f"{prm.name}={prm.value!r} refused: {bad}"
-                self.get_logger().error(reason)
-                return SetParametersResult(successful=False, reason=reason)
+        """Refuse a value its row in ``PARAMETERS`` refuses, with the reason."""
+        values = {prm.name: prm.value for prm in params if prm.name in PARAMETERS}
+        if refused := problems(PARAMETERS, values):
+            self.get_logger().error("; ".join(refused))
+            return SetParametersResult(successful=False, reason="; ".join(refused))
         return SetParametersResult(successful=True)
 
     def robot_description_callback(self, msg: String) -> None:
@@ -363,7 +316,7 @@ class SequencerNode(Node):
         values = {kv.key: kv.value for kv in self._status.values} if self._status else {}
         frame = self._status.hardware_id if self._status else ""
         result = result_of(status, message, self._bag, values, frame)
-        if status == Explore.Result.CANCELLED:
+        if status == Explore.Result.CANCELLED and goal_handle.is_cancel_requested:
             goal_handle.canceled()
         elif status == OK:
             goal_handle.succeed()
@@ -388,12 +341,15 @@ class SequencerNode(Node):
             status = OK if success else status_of(self._status.level) if self._status else ERROR
         except CancelledRunError as exc:
             status, message = Explore.Result.CANCELLED, self._cancel(run_id, str(exc))
-        except Exception as exc:  # a run error, or a defect: the call fails, the node lives
-            text = str(exc) if isinstance(exc, RunError) else f"internal error {exc!r}"
-            status, message = ERROR, f"run {run_id} failed: {text}"
+        except RunError as exc:
+            status, message = ERROR, f"run {run_id} failed: {exc}"
             self.get_logger().error(message)
-            if not isinstance(exc, RunError):
-                self.get_logger().error(traceback.format_exc())
+            self._stop_recording()
+        except Exception as exc:  # a defect: the call fails, the node lives
+            self.internal_errors += 1
+            status = ERROR
+            message = f"run {run_id} failed: {INTERNAL_ERROR} #{self.internal_errors} {exc!r}"
+            self.get_logger().error(f"{message}\n{traceback.format_exc()}")
             self._stop_recording()
         finally:
             self._restore_estimator()

@@ -1,4 +1,4 @@
-"""The sim node's parameters: names, defaults, descriptions, and why a value is refused.
+"""The sim node's parameters: name, default, meaning and range (``com_core.inputs``).
 
 Besides the scene's and the sensor's, the node reads every key of a robot configuration
 (``com_core.robot.config.KEYS``), read-only, the Panda's by default: give another arm's file
@@ -10,12 +10,13 @@ from __future__ import annotations
 import math
 from dataclasses import fields
 
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor
+from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from com_core.contract import APPLY_WRENCH_TOPIC
-from com_core.robot.config import KEYS, default_robot_config
+from com_core.inputs import Input, InputError, table_of
+from com_core.robot.config import default_robot_config
 from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES, SensorProfile
 from wrench_sim.objects import SHAPES, com_offset_problem
 from wrench_sim.physics import GRASP_MODES
@@ -31,67 +32,96 @@ __all__ = [
 ]
 
 _START = "read at start-up"
-_PROFILE = math.nan
 _OF = "NaN: the sensor_profile's"
-PARAMETERS = [  # name, default, description, read-only, lower bound of a float
-    ("object", "box", f"shape: {sorted(SHAPES)}; {_START}", True, None),
-    ("object_mass", 0.1, f"object mass, kg; {_START}", True, 1e-6),
-    ("object_com_offset", Parameter.Type.DOUBLE_ARRAY, "COM minus geometric centre, 3 values, m, "
-     "object frame, inside wrench_sim.objects.holdable_com_range(object) (box |x|, |y| <= 0.02; "
-     "cylinder hypot(x, y) <= 0.02; mug hypot(x, y) <= 0.0224; |z| <= half height); unset: "
-     f"drawn from the seed; {_START}", True, None),
-    ("seed", 0, f"seeds the COM draw, sensor noise and grasp shifts; {_START}", True, None),
-    ("grasp_mode", "rigid", f"rigid | friction; {_START}", True, None),
-    ("slip_sigma", 0.0, "rigid mode: sigma of the object's shift at each new tilt, m", False, 0.0),
-    ("hand_mass", 0.0, "mass of the links beyond the sensor (hand or gripper, fingers), kg; "
-     f"0 = the URDF's; {_START}", True, 0.0),
-    ("grip_force", 5.0, f"friction mode: force limit per finger, N; {_START}", True, 1e-6),
-    ("gui", False, f"open the pybullet window; {_START}", True, None),
-    ("sensor_mount_rpy", [0.0, 0.0, 0.0], "the F/T sensor mounted off its URDF frame "
-     "(sensor_frame) by roll, pitch, yaw (rad, fixed axes x, y, z): its readings and the "
-     f"ground truth are in the mounted frame; {_START}", True, None),
-    ("sensor_profile", DEFAULT_PROFILE, f"the sensor's parts: {sorted(PROFILES)} "
-     f"(com_core.sensing.sensor_profiles); each part below, when set, overrides it; "
-     f"{_START}", True, None),
-    ("sigma_f", _PROFILE, "sensor noise per published force sample, N; " + _OF, False, None),
-    ("sigma_tau", _PROFILE, "sensor noise per published torque sample, N m; " + _OF, False, None),
-    ("correlation_time", _PROFILE, "s; the sensor's first-order low-pass (its noise AR(1) at "
-     "the publish rate; 0: white); " + _OF, False, None),
-    ("bias_f", 0.0, "sensor bias on each force axis, N", False, None),
-    ("bias_tau", 0.0, "sensor bias on each torque axis, N m", False, None),
-    ("bias_drift", [0.0] * 6, "sensor bias drift from sim time 0, per axis: forces N/s, "
-     "torques N m/s (a sensor warming up)", False, None),
-    ("resolution_f", _PROFILE, "force quantisation step, N; 0 = none; " + _OF, False, None),
-    ("resolution_tau", _PROFILE, "torque quantisation step, N m; 0 = none; " + _OF, False, None),
-    ("limit_f", _PROFILE, "force range (saturation), N; 0 = none; " + _OF, False, None),
-    ("limit_tau", _PROFILE, "torque range (saturation), N m; 0 = none; " + _OF, False, None),
-    ("sensor_serial", 0, "which sensor: its calibration error is drawn from this, the same in "
-     f"every run of one sensor whatever the seed; {_START}", True, None),
-    ("calibration_accuracy", _PROFILE, "fraction of full scale (limit_f, limit_tau), 95 %: the "
-     f"calibration error drawn from the seed; {_OF}; {_START}", True, None),
-    ("warmup_f", _PROFILE, f"N: spread of each force axis's warm-up offset; {_OF}; {_START}",
-     True, None),
-    ("warmup_tau", _PROFILE, f"N m: the same for torques; {_OF}; {_START}", True, None),
-    ("warmup_time", _PROFILE, f"s: the warm-up's time constant; {_OF}; {_START}", True, None),
-    ("random_walk_f", _PROFILE, f"N/sqrt(s): the bias's random walk; {_OF}; {_START}", True,
-     None),
-    ("random_walk_tau", _PROFILE, f"N m/sqrt(s): the same for torques; {_OF}; {_START}", True,
-     None),
-    ("vibration_hz", [-1.0], "Hz: the arm's structural modes ([-1.0]: the profile's; [0.0]: "
-     f"none); {_START}", True, None),
-    ("vibration_damping", [-1.0], "damping ratio per mode ([-1.0]: the profile's); "
-     f"{_START}", True, None),
-    ("rate", 1000.0, "wrench publish rate, Hz; must divide 1000", False, 1.0),
-    ("clock_rate", 250.0, f"/clock publish rate, Hz (sim); must divide 1000; {_START}", True,
-     1.0),
-    ("real_time_factor", 0.0, "sim s per wall s; 0 = as fast as possible", False, 0.0),
-    ("push_duration", 1.0, f"how long each push on {APPLY_WRENCH_TOPIC} acts on the held "
-     "object, s of sim time, > 0 (whole 1 ms steps, at least one); for pushes received from "
-     "then on", False, 0.0),
-] + [
-    (key, value, f"robot configuration (com_core.robot.config); {_START}", True, None)
-    for key, value in default_robot_config().parameters().items()
-]  # fmt: skip
+_PROFILE = dict(keep=(math.nan,), low=0.0)  # a sensor part: NaN leaves the profile's
+
+
+def _divides_physics(rate: float) -> str:
+    return "" if abs(1000.0 / rate % 1) < 1e-9 else "must divide the 1000 Hz physics rate"
+
+
+_RATE = dict(unit="Hz", low=0.0, high=1000.0, low_open=True, check=_divides_physics,
+             fix="1000, 500, 250, 200, 100, ... Hz")  # fmt: skip
+
+PARAMETERS = table_of([
+    Input("object", "box", f"shape; {_START}", kind="str", choices=tuple(sorted(SHAPES)),
+          read_only=True),
+    Input("object_mass", 0.1, f"object mass; {_START}", unit="kg", low=0.0, high=5.0,
+          low_open=True, read_only=True, fix="an object the arm carries (Panda 3 kg, xArm6 5 kg)"),
+    Input("object_com_offset", Parameter.Type.DOUBLE_ARRAY, "COM minus geometric centre, "
+          "object frame, inside wrench_sim.objects.holdable_com_range(object) (box |x|, |y| "
+          "<= 0.02; cylinder hypot(x, y) <= 0.02; mug hypot(x, y) <= 0.0224; |z| <= half "
+          f"height); unset: drawn from the seed; {_START}", kind="floats", unit="m",
+          low=-0.1, high=0.1, lengths=(3,), keep=(None,), read_only=True),
+    Input("seed", 0, f"seeds the COM draw, sensor noise and grasp shifts; {_START}",
+          kind="int", low=0, high=2**31 - 1, read_only=True),
+    Input("grasp_mode", "rigid", _START, kind="str", choices=GRASP_MODES, read_only=True),
+    Input("slip_sigma", 0.0, "rigid mode: sigma of the object's shift at each new tilt",
+          unit="m", low=0.0, high=0.01),
+    Input("hand_mass", 0.0, "mass of the links beyond the sensor (hand or gripper, fingers); "
+          f"0 = the URDF's; {_START}", unit="kg", low=0.0, high=10.0, read_only=True),
+    Input("grip_force", 5.0, f"friction mode: force limit per finger; {_START}", unit="N",
+          low=0.0, high=1000.0, low_open=True, read_only=True),
+    Input("gui", False, f"open the pybullet window; {_START}", kind="bool", read_only=True),
+    Input("sensor_mount_rpy", [0.0, 0.0, 0.0], "the F/T sensor mounted off its URDF frame "
+          "(sensor_frame) by roll, pitch, yaw (fixed axes x, y, z): its readings and the "
+          f"ground truth are in the mounted frame; {_START}", kind="floats", unit="rad",
+          low=-math.pi, high=math.pi, low_open=True, high_open=True, lengths=(3,),
+          read_only=True),
+    Input("sensor_profile", DEFAULT_PROFILE, "the sensor's parts "
+          "(com_core.sensing.sensor_profiles); each part below, when set, overrides it; "
+          f"{_START}", kind="str", choices=tuple(sorted(PROFILES)), read_only=True),
+    Input("sigma_f", math.nan, f"sensor noise per published force sample; {_OF}", unit="N",
+          high=100.0, **_PROFILE),
+    Input("sigma_tau", math.nan, f"sensor noise per published torque sample; {_OF}",
+          unit="N m", high=10.0, **_PROFILE),
+    Input("correlation_time", math.nan, "the sensor's first-order low-pass (its noise AR(1) "
+          f"at the publish rate; 0: white); {_OF}", unit="s", high=1.0, **_PROFILE),
+    Input("bias_f", 0.0, "sensor bias on each force axis", unit="N", low=-1000.0, high=1000.0),
+    Input("bias_tau", 0.0, "sensor bias on each torque axis", unit="N m", low=-100.0,
+          high=100.0),
+    Input("bias_drift", [0.0] * 6, "sensor bias drift from sim time 0, per axis: forces N/s, "
+          "torques N m/s (a sensor warming up)", kind="floats", low=-10.0, high=10.0,
+          lengths=(6,)),
+    Input("resolution_f", math.nan, f"force quantisation step; 0 = none; {_OF}", unit="N",
+          high=100.0, **_PROFILE),
+    Input("resolution_tau", math.nan, f"torque quantisation step; 0 = none; {_OF}",
+          unit="N m", high=10.0, **_PROFILE),
+    Input("limit_f", math.nan, f"force range (saturation); 0 = none; {_OF}", unit="N",
+          high=1e5, **_PROFILE),
+    Input("limit_tau", math.nan, f"torque range (saturation); 0 = none; {_OF}", unit="N m",
+          high=1e4, **_PROFILE),
+    Input("sensor_serial", 0, "which sensor: its calibration error is drawn from this, the "
+          f"same in every run of one sensor whatever the seed; {_START}", kind="int", low=0,
+          high=2**31 - 1, read_only=True),
+    Input("calibration_accuracy", math.nan, "fraction of full scale (limit_f, limit_tau), "
+          f"95 %: the calibration error drawn from the seed; {_OF}; {_START}", high=1.0,
+          high_open=True, read_only=True, **_PROFILE),
+    Input("warmup_f", math.nan, f"spread of each force axis's warm-up offset; {_OF}; "
+          f"{_START}", unit="N", high=100.0, read_only=True, **_PROFILE),
+    Input("warmup_tau", math.nan, f"the same for torques; {_OF}; {_START}", unit="N m",
+          high=10.0, read_only=True, **_PROFILE),
+    Input("warmup_time", math.nan, f"the warm-up's time constant; {_OF}; {_START}", unit="s",
+          high=1e6, read_only=True, **_PROFILE),
+    Input("random_walk_f", math.nan, f"the bias's random walk; {_OF}; {_START}",
+          unit="N/sqrt(s)", high=10.0, read_only=True, **_PROFILE),
+    Input("random_walk_tau", math.nan, f"the same for torques; {_OF}; {_START}",
+          unit="N m/sqrt(s)", high=1.0, read_only=True, **_PROFILE),
+    Input("vibration_hz", [-1.0], "the arm's structural modes ([-1.0]: the profile's; [0.0]: "
+          f"none); {_START}", kind="floats", unit="Hz", low=0.0, high=500.0, low_open=True,
+          high_open=True, keep=([-1.0], [0.0]), read_only=True),
+    Input("vibration_damping", [-1.0], f"damping ratio per mode ([-1.0]: the profile's); "
+          f"{_START}", kind="floats", low=0.0, high=1.0, high_open=True, keep=([-1.0],),
+          read_only=True),
+    Input("rate", 1000.0, "wrench publish rate", **_RATE),
+    Input("clock_rate", 250.0, f"/clock publish rate (sim); {_START}", read_only=True, **_RATE),
+    Input("real_time_factor", 0.0, "sim s per wall s; 0 = as fast as possible", low=0.0,
+          high=1000.0),
+    Input("push_duration", 1.0, f"how long each push on {APPLY_WRENCH_TOPIC} acts on the held "
+          "object, s of sim time (whole 1 ms steps, at least one); for pushes received from "
+          "then on", unit="s", low=0.0, high=60.0, low_open=True),
+])  # fmt: skip
+"""The sim's own parameters by name; the robot configuration's keys come besides them."""
 PROFILE_PARAMETERS = tuple(f.name for f in fields(SensorProfile) if f.name != "vibration_gain")
 """The sensor parts a parameter of the same name overrides (NaN, [-1.0]: the profile's)."""
 SENSOR_PARAMETERS = (*PROFILE_PARAMETERS, "bias_f", "bias_tau")
@@ -106,7 +136,8 @@ def is_unset(value: object) -> bool:
 
 
 def sensor_profile(values: dict) -> SensorProfile:
-    """The profile ``values['sensor_profile']`` with every part set in ``values``."""
+    """The profile ``values['sensor_profile']`` with every part set in ``values``;
+    InputError when the parts make no sensor (``SensorProfile.problems``)."""
     parts = {
         name: tuple(v) if isinstance(v, (list, tuple)) else v
         for name, v in values.items()
@@ -114,60 +145,37 @@ def sensor_profile(values: dict) -> SensorProfile:
     }
     if parts.get("vibration_hz") == (0.0,):
         parts["vibration_hz"], parts["vibration_damping"] = (), ()
-    return PROFILES[values["sensor_profile"]].with_overrides(**parts)
+    profile = PROFILES[values["sensor_profile"]].with_overrides(**parts)
+    if problems := profile.problems():
+        raise InputError("; ".join(problems))
+    return profile
 
 
-def check_parameter(parameter: Parameter, shape: str | None = None) -> str | None:
-    """Reason why a parameter value is refused, or None when it is fine.
-
-    ``shape`` is the ``object`` parameter's value if known: ``object_com_offset`` must then lie
-    in ``holdable_com_range(shape)``.
-    """
+def check_parameter(parameter: Parameter, shape: str | None = None) -> str:
+    """Why a parameter value is refused ('' when it is taken): its row's check, and
+    ``object_com_offset`` inside ``holdable_com_range(shape)`` when ``shape`` (the
+    ``object`` parameter's value) is known. A robot configuration's keys are checked by
+    ``RobotConfig``."""
     name, value = parameter.name, parameter.value
-    if name == "sensor_profile" and value not in PROFILES:
-        return f"sensor_profile {value!r} is none of {sorted(PROFILES)}"
-    if name in PROFILE_PARAMETERS and not is_unset(value):
-        values = list(value) if isinstance(value, (list, tuple)) else [value]
-        if not all(isinstance(v, float) and math.isfinite(v) and v >= 0 for v in values):
-            return f"{name}={value!r} refused: finite values >= 0 (NaN or [-1.0]: the profile's)"
-        if name == "calibration_accuracy" and value >= 1.0:
-            return f"calibration_accuracy={value!r} refused: a fraction in [0, 1)"
-        if name == "vibration_damping" and any(v >= 1.0 for v in values):
-            return f"vibration_damping={value!r} refused: damping ratios in [0, 1)"
-    if name == "object" and value not in SHAPES:
-        return f"object must be one of {sorted(SHAPES)}"
-    if name == "grasp_mode" and value not in GRASP_MODES:
-        return f"grasp_mode must be one of {list(GRASP_MODES)}"
-    if name == "object_com_offset" and value is not None:
-        if len(value) != 3:
-            return "object_com_offset must be 3 values (m), or unset to draw it from the seed"
-        if shape in SHAPES:
-            return com_offset_problem(shape, value)
-    if name == "sensor_mount_rpy" and (
-        len(value) != 3 or not all(math.isfinite(v) and abs(v) < math.pi for v in value)
-    ):
-        return "sensor_mount_rpy must be 3 finite angles (rad) within +-pi"
-    if name == "bias_drift" and (len(value) != 6 or not all(map(math.isfinite, value))):
-        return "bias_drift must be 6 finite rates (3 forces N/s, 3 torques N m/s)"
-    if name in ("rate", "clock_rate") and not (
-        0.0 < value <= 1000.0 and abs(1000.0 / value % 1) < 1e-9
-    ):
-        return f"{name} must divide the 1000 Hz physics rate (1000, 500, 250, 200, 100, ... Hz)"
-    if name == "push_duration" and not value > 0.0:
-        return "push_duration must be > 0 s"
-    if isinstance(value, float) and not math.isfinite(value) and name not in PROFILE_PARAMETERS:
-        return f"{name} must be finite"
-    return None
+    row = PARAMETERS.get(name)
+    if row is None:
+        return ""
+    if why := row.problem(value):
+        return why
+    if name == "object_com_offset" and value is not None and shape in SHAPES:
+        return com_offset_problem(shape, value) or ""
+    return ""
 
 
 def declare_parameters(node: Node) -> None:
-    """Declare every parameter of ``PARAMETERS`` on ``node`` with its descriptor."""
-    for name, default, description, read_only, low in PARAMETERS:
-        ranges = [FloatingPointRange(from_value=low, to_value=math.inf)] if low is not None else []
-        descriptor = ParameterDescriptor(
-            description=description,
-            read_only=read_only,
-            floating_point_range=ranges,
-            dynamic_typing=name in KEYS,  # a robot file's 0 for 0.0
-        )
-        node.declare_parameter(name, default, descriptor)
+    """Declare every parameter of ``PARAMETERS`` on ``node`` with its descriptor, and the
+    robot configuration's keys (read-only; the Panda's by default)."""
+    for row in PARAMETERS.values():
+        node.declare_parameter(row.name, row.default, ParameterDescriptor(**row.descriptor()))
+    robot = ParameterDescriptor(
+        description=f"robot configuration (com_core.robot.config); {_START}",
+        read_only=True,
+        dynamic_typing=True,  # a robot file's 0 for 0.0
+    )
+    for key, value in default_robot_config().parameters().items():
+        node.declare_parameter(key, value, robot)

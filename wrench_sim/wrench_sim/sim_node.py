@@ -52,7 +52,7 @@ import rclpy
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import InertiaStamped, WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.exceptions import ParameterUninitializedException
+from rclpy.exceptions import ParameterException, ParameterUninitializedException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -77,7 +77,8 @@ from com_core.contract import (
     TRUTH_TOPIC,
     WRENCH_TOPIC,
 )
-from com_core.robot.config import KEYS, RobotConfig
+from com_core.inputs import InputError
+from com_core.robot.config import KEYS, RobotConfig, RobotConfigError
 from com_core.runtime.rosenv import keep_dds_local
 from com_core.sensing.sensor_profiles import SensorProfile
 from com_core.sensing.wrench_model import SensorModel, calibration_matrix, rotation_about
@@ -227,7 +228,7 @@ class SimNode(Node):
         shape = self.get_parameter("object").value if self.has_parameter("object") else None
         for parameter in parameters:
             reason = check_parameter(parameter, shape)
-            if reason is not None:
+            if reason:
                 return SetParametersResult(successful=False, reason=reason)
         if not hasattr(self, "world"):
             return SetParametersResult(successful=True)  # still declaring
@@ -260,7 +261,7 @@ class SimNode(Node):
             positions = [list(p.positions) for p in msg.points]
             start = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
             end = self.world.command_arm(list(msg.joint_names), times, positions, start)
-        except Exception as error:  # a bad command must never stop the sim
+        except ValueError as error:  # a bad command is refused; the sim goes on
             self.get_logger().error(f"rejected joint trajectory: {error}")
             return
         self.get_logger().info(
@@ -274,7 +275,7 @@ class SimNode(Node):
             if len(msg.data) != 1:
                 raise ValueError(f"expected 1 value (the gripper's position), got {len(msg.data)}")
             self.world.command_gripper(float(msg.data[0]))
-        except Exception as error:
+        except ValueError as error:
             self.get_logger().error(f"rejected gripper command: {error}")
             return
         self.get_logger().info(f"gripper to {msg.data[0]:.4f}")
@@ -293,7 +294,7 @@ class SimNode(Node):
             start = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
             duration = self.get_parameter("push_duration").value
             start, end = self.world.apply_wrench(force, torque, frame, start, duration)
-        except Exception as error:  # a bad command must never stop the sim
+        except ValueError as error:
             self.get_logger().error(f"rejected push: {error}")
             return
         self._push_scheduled = True
@@ -465,7 +466,7 @@ def main(args: list[str] | None = None) -> int:
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = SimNode()
-    except Exception as error:  # report a bad parameter or robot configuration, exit cleanly
+    except (ParameterException, InputError, RobotConfigError) as error:  # the user's input
         rclpy.logging.get_logger("wrench_sim").error(f"cannot start: {error}")
         rclpy.try_shutdown()
         return 1

@@ -35,6 +35,7 @@ __all__ = [
     "HAND_COMMAND_TOPIC",
     "HAND_TRUTH_TOPIC",
     "INPUT_STATUS_NAME",
+    "INTERNAL_ERROR",
     "JOINT_STATES_TOPIC",
     "LATCHED_TOPICS",
     "LATEST_LABEL_KEY",
@@ -149,6 +150,10 @@ DONE = "done"
 """Ends the exploration: solve from the windows before it."""
 CANCELLED = "cancelled"
 """Ends an exploration that was cancelled: its windows are dropped, nothing is solved."""
+INTERNAL_ERROR = "internal error"
+"""How a node, the replay or the demo names an exception that reached its top level: a
+defect of this project, never a user's input (which is refused by name where it enters,
+``com_core.inputs``). Each is logged with its traceback and counted."""
 
 
 def done_stamp(labels: Sequence[tuple[int, str]]) -> int | None:

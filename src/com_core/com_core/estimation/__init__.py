@@ -72,10 +72,10 @@ from com_core.estimation.known_gravity import (
 )
 from com_core.estimation.settings import (
     SETTINGS,
+    defaults,
     exploration_from,
     load_cached_tares,
     robot_from,
-    setting_problem,
     use_cached_tares,
 )
 from com_core.estimation.solution import (
@@ -178,6 +178,7 @@ __all__ = [
     "chi2_isf",
     "chi2_sf",
     "crlb",
+    "defaults",
     "drift",
     "drift_accepted",
     "exploration_from",
@@ -200,7 +201,6 @@ __all__ = [
     "robot_from",
     "save_tares",
     "segments",
-    "setting_problem",
     "settled_start",
     "shorten",
     "solve",

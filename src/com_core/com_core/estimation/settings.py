@@ -28,6 +28,7 @@ from com_core.estimation.fits import (
 from com_core.estimation.inbox import MAX_LABEL_GAP
 from com_core.estimation.known_gravity import BIAS_DRIFT_RATE
 from com_core.estimation.tare_cache import TareCache, load_tares
+from com_core.inputs import Input, table_of
 from com_core.robot.config import default_robot_config
 from com_core.robot.model import DEFAULT_GRAVITY, KinematicsError, RobotModel
 from com_core.sensing.calibration import Calibration
@@ -36,10 +37,10 @@ from com_core.sensing.wrench_model import SensorModel
 
 __all__ = [
     "SETTINGS",
+    "defaults",
     "exploration_from",
     "load_cached_tares",
     "robot_from",
-    "setting_problem",
     "use_cached_tares",
 ]
 
@@ -48,82 +49,77 @@ CALIBRATION_ACCURACY = _REALISTIC.calibration_accuracy
 FULL_SCALE = (_REALISTIC.limit_f, _REALISTIC.limit_tau)
 """The estimator's defaults: the default sensor profile's datasheet figures."""
 
-SETTINGS: dict[str, tuple[Any, str]] = {
-    "method": ("ml", "'ml' (multi-pose maximum likelihood) or 'two_pose' (the paper)"),
-    "alpha": (DEFAULT_ALPHA, "false-alarm rate of the object-moved test, in (0, 0.5)"),
-    "expected_frame": ("ft_sensor", "frame_id wrenches must carry; others are dropped"),
-    "sigma_f": (
-        0.0,
-        "sensor force noise per sample, N, for windows too few to learn the noise from "
-        "(0: unknown; the noise is learnt from the static windows, com_core.sensing.noise)",
-    ),
-    "sigma_tau": (0.0, "sensor torque noise per sample, N m (as sigma_f)"),
-    "accuracy": (
-        CALIBRATION_ACCURACY,
-        "the sensor's calibration accuracy, a fraction of full scale (95 %): a systematic "
-        "term of the kinematic fit's covariance (com_core.sensing.calibration); 0: exact",
-    ),
-    "full_scale": (
-        list(FULL_SCALE),
-        "N, N m: the sensor's full scale in force and torque (weighs the calibration's "
-        "cross-talk)",
-    ),
-    "limit_f": (0.0, "sensor force range, N (0: no saturation check)"),
-    "limit_tau": (0.0, "sensor torque range, N m (0: no saturation check)"),
-    "min_tilt_sigmas": (MIN_TILT_SIGMAS, "refuse tilts below this many sigma of noise"),
-    "max_label_gap": (
-        MAX_LABEL_GAP,
-        "s (sensor time) without a label after which a label starts a new exploration (0: never)",
-    ),
-    "tare_cache": ("", "file of cached tare windows for poses without a fresh tare ('': none)"),
-    "information": (
-        KINEMATICS_MOUNT,
-        "ml's information: 'wrenches' (gravity directions unknown), 'kinematics' (from the "
-        "URDF and joints, with the hand and the bias fitted) or 'kinematics+mount' (and the "
-        "sensor's mounting and the base tilt); two_pose uses the wrenches",
-    ),
-    "robot_description": ("", "URDF text or file for 'kinematics' ('': /robot_description)"),
-    "sensor_frame": (
-        default_robot_config().sensor_frame,
-        "URDF frame of the F/T sensor (the wrenches' frame; robot configuration)",
-    ),
-    "base_frame": ("", "URDF frame gravity is given in ('': the URDF's root)"),
-    "gravity": (list(DEFAULT_GRAVITY), "m/s^2 in base_frame (a tilted base gives its own)"),
-    "bias_drift_rate": (
-        list(BIAS_DRIFT_RATE),
-        "N/s, N m/s: 1-sigma drift rate of the sensor bias to allow for within a run "
-        "(kinematic information; [0, 0]: a constant bias within a run)",
-    ),
-    "max_drift_f": (MAX_DRIFT_F, "N; a larger bias drift since the cached tare is a WARN"),
-    "max_drift_tau": (MAX_DRIFT_TAU, "N m; a larger bias drift since the cached tare is a WARN"),
-}
-"""name: (default, description with units)."""
-
-_CHECKS = {
-    "method": lambda v: v in METHODS,
-    "information": lambda v: v in INFORMATION,
-    "robot_description": lambda v: isinstance(v, str),
-    "sensor_frame": lambda v: isinstance(v, str) and v != "",
-    "base_frame": lambda v: isinstance(v, str),
-    "gravity": lambda v: len(v) == 3 and 0 < math.hypot(*v) < math.inf,
-    "bias_drift_rate": lambda v: len(v) == 2 and all(0 <= r < math.inf for r in v),
-    "alpha": lambda v: 0.0 < v < 0.5,
-    "accuracy": lambda v: isinstance(v, float) and 0.0 <= v < 1.0,
-    "full_scale": lambda v: len(v) == 2 and all(0 < x < math.inf for x in v),
-    "expected_frame": lambda v: isinstance(v, str),
-    "tare_cache": lambda v: isinstance(v, str),
-}
+_NOISE = dict(low=0.0, high=1000.0)
+_TEXT = dict(kind="str")
+_DRIFT = dict(low=0.0, high=1000.0)
 
 
-def setting_problem(name: str, value: Any) -> str | None:
-    """Why ``value`` is refused for setting ``name`` (None: accepted). Numbers other than
-    ``alpha`` must be floats >= 0."""
-    check = _CHECKS.get(name, lambda v: isinstance(v, float) and v >= 0.0)
-    try:
-        ok = check(value)
-    except TypeError:
-        ok = False
-    return None if ok else f"{name}={value!r} refused: {SETTINGS[name][1]}"
+def _gravity(value: list[float]) -> str:
+    norm = math.hypot(*value)
+    return "" if 1.0 <= norm <= 100.0 else f"its norm {norm:.4g} m/s^2 is outside [1, 100]"
+
+
+def _urdf(value: str) -> str:
+    """Why a robot_description is refused: a file that cannot be read ('' text or file)."""
+    if not value or value.lstrip().startswith("<"):
+        return ""
+    return "" if Path(value).is_file() else f"is neither URDF text nor a file ({value} is none)"
+
+
+SETTINGS = table_of([
+    Input("method", "ml", "'ml' (multi-pose maximum likelihood) or 'two_pose' (the paper)",
+          kind="str", choices=METHODS),
+    Input("alpha", DEFAULT_ALPHA, "false-alarm rate of the object-moved test", low=0.0,
+          high=0.5, low_open=True, high_open=True),
+    Input("expected_frame", "ft_sensor", "frame_id wrenches must carry; others are dropped",
+          **_TEXT),
+    Input("sigma_f", 0.0, "sensor force noise per sample, for windows too few to learn the "
+          "noise from (0: unknown; the noise is learnt from the static windows, "
+          "com_core.sensing.noise)", unit="N", **_NOISE),
+    Input("sigma_tau", 0.0, "sensor torque noise per sample (as sigma_f)", unit="N m",
+          **_NOISE),
+    Input("accuracy", CALIBRATION_ACCURACY, "the sensor's calibration accuracy, a fraction of "
+          "full scale (95 %): a systematic term of the kinematic fit's covariance "
+          "(com_core.sensing.calibration); 0: exact", low=0.0, high=1.0, high_open=True),
+    Input("full_scale", list(FULL_SCALE), "the sensor's full scale in force and torque "
+          "(weighs the calibration's cross-talk)", kind="floats", unit="N, N m", low=0.0,
+          high=1e6, low_open=True, lengths=(2,)),
+    Input("limit_f", 0.0, "sensor force range (0: no saturation check)", unit="N", low=0.0,
+          high=1e6),
+    Input("limit_tau", 0.0, "sensor torque range (0: no saturation check)", unit="N m",
+          low=0.0, high=1e6),
+    Input("min_tilt_sigmas", MIN_TILT_SIGMAS, "refuse tilts below this many sigma of noise",
+          low=0.0, high=1000.0),
+    Input("max_label_gap", MAX_LABEL_GAP, "(sensor time) without a label after which a label "
+          "starts a new exploration (0: never)", unit="s", low=0.0, high=1e6),
+    Input("tare_cache", "", "file of cached tare windows for poses without a fresh tare "
+          "('': none)", **_TEXT),
+    Input("information", KINEMATICS_MOUNT, "ml's information: 'wrenches' (gravity directions "
+          "unknown), 'kinematics' (from the URDF and joints, with the hand and the bias "
+          "fitted) or 'kinematics+mount' (and the sensor's mounting and the base tilt); "
+          "two_pose uses the wrenches", kind="str", choices=INFORMATION),
+    Input("robot_description", "", "URDF text or file for 'kinematics' ('': "
+          "/robot_description)", kind="str", check=_urdf),
+    Input("sensor_frame", default_robot_config().sensor_frame, "URDF frame of the F/T sensor "
+          "(the wrenches' frame; robot configuration)", kind="str",
+          check=lambda v: "" if v else "must name a frame"),
+    Input("base_frame", "", "URDF frame gravity is given in ('': the URDF's root)", **_TEXT),
+    Input("gravity", list(DEFAULT_GRAVITY), "in base_frame (a tilted base gives its own)",
+          kind="floats", unit="m/s^2", low=-100.0, high=100.0, lengths=(3,), check=_gravity),
+    Input("bias_drift_rate", list(BIAS_DRIFT_RATE), "1-sigma drift rate of the sensor bias to "
+          "allow for within a run (kinematic information; [0, 0]: a constant bias within a "
+          "run)", kind="floats", unit="N/s, N m/s", lengths=(2,), **_DRIFT),
+    Input("max_drift_f", MAX_DRIFT_F, "a larger bias drift since the cached tare is a WARN",
+          unit="N", **_DRIFT),
+    Input("max_drift_tau", MAX_DRIFT_TAU, "a larger bias drift since the cached tare is a "
+          "WARN", unit="N m", **_DRIFT),
+])  # fmt: skip
+"""The estimator's settings by name (``com_core.inputs``)."""
+
+
+def defaults() -> dict[str, Any]:
+    """Every setting at its default."""
+    return {name: row.default for name, row in SETTINGS.items()}
 
 
 def exploration_from(settings: Mapping[str, Any], urdf: str = "") -> Exploration:
@@ -133,7 +129,7 @@ def exploration_from(settings: Mapping[str, Any], urdf: str = "") -> Exploration
     text or file), else from ``urdf`` (what /robot_description carried); a URDF that does
     not serve leaves the robot model unset and says why in ``robot_problem``. The cached
     tare is not read here (``load_cached_tares``)."""
-    value = {name: settings.get(name, default) for name, (default, _) in SETTINGS.items()}
+    value = defaults() | dict(settings)
     sensor = None
     if any(value[k] > 0 for k in ("sigma_f", "sigma_tau", "limit_f", "limit_tau")):
         sensor = SensorModel.from_scalars(
@@ -166,7 +162,7 @@ def robot_from(settings: Mapping[str, Any], urdf: str = "") -> tuple[RobotModel 
     """(the robot model, '') of ``settings``' robot_description (a URDF text or file),
     else of ``urdf`` (what /robot_description carried), sensor_frame, base_frame and
     gravity; (None, why) when there is none or it does not serve."""
-    value = {name: settings.get(name, default) for name, (default, _) in SETTINGS.items()}
+    value = defaults() | dict(settings)
     text = _urdf_text(value["robot_description"]) or urdf
     if not text:
         return None, "no robot description received"

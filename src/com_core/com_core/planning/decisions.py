@@ -14,7 +14,6 @@ gravity (``held_mass``, ``grasp_holds``).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, fields, replace
 from itertools import pairwise
@@ -58,7 +57,6 @@ __all__ = [
     "held_mass",
     "may_hold_object",
     "newest_hand_model",
-    "parameter_problem",
     "plan_for_target",
     "plan_within_reach",
     "planned_run_time",
@@ -80,16 +78,6 @@ BIAS_WINDOW_SUFFIX = "_check"
 """The empty-hand window at home of a run with a cached tare (matches no object window)."""
 BIAS_AFTER_SUFFIX = "_after"
 """The empty-hand window after the pass (kinematic information)."""
-
-_POSITIVE = ("dwell", "tare_dwell", "speed", "rate", "mass_guess", "grasp_check_dwell")
-_NON_NEGATIVE = (
-    "settle",
-    "target_com_sigma",
-    "sigma_f",
-    "sigma_tau",
-    "min_load",
-    "verify_dwell",
-)
 
 Poses = list[tuple[str, list[float]]]
 """(pose name, arm joints in rad) per pose, in the pass's order."""
@@ -133,21 +121,6 @@ class RunSettings:
         for name in ("tilt_axes", "com_guess"):
             values[name] = tuple(values[name])
         return cls(**values)
-
-
-def parameter_problem(name: str, value: Any) -> str:
-    """Why a run's parameter refuses ``value`` ('' when it takes it)."""
-    if name in ("tilt", "max_tilt") and not 0.0 < value < math.pi / 2:
-        return "must be in (0, pi/2) rad"
-    if name == "tilt_axes" and (not value or any(a not in ("x", "y") for a in value)):
-        return "must be a non-empty list of 'x' and 'y'"
-    if name == "com_guess" and len(value) != 3 and list(value) != [0.0]:
-        return "must be 3 values (m) or [0.0] for the grasp centre"
-    if name in _POSITIVE and value <= 0:
-        return "must be > 0"
-    if name in _NON_NEGATIVE and value < 0:
-        return "must be >= 0"
-    return ""
 
 
 def tare_cache_path(tare_cache: str, bag_dir: str) -> Path:

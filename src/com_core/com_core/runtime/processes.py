@@ -3,7 +3,8 @@
 The demo, the benchmarks and the system tests start the nodes as processes (there are no
 launch files); these are the one way they do it. ``ros_args`` writes parameters as
 ``--ros-args -p name:=value`` (after a ``--params-file``, such as a robot configuration);
-``stop`` ends a process the way a terminal's Ctrl-C would, then harder.
+``stop`` ends a process the way a terminal's Ctrl-C would, then harder; ``last_error_line``
+finds what a process that ended said last about why.
 """
 
 from __future__ import annotations
@@ -14,7 +15,14 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-__all__ = ["STOP_SEQUENCE", "executable", "parameter_text", "ros_args", "stop"]
+__all__ = [
+    "STOP_SEQUENCE",
+    "executable",
+    "last_error_line",
+    "parameter_text",
+    "ros_args",
+    "stop",
+]
 
 STOP_SEQUENCE = ((signal.SIGINT, 10.0), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0))
 """(signal, s to wait for the process after it): SIGINT lets a node leave DDS cleanly."""
@@ -80,3 +88,11 @@ def stop(
         except subprocess.TimeoutExpired:
             continue
     return None
+
+
+def last_error_line(output: str) -> str:
+    """The last line of a process's ``output`` that holds ``[ERROR]`` or ``[FATAL]`` (a ROS
+    log line of either severity), else its last non-empty line ('' if none), stripped."""
+    lines = [line.strip() for line in output.splitlines() if line.strip()]
+    errors = [line for line in lines if "[ERROR]" in line or "[FATAL]" in line]
+    return (errors or lines or [""])[-1]

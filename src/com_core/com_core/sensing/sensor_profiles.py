@@ -28,6 +28,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
 
+from com_core.inputs import refusal
+
 __all__ = ["DEFAULT_PROFILE", "PROFILES", "SensorProfile"]
 
 
@@ -59,6 +61,36 @@ class SensorProfile:
         if unknown:
             raise ValueError(f"no sensor part named {', '.join(unknown)}")
         return replace(self, **values)  # type: ignore[arg-type]
+
+    def problems(self) -> list[str]:
+        """Why these parts make no sensor ([] when they do), each naming a part, its value
+        and the fix (``com_core.inputs.refusal``): a vibration mode without its damping,
+        and a quantised axis without the noise that dithers it (a reading that only
+        steps, which the estimator's motion test reads as motion)."""
+        out = []
+        if len(self.vibration_hz) != len(self.vibration_damping):
+            out.append(
+                refusal(
+                    "vibration_damping",
+                    list(self.vibration_damping),
+                    f"one damping ratio per mode of vibration_hz {list(self.vibration_hz)}",
+                )
+            )
+        for axis, unit in (("f", "N"), ("tau", "N m")):
+            sigma, step = getattr(self, f"sigma_{axis}"), getattr(self, f"resolution_{axis}")
+            if step > 0 and sigma < step / 2:
+                out.append(
+                    refusal(
+                        f"sigma_{axis}",
+                        sigma,
+                        f"below half the resolution_{axis} {step:g} {unit}: a quantised "
+                        "reading without noise to dither it only steps, and a step reads "
+                        "as motion",
+                        f"set sigma_{axis} >= {step / 2:g} {unit}, or resolution_{axis} 0 "
+                        "too (or the profile 'ideal' for a sensor without noise)",
+                    )
+                )
+        return out
 
     @property
     def modes(self) -> tuple[tuple[float, float], ...]:

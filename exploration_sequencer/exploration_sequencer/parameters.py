@@ -1,0 +1,85 @@
+"""The sequencer's parameters: name, default, meaning and range (``com_core.inputs``).
+
+An Explore goal's options and the demo's flags that set them are checked against the
+same rows. Besides these, the node reads every key of a robot configuration
+(``com_core.robot.config``), read-only.
+"""
+
+from __future__ import annotations
+
+import math
+
+from com_core.inputs import Input, table_of
+
+__all__ = ["PARAMETERS"]
+
+_TILT = dict(unit="rad", low=0.0, high=math.pi / 2, low_open=True, high_open=True)
+_DWELL = dict(unit="s", low=0.0, high=300.0, low_open=True)
+_WAIT = dict(unit="s", low=0.0, high=600.0, low_open=True)
+_PLAN_NOISE = "for the prediction until a tare pass of the hand in the tare cache has learnt it"
+
+
+def _distinct(axes: list[str]) -> str:
+    return "" if len(set(axes)) == len(axes) else "names an axis twice"
+
+
+PARAMETERS = table_of([
+    Input("tilt", math.pi / 6, "wrist tilt from home about each axis", **_TILT,
+          fix="a tilt the wrist makes from home, e.g. 0.52 (30 deg)"),
+    Input("tilt_axes", ["y", "x"], "sensor axes to tilt about (the pass visits y first)",
+          kind="strings", choices=("y", "x"), lengths=(1, 2), check=_distinct),
+    Input("both_directions", True, "tilt +tilt and -tilt about each axis (false: the "
+          "paper's one)", kind="bool"),
+    Input("dwell", 0.9, "samples per object window", **_DWELL),
+    Input("tare_dwell", 5.0, "samples per tare window (empty hand; cached per hand)", **_DWELL),
+    Input("settle", 0.3, "wait after a motion before a window starts", unit="s", low=0.0,
+          high=10.0),
+    Input("speed", 1.35, "mean joint speed, capped per joint by the URDF's velocity limits",
+          unit="rad/s", low=0.0, high=10.0, low_open=True),
+    Input("max_tilt", math.pi / 6, "the largest tilt the object allows (a full mug: small)",
+          **_TILT),
+    Input("raise_tilt", False, "with target_com_sigma: the tilt may be raised up to max_tilt",
+          kind="bool"),
+    Input("target_com_sigma", 0.0, "extend dwell until the predicted COM sigma meets it "
+          "(0: off)", unit="m", low=0.0, high=0.1),
+    Input("fewer_poses", False, "with target_com_sigma: the planner may drop poses for a "
+          "shorter pass", kind="bool"),
+    Input("max_object_time", 20.0, "(sim) the object pass may take when meeting "
+          "target_com_sigma", unit="s", low=0.0, high=3600.0, low_open=True),
+    Input("sigma_f", 0.1, f"the sensor's force noise per sample, {_PLAN_NOISE}", unit="N",
+          low=0.0, high=100.0, low_open=True),
+    Input("sigma_tau", 0.005, "the sensor's torque noise per sample (as sigma_f)",
+          unit="N m", low=0.0, high=10.0, low_open=True),
+    Input("correlation_time", 0.005, "the sensor's noise correlation time (its first-order "
+          "low-pass), for the prediction (as sigma_f)", unit="s", low=0.0, high=1.0),
+    Input("rate", 1000.0, "the sensor's rate (for the prediction)", unit="Hz", low=0.0,
+          high=100_000.0, low_open=True),
+    Input("mass_guess", 0.1, "a guess of the object's mass (for the prediction)", unit="kg",
+          low=0.0, high=100.0, low_open=True),
+    Input("com_guess", [0.0], "a guess of the COM in ft_sensor ([0.0]: the grasp centre)",
+          kind="floats", unit="m", low=-1.0, high=1.0, lengths=(3,), keep=([0.0],)),
+    Input("sim_timeout", 5.0, "(wall) without /joint_states before a run fails", **_WAIT),
+    Input("estimate_timeout", 10.0, "(wall) to wait for the estimator: to hear us, to answer",
+          **_WAIT),
+    Input("bag_dir", "bags", "directory that receives one rosbag2 directory per run",
+          kind="str", check=lambda v: "" if v.strip() else "must name a directory"),
+    Input("tare_cache", "", "file of the cached tare pass ('': <bag_dir>/tare_cache.json)",
+          kind="str"),
+    Input("tare_max_age", 3600.0, "a cached tare older than this is taken again", unit="s",
+          low=0.0, high=1e9),
+    Input("bias_dwell", 3.0, "the empty-hand windows at home before the grasp (with a cached "
+          "tare) and, with kinematic information, after the release: they give the run's "
+          "sensor bias and its drift (with the wrenches alone, the first checks the cache's "
+          "drift)", **_DWELL),
+    Input("verify_dwell", 2.0, "the window at the verification pose (20 deg about the "
+          "sensor's diagonal, no fit uses it) after the object pass, with kinematic "
+          "information; 0: none", unit="s", low=0.0, high=300.0),
+    Input("release", True, "put the object back on its stand after the run (false: the run "
+          "ends holding it at home, for the compensated wrench; no empty-hand window after "
+          "it)", kind="bool"),
+    Input("min_load", 0.005, "the grasp must hold at least this before the object pass",
+          unit="kg", low=0.0, high=100.0),
+    Input("grasp_check_dwell", 0.2, "samples at home after lifting that check the grasp",
+          **_DWELL),
+])  # fmt: skip
+"""The parameters by name."""
