@@ -9,7 +9,8 @@
   to a file under tmp_path (parameters as ``com_core.runtime.processes.ros_args`` writes them);
   every node is stopped at teardown (``com_core.runtime.processes.stop``: SIGINT, then SIGTERM,
   then SIGKILL), and its log tail is printed when the test failed; a node still running at
-  teardown must end on SIGINT with exit code 0 and no traceback, or the test errors.
+  teardown must end on SIGINT with exit code 0, and no node may log a traceback or an
+  internal error however it ended, or the test errors.
 - ``rclpy_context``: an rclpy Context on the same domain, shut down at teardown;
   ``wait_for_messages`` and ``spin_until`` wait on it with a timeout.
 - ``replay_json(bag)``: the installed replay's --json answer; ``write_stream_bag(path,
@@ -32,6 +33,7 @@ from typing import Any
 
 import pytest
 
+from com_core.contract import INTERNAL_ERROR
 from com_core.robot.config import read_robot_config, urdf_file
 from com_core.runtime.processes import STOP_SEQUENCE, executable, ros_args, stop
 
@@ -127,6 +129,15 @@ def unclean_exit(process: subprocess.Popen, sig: signal.Signals | None, log: str
     return ", ".join(f"{text!r} in its output" for text in UNCLEAN_EXIT if text in log)
 
 
+DEFECTS = (INTERNAL_ERROR, "Traceback")
+"""Text no node's output may hold, however it ended: a defect, never a user's input."""
+
+
+def defect_logged(log: str) -> str:
+    """What of DEFECTS a node's output holds ('' if none)."""
+    return ", ".join(f"{text!r} in its output" for text in DEFECTS if text in log)
+
+
 def log_tail(path: Path, lines: int = _LOG_TAIL_LINES) -> str:
     """The last ``lines`` lines of a log file."""
     try:
@@ -181,13 +192,16 @@ def start_node(
         f"{log_path.name}: {why}"
         for (process, log_path), sig in zip(started, stopped_by, strict=True)
         if (why := unclean_exit(process, sig, log_path.read_text(errors="replace")))
+        or (why := defect_logged(log_path.read_text(errors="replace")))
     ]
     if failed or unclean:
         for process, log_path in started:
             print(f"\n----- {log_path.name} (exit code {process.returncode}), last lines -----")
             print(log_tail(log_path))
     if unclean and not failed:
-        pytest.fail("nodes did not shut down cleanly on SIGINT: " + "; ".join(unclean))
+        pytest.fail(
+            "nodes did not shut down cleanly on SIGINT, or logged a defect: " + "; ".join(unclean)
+        )
 
 
 @pytest.fixture

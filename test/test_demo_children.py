@@ -3,9 +3,12 @@ its exit code and its last error line (``last_error_line`` of its log), and exit
 
 from __future__ import annotations
 
+import os
+import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -51,34 +54,78 @@ def test_last_error_line_of_no_output_is_empty():
     assert last_error_line("\n \n") == ""
 
 
-@pytest.mark.system
-def test_the_demo_reports_a_simulator_that_refuses_its_mass(ros_env, tmp_path):
+@pytest.mark.parametrize(
+    ("flags", "refusal"),
+    [
+        (["--tilt", "3.0"], "--tilt=3.0 refused: must be in (0, pi/2) rad; "),
+        (["--mass", "-1"], "--mass=-1.0 refused: must be in [0.001, 5] kg; "),
+        (["--mass", "nan"], "--mass=nan refused: must be a finite number [0.001, 5] kg; "),
+        (["--sigma-f", "0"], "sigma_f=0.0 refused: below half the resolution_f 0.0625 N"),
+        (["--axes", "y,z"], "--axes=['y', 'z'] refused: must be one of ['y', 'x']"),
+        (["--slip-sigma", "1e-3", "--grasp-mode", "friction"], "--slip-sigma=0.001 refused"),
+    ],
+)
+def test_a_flag_without_meaning_is_refused_by_name_before_any_node_starts(
+    flags, refusal, tmp_path
+):
     bags = tmp_path / "bags"
-    began = time.monotonic()
+    done = subprocess.run(
+        [sys.executable, "-m", "exploration_sequencer.demo", *flags, "--bag-dir", bags],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 2, done.stdout + done.stderr
+    assert f"demo: {refusal}" in done.stderr, done.stderr
+    assert "started" not in done.stdout and not bags.exists()
+
+
+def demo_child(demo: subprocess.Popen, script: str, timeout: float) -> int | None:
+    """The PID of the demo's child process that runs ``script``, once it runs."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and demo.poll() is None:
+        children = Path(f"/proc/{demo.pid}/task/{demo.pid}/children").read_text().split()
+        for pid in children:
+            try:
+                if script in Path(f"/proc/{pid}/cmdline").read_text():
+                    return int(pid)
+            except OSError:
+                continue
+        time.sleep(0.1)
+    return None
+
+
+@pytest.mark.system
+def test_the_demo_reports_a_simulator_that_died_at_once(ros_env, tmp_path):
+    """The simulator killed while the demo waits for its run: the demo ends within
+    seconds, naming it, its exit code and its last line, and exits with 1."""
+    bags = tmp_path / "bags"
     demo = subprocess.Popen(
-        [sys.executable, "-m", "exploration_sequencer.demo", "--mass", "-1", "--bag-dir", bags],
+        [sys.executable, "-m", "exploration_sequencer.demo", "--bag-dir", bags],
         env=ros_env,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
     )
     try:
+        sim = demo_child(demo, "sim_node", 30.0)
+        assert sim is not None, "the demo did not start the simulator"
+        time.sleep(2.0)  # under way
+        os.kill(sim, signal.SIGKILL)
+        began = time.monotonic()
         out, _ = demo.communicate(timeout=DEMO_DEADLINE)
     except subprocess.TimeoutExpired:
         stop(demo)  # SIGINT: the demo stops its nodes before it ends
         out, _ = demo.communicate()
-        pytest.fail(f"the demo still ran after {DEMO_DEADLINE:g} s:\n{out}")
-    wall = time.monotonic() - began
+        pytest.fail(f"the demo still ran {DEMO_DEADLINE:g} s after the simulator died:\n{out}")
+    finally:
+        if demo.poll() is None:
+            stop(demo)
     assert demo.returncode == 1, out
-    assert wall < DEMO_DEADLINE, out
-    assert "=== summary ===" in out, out
+    assert time.monotonic() - began < DEMO_DEADLINE, out
     summary = out.split("=== summary ===", 1)[1].splitlines()
-    # the sequencer may refuse its mass_guess as well: one line per node that ended
-    sim = [line for line in summary if line.startswith("exited:   wrench_sim, ")]
-    assert len(sim) == 1, out
-    assert sim[0].startswith("exited:   wrench_sim, exit code 1: [ERROR] "), out
-    assert "cannot start" in sim[0] and "object_mass" in sim[0] and "-1" in sim[0], out
-    assert sim[0].endswith(last_error_line((bags / "logs" / "wrench_sim.log").read_text()))
-    # the run did not go on without the simulator
+    died = [line for line in summary if line.startswith("exited:   wrench_sim, ")]
+    assert died and died[0].startswith("exited:   wrench_sim, exit code -9 (Killed): "), out
+    assert died[0].endswith(last_error_line((bags / "logs" / "wrench_sim.log").read_text()))
     assert "is wrench_sim running?" not in out and "no answer within" not in out, out
     assert (bags / "logs" / "exploration_sequencer.log").is_file()

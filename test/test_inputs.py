@@ -75,7 +75,7 @@ def test_what_a_table_says_each_input_takes():
     assert TILT.allowed() == "(0, pi/2) rad"
     assert GUESS.allowed() == "3 values, each [-1, 1] m; or [0.0]"
     assert SEQUENCER["tilt_axes"].allowed() == "1 or 2 values, each y | x"
-    assert SEQUENCER["sim_timeout"].allowed() == "(0, 600] s"
+    assert SEQUENCER["sim_timeout"].allowed() == "[0.5, 600] s"
     assert SETTINGS["alpha"].allowed() == "(0, 0.5)"
 
 

@@ -286,7 +286,10 @@ def test_malformed_commands_are_logged_and_ignored(sim):
 def test_invalid_parameter_is_refused_with_a_message(start_node):
     process = start_node("sim_node", "wrench_sim", {"object": "sphere"})
     assert process.wait(timeout=30) != 0
-    assert "object must be one of" in process.log_path.read_text()
+    log = process.log_path.read_text()
+    assert (
+        "cannot start: object='sphere' refused: must be one of ['box', 'cylinder', 'mug']\n" in log
+    ), log
 
 
 def test_a_com_offset_the_sim_cannot_hold_is_refused_with_the_range(start_node):

@@ -246,13 +246,9 @@ def test_the_sensor_parts_parameters_are_checked():
     range is refused naming the parameter, the value and the range; parts that make no
     sensor together are refused naming the part and the fix."""
     pytest.importorskip("rclpy")
-    from rclpy.parameter import Parameter
-
     from com_core.inputs import InputError
-    from wrench_sim.parameters import check_parameter, sensor_profile
-
-    def reason(name: str, value: object) -> str:
-        return check_parameter(Parameter(name, value=value))
+    from wrench_sim.parameters import check_parameter as reason
+    from wrench_sim.parameters import sensor_profile
 
     for name, value, allowed in (
         ("sigma_f", -0.1, "[0, 100] N"),

@@ -97,7 +97,7 @@ from com_core.payload.files import read_payload, write_payload_files
 from com_core.payload.model import Payload, PayloadError, payload_from_solution
 from com_core.robot.config import default_robot_config
 from com_core.robot.model import RobotModel
-from com_core.runtime.rosenv import keep_dds_local, stop_on_signals
+from com_core.runtime.rosenv import keep_dds_local, start_refusal, stop_on_signals
 
 MAX_MESSAGE_LENGTH = 1000  # characters of a diagnostic message
 LIVE_KEYS = frozenset(
@@ -591,7 +591,7 @@ def main(args: list[str] | None = None) -> int:
     try:
         node = EstimatorNode()
     except ParameterException as error:  # a parameter refused (com_core.inputs)
-        rclpy.logging.get_logger("com_estimator").error(f"cannot start: {error}")
+        rclpy.logging.get_logger("com_estimator").error(f"cannot start: {start_refusal(error)}")
         rclpy.try_shutdown()
         return 1
     executor = EventsExecutor()

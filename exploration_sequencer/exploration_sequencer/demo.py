@@ -39,12 +39,16 @@ from com_core.contract import (
     TRUTH_TOPIC,
 )
 from com_core.estimation.fits import INFORMATION
+from com_core.estimation.settings import SETTINGS
 from com_core.estimation.solution import noise_line, vector_value, verification_lines
+from com_core.inputs import Input, InputError
 from com_core.payload.files import PAYLOAD_FILE
 from com_core.robot.config import ROBOTS, RobotConfigError, read_robot_config, robot_config_path
 from com_core.runtime.processes import executable, last_error_line, ros_args, stop
 from com_core.runtime.rosenv import keep_dds_local
 from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES
+from exploration_sequencer.parameters import PARAMETERS as SEQUENCER
+from wrench_sim.parameters import check_parameter, sensor_profile
 
 CANCEL_WAIT = 8.0  # s for a cancelled goal's result before the nodes are stopped
 POLL = 0.2  # s between checks that the nodes still run, while waiting on the sequencer
@@ -130,9 +134,43 @@ def main(argv: list[str] | None = None) -> int:
     params_file = robot_config_path(args.robot)
     print(f"robot: {robot.robot} ({params_file})", flush=True)
     keep_dds_local(own_domain=True)
-    args.bag_dir.mkdir(parents=True, exist_ok=True)
+    sim_params, estimator_params, sequencer_params = node_parameters(args)
+    refused = flag_refusals(args, sim_params, estimator_params, sequencer_params)
+    if refused:  # before any node starts
+        print("\n".join(f"demo: {line}" for line in refused), file=sys.stderr)
+        return 2
     logs = args.bag_dir / "logs"
-    logs.mkdir(exist_ok=True)
+    try:
+        logs.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        print(f"demo: --bag-dir={str(args.bag_dir)!r} refused: {error}", file=sys.stderr)
+        return 2
+    started = time.monotonic()
+    children: list[Child] = []
+    try:
+        for package, name, params, echo in (
+            ("wrench_sim", "sim_node", sim_params, False),
+            ("com_estimator", "estimator_node", estimator_params, False),
+            ("exploration_sequencer", "sequencer_node", sequencer_params, True),
+        ):
+            command = [str(executable(package, name)), *ros_args(params, params_file=params_file)]
+            children.append(start_child(package, command, logs / f"{package}.log", echo))
+            print(f"started {package}/{name} (log: {children[-1].log})", flush=True)
+        return run_exploration(args, started, children)
+    except KeyboardInterrupt:  # the sequencer, stopped first, cancels the run cleanly
+        print("\ndemo: interrupted: cancelling the run, then stopping the nodes", flush=True)
+        return 130
+    finally:
+        for child in reversed(children):
+            stop(child.process)
+            if child.copier is not None:  # the rest of its output, up to its end
+                child.copier.join(timeout=2.0)
+
+
+def node_parameters(
+    args: argparse.Namespace,
+) -> tuple[dict[str, object], dict[str, object], dict[str, object]]:
+    """The parameters the flags give the simulator, the estimator and the sequencer."""
     # the noise per sample when given: the sim's, and the sequencer's for its first plan
     noise = {
         k: v
@@ -163,7 +201,7 @@ def main(argv: list[str] | None = None) -> int:
         "release": not args.hold,
         "bag_dir": str(args.bag_dir.resolve()),
         "tare_cache": tare_cache,
-    } | noise
+    } | {k: v for k, v in noise.items() if v > 0}  # none: it plans for its own until a tare
     for key, value in (
         ("tilt", args.tilt),
         ("max_tilt", args.max_tilt),
@@ -172,26 +210,53 @@ def main(argv: list[str] | None = None) -> int:
     ):
         if value is not None:  # else the sequencer's own default
             sequencer_params[key] = value
-    started = time.monotonic()
-    children: list[Child] = []
+    return sim_params, estimator_params, sequencer_params
+
+
+FLAGS = {
+    "object_mass": "--mass",
+    "mass_guess": "--mass",
+    "seed": "--seed",
+    "slip_sigma": "--slip-sigma",
+    "sigma_f": "--sigma-f",
+    "sigma_tau": "--sigma-tau",
+    "real_time_factor": "--real-time-factor",
+    "tilt": "--tilt",
+    "max_tilt": "--max-tilt",
+    "dwell": "--dwell",
+    "target_com_sigma": "--target-sigma",
+    "tilt_axes": "--axes",
+    "bag_dir": "--bag-dir",
+}
+"""The demo's flag for each node parameter it sets from one (the others are its own)."""
+TIMEOUT = Input("timeout", 300.0, "for the whole exploration", unit="s", low=0.0,
+                high=86400.0, low_open=True)  # fmt: skip
+
+
+def flag_refusals(
+    args: argparse.Namespace,
+    sim: dict[str, object],
+    estimator: dict[str, object],
+    sequencer: dict[str, object],
+) -> list[str]:
+    """Why the flags cannot run ([] when they can), each naming the flag: every value the
+    nodes would take checked by its parameter's row (``com_core.inputs``), and the
+    simulated sensor's parts together (``SensorProfile.problems``)."""
+    out: dict[str, str] = {}  # by flag: the first refusal (--mass sets two parameters)
+    for name, value in sim.items():
+        out.setdefault(
+            FLAGS.get(name, name), check_parameter(name, value, sim, FLAGS.get(name, ""))
+        )
+    for table, params in ((SETTINGS, estimator), (SEQUENCER, sequencer)):
+        for name, value in params.items():
+            if name in table and not out.get(flag := FLAGS.get(name, name)):
+                out[flag] = table[name].problem(value, FLAGS.get(name, ""))
     try:
-        for package, name, params, echo in (
-            ("wrench_sim", "sim_node", sim_params, False),
-            ("com_estimator", "estimator_node", estimator_params, False),
-            ("exploration_sequencer", "sequencer_node", sequencer_params, True),
-        ):
-            command = [str(executable(package, name)), *ros_args(params, params_file=params_file)]
-            children.append(start_child(package, command, logs / f"{package}.log", echo))
-            print(f"started {package}/{name} (log: {children[-1].log})", flush=True)
-        return run_exploration(args, started, children)
-    except KeyboardInterrupt:  # the sequencer, stopped first, cancels the run cleanly
-        print("\ndemo: interrupted: cancelling the run, then stopping the nodes", flush=True)
-        return 130
-    finally:
-        for child in reversed(children):
-            stop(child.process)
-            if child.copier is not None:  # the rest of its output, up to its end
-                child.copier.join(timeout=2.0)
+        sensor_profile({"sensor_profile": args.sensor_profile} | sim)
+    except InputError as error:
+        out["sensor"] = str(error)
+    out["--timeout"] = TIMEOUT.problem(args.timeout, "--timeout")
+    return [line for line in out.values() if line]
 
 
 def start_child(package: str, command: list[str], log: Path, echo: bool) -> Child:

@@ -14,8 +14,8 @@ from com_core.inputs import Input, table_of
 __all__ = ["PARAMETERS"]
 
 _TILT = dict(unit="rad", low=0.0, high=math.pi / 2, low_open=True, high_open=True)
-_DWELL = dict(unit="s", low=0.0, high=300.0, low_open=True)
-_WAIT = dict(unit="s", low=0.0, high=600.0, low_open=True)
+_DWELL = dict(unit="s", low=0.1, high=300.0)  # 100 samples at 1 kHz and more
+_WAIT = dict(unit="s", low=0.5, high=600.0)
 _PLAN_NOISE = "for the prediction until a tare pass of the hand in the tare cache has learnt it"
 
 
@@ -35,7 +35,7 @@ PARAMETERS = table_of([
     Input("settle", 0.3, "wait after a motion before a window starts", unit="s", low=0.0,
           high=10.0),
     Input("speed", 1.35, "mean joint speed, capped per joint by the URDF's velocity limits",
-          unit="rad/s", low=0.0, high=10.0, low_open=True),
+          unit="rad/s", low=0.01, high=10.0),
     Input("max_tilt", math.pi / 6, "the largest tilt the object allows (a full mug: small)",
           **_TILT),
     Input("raise_tilt", False, "with target_com_sigma: the tilt may be raised up to max_tilt",
@@ -45,17 +45,17 @@ PARAMETERS = table_of([
     Input("fewer_poses", False, "with target_com_sigma: the planner may drop poses for a "
           "shorter pass", kind="bool"),
     Input("max_object_time", 20.0, "(sim) the object pass may take when meeting "
-          "target_com_sigma", unit="s", low=0.0, high=3600.0, low_open=True),
+          "target_com_sigma", unit="s", low=1.0, high=3600.0),
     Input("sigma_f", 0.1, f"the sensor's force noise per sample, {_PLAN_NOISE}", unit="N",
-          low=0.0, high=100.0, low_open=True),
+          low=1e-6, high=100.0),
     Input("sigma_tau", 0.005, "the sensor's torque noise per sample (as sigma_f)",
-          unit="N m", low=0.0, high=10.0, low_open=True),
+          unit="N m", low=1e-7, high=10.0),
     Input("correlation_time", 0.005, "the sensor's noise correlation time (its first-order "
           "low-pass), for the prediction (as sigma_f)", unit="s", low=0.0, high=1.0),
-    Input("rate", 1000.0, "the sensor's rate (for the prediction)", unit="Hz", low=0.0,
-          high=100_000.0, low_open=True),
+    Input("rate", 1000.0, "the sensor's rate (for the prediction)", unit="Hz", low=1.0,
+          high=100_000.0),
     Input("mass_guess", 0.1, "a guess of the object's mass (for the prediction)", unit="kg",
-          low=0.0, high=100.0, low_open=True),
+          low=1e-3, high=100.0),
     Input("com_guess", [0.0], "a guess of the COM in ft_sensor ([0.0]: the grasp centre)",
           kind="floats", unit="m", low=-1.0, high=1.0, lengths=(3,), keep=([0.0],)),
     Input("sim_timeout", 5.0, "(wall) without /joint_states before a run fails", **_WAIT),
@@ -80,6 +80,6 @@ PARAMETERS = table_of([
     Input("min_load", 0.005, "the grasp must hold at least this before the object pass",
           unit="kg", low=0.0, high=100.0),
     Input("grasp_check_dwell", 0.2, "samples at home after lifting that check the grasp",
-          **_DWELL),
+          unit="s", low=0.05, high=300.0),
 ])  # fmt: skip
 """The parameters by name."""

@@ -108,16 +108,16 @@ from com_core.planning.decisions import (
     held_mass,
     may_hold_object,
     newest_hand_model,
-    plan_for_target,
     plan_within_reach,
     planned_run_time,
     planning_noise,
+    predicted_run,
     tare_cache_path,
     tare_decision,
     tare_reuse,
 )
 from com_core.planning.planner import Plan
-from com_core.planning.prediction import predict
+from com_core.planning.prediction import Prediction
 from com_core.robot.choreography import VERIFY_POSE, Choreography
 from com_core.robot.config import (
     BAG_ROBOT_FILE,
@@ -127,7 +127,7 @@ from com_core.robot.config import (
     default_robot_config,
     write_robot_config,
 )
-from com_core.runtime.rosenv import keep_dds_local, stop_on_signals
+from com_core.runtime.rosenv import keep_dds_local, start_refusal, stop_on_signals
 from com_core.sensing.calibration import Calibration
 from com_core.sensing.noise import NoiseModel
 from com_interfaces.action import Explore
@@ -273,20 +273,20 @@ class SequencerNode(Node):
         bias_drift_rate: tuple[float, ...],
         motion: Choreography,
         calibration: Calibration | None = None,
-    ) -> tuple[Plan, Poses]:
-        """The plan of ``settings`` and the joints of its poses (``plan_within_reach``,
-        ``plan_for_target``), each pose refused and each change logged. RunError when no
-        plan is feasible (the reason says what would be)."""
+    ) -> tuple[Plan, Poses, Prediction]:
+        """The plan of ``settings``, the joints of its poses and its prediction
+        (``plan_within_reach``, ``predicted_run``), each pose refused and each change
+        logged. RunError when no plan is feasible (the reason says what would be)."""
         try:
             planned = plan_within_reach(settings, motion, noise, calibration, bias_drift_rate)
             for refusal in planned.refusals:
                 self.get_logger().warning(f"refused before moving: {refusal}")
-            planned = plan_for_target(planned, settings, motion, method, information)
+            planned, prediction = predicted_run(planned, settings, motion, method, information)
         except PlanInfeasible as exc:
             raise RunError(str(exc)) from exc
         for change in planned.changes:
             self.get_logger().warning(f"plan changed: {change}")
-        return planned.plan, planned.poses
+        return planned.plan, planned.poses, prediction
 
     def _cache_path(self) -> Path:
         return tare_cache_path(self.p("tare_cache"), self.p("bag_dir"))
@@ -497,10 +497,9 @@ class SequencerNode(Node):
         calibration = estimator_calibration(accuracy, full_scale)
         settings = self.settings()
         noise, source = self.planning_noise(settings)
-        plan, poses = self._planned(
+        plan, poses, prediction = self._planned(
             settings, noise, method, information, drift_rate, motion, calibration
         )
-        prediction = predict(plan, method, information)
         log.info(f"planned for the sensor's {noise.summary()} ({source})")
         log.info(
             f"run {run_id}: {config.robot}, poses {[n for n, _ in poses]}, "
@@ -835,7 +834,7 @@ def main(args: list[str] | None = None) -> int:
     try:
         node = SequencerNode(io)
     except (RobotConfigError, ParameterException) as error:  # a robot file that cannot serve
-        io.get_logger().error(f"exploration_sequencer cannot start: {error}")
+        io.get_logger().error(f"exploration_sequencer cannot start: {start_refusal(error)}")
         io.destroy_node()
         rclpy.try_shutdown()
         return 1

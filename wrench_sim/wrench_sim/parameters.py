@@ -8,14 +8,16 @@ with ``--ros-args --params-file <file>`` (e.g. com_core's ``config/xarm6.yaml``)
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import fields
+from typing import Any
 
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from com_core.contract import APPLY_WRENCH_TOPIC
-from com_core.inputs import Input, InputError, table_of
+from com_core.inputs import Input, InputError, refusal, table_of
 from com_core.robot.config import default_robot_config
 from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES, SensorProfile
 from wrench_sim.objects import SHAPES, com_offset_problem
@@ -40,14 +42,14 @@ def _divides_physics(rate: float) -> str:
     return "" if abs(1000.0 / rate % 1) < 1e-9 else "must divide the 1000 Hz physics rate"
 
 
-_RATE = dict(unit="Hz", low=0.0, high=1000.0, low_open=True, check=_divides_physics,
+_RATE = dict(unit="Hz", low=1.0, high=1000.0, check=_divides_physics,
              fix="1000, 500, 250, 200, 100, ... Hz")  # fmt: skip
 
 PARAMETERS = table_of([
     Input("object", "box", f"shape; {_START}", kind="str", choices=tuple(sorted(SHAPES)),
           read_only=True),
-    Input("object_mass", 0.1, f"object mass; {_START}", unit="kg", low=0.0, high=5.0,
-          low_open=True, read_only=True, fix="an object the arm carries (Panda 3 kg, xArm6 5 kg)"),
+    Input("object_mass", 0.1, f"object mass; {_START}", unit="kg", low=1e-3, high=5.0,
+          read_only=True, fix="an object the arm carries (Panda 3 kg, xArm6 5 kg)"),
     Input("object_com_offset", Parameter.Type.DOUBLE_ARRAY, "COM minus geometric centre, "
           "object frame, inside wrench_sim.objects.holdable_com_range(object) (box |x|, |y| "
           "<= 0.02; cylinder hypot(x, y) <= 0.02; mug hypot(x, y) <= 0.0224; |z| <= half "
@@ -61,7 +63,7 @@ PARAMETERS = table_of([
     Input("hand_mass", 0.0, "mass of the links beyond the sensor (hand or gripper, fingers); "
           f"0 = the URDF's; {_START}", unit="kg", low=0.0, high=10.0, read_only=True),
     Input("grip_force", 5.0, f"friction mode: force limit per finger; {_START}", unit="N",
-          low=0.0, high=1000.0, low_open=True, read_only=True),
+          low=0.1, high=1000.0, read_only=True),
     Input("gui", False, f"open the pybullet window; {_START}", kind="bool", read_only=True),
     Input("sensor_mount_rpy", [0.0, 0.0, 0.0], "the F/T sensor mounted off its URDF frame "
           "(sensor_frame) by roll, pitch, yaw (fixed axes x, y, z): its readings and the "
@@ -115,11 +117,11 @@ PARAMETERS = table_of([
           read_only=True),
     Input("rate", 1000.0, "wrench publish rate", **_RATE),
     Input("clock_rate", 250.0, f"/clock publish rate (sim); {_START}", read_only=True, **_RATE),
-    Input("real_time_factor", 0.0, "sim s per wall s; 0 = as fast as possible", low=0.0,
-          high=1000.0),
+    Input("real_time_factor", 0.0, "sim s per wall s; 0 = as fast as possible", low=0.01,
+          high=1000.0, keep=(0.0,)),
     Input("push_duration", 1.0, f"how long each push on {APPLY_WRENCH_TOPIC} acts on the held "
           "object, s of sim time (whole 1 ms steps, at least one); for pushes received from "
-          "then on", unit="s", low=0.0, high=60.0, low_open=True),
+          "then on", unit="s", low=1e-3, high=60.0),
 ])  # fmt: skip
 """The sim's own parameters by name; the robot configuration's keys come besides them."""
 PROFILE_PARAMETERS = tuple(f.name for f in fields(SensorProfile) if f.name != "vibration_gain")
@@ -151,19 +153,25 @@ def sensor_profile(values: dict) -> SensorProfile:
     return profile
 
 
-def check_parameter(parameter: Parameter, shape: str | None = None) -> str:
-    """Why a parameter value is refused ('' when it is taken): its row's check, and
-    ``object_com_offset`` inside ``holdable_com_range(shape)`` when ``shape`` (the
-    ``object`` parameter's value) is known. A robot configuration's keys are checked by
-    ``RobotConfig``."""
-    name, value = parameter.name, parameter.value
+def check_parameter(
+    name: str, value: Any, others: Mapping[str, Any] | None = None, called: str = ""
+) -> str:
+    """Why the parameter ``name`` refuses ``value`` ('' when it takes it), naming it
+    ``called`` when given (a flag): its row's check, and with the values of ``others``
+    (``object``, ``grasp_mode``, when known): an ``object_com_offset`` inside
+    ``holdable_com_range(object)``, a ``slip_sigma`` only in rigid mode. A robot
+    configuration's keys are checked by ``RobotConfig``."""
     row = PARAMETERS.get(name)
     if row is None:
         return ""
-    if why := row.problem(value):
+    if why := row.problem(value, called):
         return why
-    if name == "object_com_offset" and value is not None and shape in SHAPES:
-        return com_offset_problem(shape, value) or ""
+    others = others or {}
+    if name == "object_com_offset" and value is not None and others.get("object") in SHAPES:
+        return com_offset_problem(others["object"], value) or ""
+    if name == "slip_sigma" and value > 0 and others.get("grasp_mode", "rigid") != "rigid":
+        return refusal(called or name, value, "applies to grasp_mode 'rigid' (friction mode "
+                       "slips)", "leave it 0 with grasp_mode 'friction'")  # fmt: skip
     return ""
 
 
@@ -171,7 +179,10 @@ def declare_parameters(node: Node) -> None:
     """Declare every parameter of ``PARAMETERS`` on ``node`` with its descriptor, and the
     robot configuration's keys (read-only; the Panda's by default)."""
     for row in PARAMETERS.values():
-        node.declare_parameter(row.name, row.default, ParameterDescriptor(**row.descriptor()))
+        descriptor = ParameterDescriptor(**row.descriptor())
+        # declared by its type, without a value (object_com_offset): rclpy types it statically
+        descriptor.dynamic_typing = not isinstance(row.default, Parameter.Type)
+        node.declare_parameter(row.name, row.default, descriptor)
     robot = ParameterDescriptor(
         description=f"robot configuration (com_core.robot.config); {_START}",
         read_only=True,

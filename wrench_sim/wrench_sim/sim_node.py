@@ -79,7 +79,7 @@ from com_core.contract import (
 )
 from com_core.inputs import InputError
 from com_core.robot.config import KEYS, RobotConfig, RobotConfigError
-from com_core.runtime.rosenv import keep_dds_local
+from com_core.runtime.rosenv import keep_dds_local, start_refusal
 from com_core.sensing.sensor_profiles import SensorProfile
 from com_core.sensing.wrench_model import SensorModel, calibration_matrix, rotation_about
 from wrench_sim.parameters import (
@@ -225,9 +225,10 @@ class SimNode(Node):
 
     def parameters_callback(self, parameters: list[Parameter]) -> SetParametersResult:
         """Refuse invalid values with a reason; apply sensor and timing changes at run time."""
-        shape = self.get_parameter("object").value if self.has_parameter("object") else None
+        others = {n: self.get_parameter(n).value for n in ("object", "grasp_mode") if
+                  self.has_parameter(n)}  # fmt: skip
         for parameter in parameters:
-            reason = check_parameter(parameter, shape)
+            reason = check_parameter(parameter.name, parameter.value, others)
             if reason:
                 return SetParametersResult(successful=False, reason=reason)
         if not hasattr(self, "world"):
@@ -245,8 +246,6 @@ class SimNode(Node):
             self._real_time_factor = changes["real_time_factor"]
             self._pace_origin = None
         if "slip_sigma" in changes:
-            if changes["slip_sigma"] > 0.0 and self.world.config.grasp_mode != "rigid":
-                return SetParametersResult(successful=False, reason="slip_sigma needs rigid mode")
             self.world.set_slip_sigma(changes["slip_sigma"])
         for name, value in changes.items():
             self.get_logger().info(f"parameter {name} set to {value}")
@@ -467,7 +466,7 @@ def main(args: list[str] | None = None) -> int:
     try:
         node = SimNode()
     except (ParameterException, InputError, RobotConfigError) as error:  # the user's input
-        rclpy.logging.get_logger("wrench_sim").error(f"cannot start: {error}")
+        rclpy.logging.get_logger("wrench_sim").error(f"cannot start: {start_refusal(error)}")
         rclpy.try_shutdown()
         return 1
     try:

@@ -18,7 +18,13 @@ import numpy as np
 import pinocchio
 from numpy.typing import NDArray
 
-from com_core.robot.config import RobotConfig, grasp_point, robot_problems, urdf_file
+from com_core.robot.config import (
+    RobotConfig,
+    RobotConfigError,
+    grasp_point,
+    robot_problems,
+    urdf_file,
+)
 from com_core.robot.model import KinematicsError, RobotModel
 
 __all__ = [
@@ -55,7 +61,7 @@ class CheckedUrdf:
 def checked_urdf(robot: RobotConfig, home: NDArray[np.float64], rigid: bool) -> CheckedUrdf:
     """The configuration's URDF, checked against it: its frames and joints, ``home`` (rad) and
     pick within the joint limits, the sensor's joint fixed with no arm joint beyond it, and
-    unless ``rigid`` two prismatic fingers. Raises ValueError naming what does not serve."""
+    unless ``rigid`` two prismatic fingers. Raises RobotConfigError naming what does not serve."""
     root = read_urdf(robot)
     try:
         model = RobotModel(ET.tostring(root, encoding="unicode"), robot.sensor_frame)
@@ -63,17 +69,17 @@ def checked_urdf(robot: RobotConfig, home: NDArray[np.float64], rigid: bool) -> 
     except KinematicsError as error:
         problems = [str(error)]
     if problems:
-        raise ValueError(f"robot {robot.robot} ({robot.urdf}): {'; '.join(problems)}")
+        raise RobotConfigError(f"robot {robot.robot} ({robot.urdf}): {'; '.join(problems)}")
     grasp = grasp_point(robot, model)
     sensor_joint, beyond = joints_beyond(root, robot.sensor_frame)
     if sensor_joint.get("type") != "fixed":
-        raise ValueError(
+        raise RobotConfigError(
             f"robot {robot.robot}: the joint before sensor_frame {robot.sensor_frame!r} "
             f"({sensor_joint.get('name')}) is {sensor_joint.get('type')}: the "
             "sensor reads a fixed joint"
         )
     if beyond_arm := set(robot.arm_joints) & {j.get("name") for j in beyond}:
-        raise ValueError(
+        raise RobotConfigError(
             f"robot {robot.robot}: arm_joints {', '.join(sorted(beyond_arm))} lie beyond "
             f"sensor_frame {robot.sensor_frame!r}"
         )
@@ -81,7 +87,7 @@ def checked_urdf(robot: RobotConfig, home: NDArray[np.float64], rigid: bool) -> 
         types = {j.get("name"): j.get("type") for j in beyond}
         fingers = [types.get(name) for name in robot.gripper_joints]
         if fingers != ["prismatic", "prismatic"]:
-            raise ValueError(
+            raise RobotConfigError(
                 f"grasp_mode 'friction' needs two prismatic finger joints (the Panda's "
                 f"hand); robot {robot.robot} has gripper_joints "
                 f"{', '.join(robot.gripper_joints)}: use grasp_mode 'rigid'"
@@ -106,7 +112,7 @@ def read_urdf(robot: RobotConfig) -> ET.Element:
     try:
         root = ET.parse(path).getroot()
     except (OSError, ET.ParseError) as error:
-        raise ValueError(f"urdf {robot.urdf!r}: cannot read it ({error})") from error
+        raise RobotConfigError(f"urdf {robot.urdf!r}: cannot read it ({error})") from error
     directory = os.path.dirname(os.path.abspath(path))
     for mesh in root.iter("mesh"):
         filename = mesh.get("filename", "").removeprefix("package://")
@@ -128,7 +134,9 @@ def joints_beyond(root: ET.Element, sensor_frame: str) -> tuple[ET.Element, list
         if child.get("link") == sensor_frame:
             sensor = joint
     if sensor is None:
-        raise ValueError(f"sensor_frame {sensor_frame!r} is no joint's child link in the URDF")
+        raise RobotConfigError(
+            f"sensor_frame {sensor_frame!r} is no joint's child link in the URDF"
+        )
     beyond, links = [], [sensor_frame]
     while links:
         for joint in children.get(links.pop(), []):

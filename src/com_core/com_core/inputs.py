@@ -127,14 +127,15 @@ class Input:
             "dynamic_typing": True,
         }
 
-    def problem(self, value: Any) -> str:
-        """Why ``value`` is refused ('' when accepted): the refusal line (``refusal``)."""
+    def problem(self, value: Any, called: str = "") -> str:
+        """Why ``value`` is refused ('' when accepted): the refusal line (``refusal``),
+        naming the input ``called`` when given (a command line's flag), else its name."""
         if any(_same(value, k) for k in self.keep):
             return ""
         why = self._why(value)
         if not why and self.check is not None:
             why = self.check(value)
-        return refusal(self.name, value, why, self.fix) if why else ""
+        return refusal(called or self.name, value, why, self.fix) if why else ""
 
     def _why(self, value: Any) -> str:
         kind = self.kind

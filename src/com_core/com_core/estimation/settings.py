@@ -63,7 +63,11 @@ def _urdf(value: str) -> str:
     """Why a robot_description is refused: a file that cannot be read ('' text or file)."""
     if not value or value.lstrip().startswith("<"):
         return ""
-    return "" if Path(value).is_file() else f"is neither URDF text nor a file ({value} is none)"
+    try:
+        Path(value).read_text()
+    except (OSError, UnicodeDecodeError) as error:
+        return f"is neither URDF text nor a readable file ({error})"
+    return ""
 
 
 SETTINGS = table_of([
@@ -82,8 +86,8 @@ SETTINGS = table_of([
           "full scale (95 %): a systematic term of the kinematic fit's covariance "
           "(com_core.sensing.calibration); 0: exact", low=0.0, high=1.0, high_open=True),
     Input("full_scale", list(FULL_SCALE), "the sensor's full scale in force and torque "
-          "(weighs the calibration's cross-talk)", kind="floats", unit="N, N m", low=0.0,
-          high=1e6, low_open=True, lengths=(2,)),
+          "(weighs the calibration's cross-talk)", kind="floats", unit="N, N m", low=1e-3,
+          high=1e6, lengths=(2,)),
     Input("limit_f", 0.0, "sensor force range (0: no saturation check)", unit="N", low=0.0,
           high=1e6),
     Input("limit_tau", 0.0, "sensor torque range (0: no saturation check)", unit="N m",
@@ -163,7 +167,10 @@ def robot_from(settings: Mapping[str, Any], urdf: str = "") -> tuple[RobotModel 
     else of ``urdf`` (what /robot_description carried), sensor_frame, base_frame and
     gravity; (None, why) when there is none or it does not serve."""
     value = defaults() | dict(settings)
-    text = _urdf_text(value["robot_description"]) or urdf
+    try:
+        text = _urdf_text(value["robot_description"]) or urdf
+    except (OSError, UnicodeDecodeError) as error:  # a file gone since it was checked
+        return None, f"robot_description: {error}"
     if not text:
         return None, "no robot description received"
     try:

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from com_core.estimation.errors import EstimationError
 from com_core.estimation.tare_cache import (
     TareCache,
     drift_accepted,
@@ -33,6 +34,7 @@ from com_core.estimation.tare_cache import (
 from com_core.estimation.windows import Window
 from com_core.planning.dwell import dwell_for_target
 from com_core.planning.planner import Plan
+from com_core.planning.prediction import Prediction, predict
 from com_core.planning.search import within_max_tilt
 from com_core.robot.choreography import Choreography, PoseUnreachable
 from com_core.sensing.calibration import Calibration
@@ -61,8 +63,10 @@ __all__ = [
     "plan_within_reach",
     "planned_run_time",
     "planning_noise",
+    "predicted_run",
     "reachable_tilt",
     "requested_plan",
+    "resolving_tilt",
     "tare_cache_path",
     "tare_decision",
     "tare_reuse",
@@ -281,6 +285,73 @@ def plan_for_target(
         raise PlanInfeasible(f"target COM sigma cannot be met: {advice.reason}")
     plan, poses = timed_plan(advice.plan, motion, settings.speed)
     return PlannedRun(plan, poses, planned.refusals, planned.changes + tuple(advice.changes))
+
+
+def predicted_run(
+    planned: PlannedRun,
+    settings: RunSettings,
+    motion: Choreography,
+    method: str,
+    information: str,
+) -> tuple[PlannedRun, Prediction]:
+    """``plan_for_target`` of ``planned`` and the sigmas predicted for it (``predict``).
+    PlanInfeasible, with the tilt that would do (``resolving_tilt``), when the plan's
+    orientations cannot resolve the fit the estimator makes (``information``: a kinematic
+    model with the sensor's mounting needs rotations about two axes, each well beyond the
+    noise); the target's own infeasibility as ``plan_for_target`` says it."""
+    try:
+        planned = plan_for_target(planned, settings, motion, method, information)
+        return planned, predict(planned.plan, method, information)
+    except EstimationError as error:
+        plan, target = planned.plan, settings.target_com_sigma
+        ceiling = reachable_tilt(replace(plan, tilt=settings.max_tilt), motion, [])
+        model = f"{method} ({information})" if method == "ml" else method
+        found = target and resolving_tilt(plan, method, information, ceiling, target)
+        if found:
+            goal = f" for a {target * 1e3:g} mm COM sigma at dwell {plan.dwell:g} s"
+            fix = "raise tilt or allow raise_tilt"
+        else:
+            found, goal = resolving_tilt(plan, method, information, ceiling), " to resolve it"
+            fix = "raise tilt" + (" and allow raise_tilt for the target" if target else "")
+        if found:
+            tilt, prediction = found
+            fix = f"it needs tilt >= {tilt:.3f} rad{goal} (predicted there: {prediction}); {fix}"
+        else:
+            fix = (
+                f"no tilt up to max_tilt {settings.max_tilt:.3f} rad within the arm's reach "
+                "resolves it: raise max_tilt, or choose information 'wrenches'"
+            )
+        raise PlanInfeasible(
+            f"tilt={plan.tilt!r} refused: too small for the {model} model ({error}); {fix}"
+        ) from error
+
+
+def resolving_tilt(
+    plan: Plan, method: str, information: str, ceiling: float, target: float = 0.0
+) -> tuple[float, Prediction] | None:
+    """(the smallest tilt, rad to 1 mrad, above ``plan``'s and up to ``ceiling`` at
+    which the fit of ``method`` and ``information`` is predicted without an
+    EstimationError and, with a ``target`` (m), each COM sigma within it; the prediction
+    there); None when even ``ceiling`` does not do."""
+
+    def prediction(tilt: float) -> Prediction | None:
+        try:
+            out = predict(replace(plan, tilt=tilt), method, information)
+        except EstimationError:
+            return None
+        return out if not target or max(out.sigma_com) <= target else None
+
+    low, high = plan.tilt, ceiling
+    best = prediction(high) if high > low else None
+    if best is None:
+        return None
+    while high - low > 1e-3:
+        middle = 0.5 * (low + high)
+        if (found := prediction(middle)) is not None:
+            high, best = middle, found
+        else:
+            low = middle
+    return high, best
 
 
 def cached_tare(

@@ -3,12 +3,14 @@
 from com_core.runtime.processes import (
     STOP_SEQUENCE,
     executable,
+    last_error_line,
     parameter_text,
     ros_args,
     stop,
 )
 from com_core.runtime.rosenv import (
     keep_dds_local,
+    start_refusal,
     stop_on_signals,
 )
 
@@ -16,8 +18,10 @@ __all__ = [
     "STOP_SEQUENCE",
     "executable",
     "keep_dds_local",
+    "last_error_line",
     "parameter_text",
     "ros_args",
+    "start_refusal",
     "stop",
     "stop_on_signals",
 ]

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import os
+import re
 import signal
 import threading
 
-__all__ = ["keep_dds_local", "stop_on_signals"]
+__all__ = ["keep_dds_local", "start_refusal", "stop_on_signals"]
 
 
 def keep_dds_local(own_domain: bool = False) -> None:
@@ -38,3 +39,17 @@ def stop_on_signals(
     for sig in signals:
         signal.signal(sig, lambda _signum, _frame: stopping.set())
     return stopping
+
+
+_REFUSED_AT_START = re.compile(
+    r"Invalid parameter value \(.*\) for parameter\. Reason: (.*): \S+", re.S
+)
+
+
+def start_refusal(error: Exception) -> str:
+    """The line a node that cannot start logs for ``error``: for a parameter its check
+    refused when declared (rclpy's InvalidParameterValueException), that check's own
+    refusal (``com_core.inputs``); else the error's text."""
+    text = str(error)
+    match = _REFUSED_AT_START.fullmatch(text)
+    return match.group(1) if match else text
