@@ -7,6 +7,7 @@ fails a test whose node logged one)."""
 from __future__ import annotations
 
 import math
+import subprocess
 import time
 from typing import Any
 
@@ -36,9 +37,11 @@ NODES = {
 
 def parameter(name: str, value: Any):
     """The rclpy Parameter of ``value``, or None when no client could send it (a list of
-    mixed types, None)."""
+    mixed types, None, an integer beyond 64 bits)."""
     from rclpy.parameter import Parameter
 
+    if isinstance(value, int) and not -(2**63) <= value < 2**63:
+        return None  # beyond int64: no parameter message holds it
     try:
         return Parameter(name, value=value)
     except (TypeError, ValueError, AssertionError):
@@ -106,6 +109,26 @@ def test_a_value_refused_at_start_ends_the_node_with_its_refusal(script, start_n
         assert process.wait(timeout=30) == 1, (name, value)
         log = process.log_path.read_text()
         assert f"cannot start: {name}=" in log and " refused: " in log, log
+
+
+@pytest.mark.parametrize("script", NODES)
+def test_values_taken_at_start_run_the_node(script, start_node):
+    """Drawn values a node's rows take, several at once: the node runs (its checks
+    between values may still refuse them, by name), and ends cleanly on SIGINT."""
+    package, _, table, params = NODES[script]
+    rng = np.random.default_rng(9)
+    for _ in range(2):
+        pool = sorted(set(table) - {"vibration_hz", "vibration_damping"})  # a pair: per mode
+        names = [str(n) for n in rng.choice(pool, 6, replace=False)]
+        values = {n: values_of(table[n], seed=int(rng.integers(1000)))[-1] for n in names}
+        taken = {n: v for n, v in values.items() if not expected_refusal(script, table[n], v)}
+        process = start_node(script, package, params | taken)
+        try:
+            code = process.wait(timeout=5.0)
+        except subprocess.TimeoutExpired:
+            continue  # running: stopped (SIGINT, exit 0) at teardown
+        log = process.log_path.read_text()
+        assert code == 1 and "cannot start: " in log and " refused: " in log, (taken, log)
 
 
 GOALS = [

@@ -342,16 +342,18 @@ class SimNode(Node):
     def _pace(self) -> None:
         """Service subscriptions; sleep (while spinning) to hold the real-time factor."""
         self.executor_.spin_once(timeout_sec=0)
-        if self._real_time_factor <= 0.0:
+        factor = self._real_time_factor  # one value throughout: a set may change it meanwhile
+        if factor <= 0.0:
             return
         if self._pace_origin is None:
             self._pace_origin = (time.perf_counter(), self.world.time)
         wall0, sim0 = self._pace_origin
-        ahead = wall0 + (self.world.time - sim0) / self._real_time_factor - time.perf_counter()
+        ahead = wall0 + (self.world.time - sim0) / factor - time.perf_counter()
         if ahead > 0.0:
             self.executor_.spin_once(timeout_sec=ahead)
-            remaining = wall0 + (self.world.time - sim0) / self._real_time_factor
-            time.sleep(max(0.0, remaining - time.perf_counter()))
+            if factor == self._real_time_factor:
+                remaining = wall0 + (self.world.time - sim0) / factor
+                time.sleep(max(0.0, remaining - time.perf_counter()))
 
     def _publish_clock(self, now: int) -> None:
         self._clock_msg.clock.sec, self._clock_msg.clock.nanosec = divmod(now, 1_000_000_000)

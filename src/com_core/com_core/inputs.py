@@ -18,6 +18,7 @@ Nothing here imports rclpy.
 from __future__ import annotations
 
 import math
+from array import array
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -130,6 +131,8 @@ class Input:
     def problem(self, value: Any, called: str = "") -> str:
         """Why ``value`` is refused ('' when accepted): the refusal line (``refusal``),
         naming the input ``called`` when given (a command line's flag), else its name."""
+        if isinstance(value, array):  # a ROS parameter's list
+            value = value.tolist()
         if any(_same(value, k) for k in self.keep):
             return ""
         why = self._why(value)
