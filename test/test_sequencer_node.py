@@ -29,6 +29,7 @@ from com_core.contract import (
 )
 from com_core.report.run import read_run
 from com_core.robot.config import BAG_ROBOT_FILE, read_robot_config, robot_config_path
+from com_core.runtime.processes import stop
 
 pytestmark = pytest.mark.system
 
@@ -680,16 +681,22 @@ def test_an_arm_left_away_from_home_with_open_fingers_goes_home_first(
 
 
 def test_the_three_nodes_with_their_defaults_give_an_estimate(start_node, client, tmp_path):
-    """Each node as `ros2 run` starts it, with nothing set but sim time and where the bags
-    go: the realistic sensor, its noise unknown to the estimator (learnt), the planner's
-    assumed noise. The run gives an estimate within 4.5 sigma of the truth."""
-    start_node("sim_node", "wrench_sim", params={"real_time_factor": 5.0})
-    start_node("estimator_node", "com_estimator", params={"use_sim_time": True})
-    start_node(
-        "sequencer_node",
-        "exploration_sequencer",
-        params={"use_sim_time": True, "bag_dir": str(tmp_path / "bags")},
-    )
+    """Each node as `ros2 run` starts it, with nothing set but where the bags go: the
+    simulator as fast as it can, the realistic sensor, its noise unknown to the estimator
+    (learnt), the planner's assumed noise. A sequencer on the wall clock is refused at
+    once, naming the fix (the sensor stamps sim time); on sim time, as the fix says, the
+    run gives an estimate within 4.5 sigma of the truth."""
+    bags = {"bag_dir": str(tmp_path / "bags")}
+    start_node("sim_node", "wrench_sim")
+    start_node("estimator_node", "com_estimator")
+    wall = start_node("sequencer_node", "exploration_sequencer", params=bags)
+    assert spin_until(client.node, lambda: "ready" in wall.log_path.read_text(), 30.0)
+    began = time.monotonic()
+    refused = client.wait(client.call())
+    assert not refused.success and "use_sim_time:=true" in refused.message, refused.message
+    assert time.monotonic() - began < 10.0 and "different clocks" in refused.message
+    assert stop(wall) == signal.SIGINT and wall.returncode == 0
+    start_node("sequencer_node", "exploration_sequencer", params={"use_sim_time": True} | bags)
     result = client.wait(client.call())
     assert result.message.startswith(("[OK]", "[WARN]")), result.message
     assert "internal error" not in result.message and "sensor noise" in result.message

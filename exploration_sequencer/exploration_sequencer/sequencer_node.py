@@ -139,6 +139,7 @@ from exploration_sequencer.parameters import PARAMETERS
 CANCEL_TIMEOUT = 8.0  # s (wall) a node stopping mid-run gives the way back (SIGINT: 10 s)
 FEEDBACK_PERIOD = 0.5  # s (wall) between an action's feedback messages
 LABEL_ACK_TIMEOUT = 10.0  # s (wall) a pose label waits for its readers' acknowledgement
+CLOCKS_APART = 3600 * 10**9  # ns between the sensor's stamps and this clock: two clocks
 
 
 class SequencerNode(Node):
@@ -462,20 +463,7 @@ class SequencerNode(Node):
                 f"{JOINT_STATES_TOPIC} has no {', '.join(missing)} of the robot configuration's "
                 f"arm_joints (it names {', '.join(self.io.joints)})"
             )
-        # The estimator hears the sensor on this clock (not a sensor that was restarted),
-        # and this node's labels: a "moving" now, which begins no window, must come back
-        # in its input status (a subscriber can match a publisher seconds after the
-        # publisher matched it, and then the first window labels would be lost).
-        handshake = self.io.now_ns()
-        self._label(handshake, MOVING)
-        self.io.wait(
-            lambda: (
-                abs(self.io.estimator_latest - self.io.now_ns()) < 1_000_000_000
-                and self.io.estimator_label == handshake
-            ),
-            f"waiting for the estimator to hear {WRENCH_TOPIC} and {POSE_TOPIC}",
-            wall_timeout=self.p("estimate_timeout"),
-        )
+        self._handshake()
         if information := self._overrides.get("information"):  # before the reset: the
             self._set_estimator("information", information)  # estimator reads it there
         self._call(self._estimator_reset, Trigger.Request(), "resetting the estimator")
@@ -737,6 +725,37 @@ class SequencerNode(Node):
         self._labels.append((stamp_ns, label))
         if label.startswith((TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX)):
             self.get_logger().info(f"window {label} from t={stamp_ns * 1e-9:.3f} s")
+
+    def _handshake(self) -> None:
+        """Wait until the estimator hears the sensor on this node's clock (a wrench stamped
+        after now, not ahead of it: not a sensor that was restarted, nor another one) and
+        this node's labels: a "moving" now, which begins no window, must come back in its
+        input status (a subscriber can match a publisher seconds after the publisher
+        matched it, and then the first window labels would be lost). Its status comes at
+        1 Hz wall: a sim faster than real time is seconds ahead of it by then. RunError at
+        once when the sensor's stamps and this clock are far apart: the two run on
+        different clocks (sim time without ``use_sim_time``)."""
+        handshake = self.io.now_ns()
+        self._label(handshake, MOVING)
+
+        def heard() -> bool:
+            latest, now = self.io.estimator_latest, self.io.now_ns()
+            if abs(latest - now) > CLOCKS_APART and latest > 0:
+                raise RunError(
+                    f"the estimator hears {WRENCH_TOPIC} stamped {latest * 1e-9:.3f} s while "
+                    f"this node's clock reads {now * 1e-9:.3f} s: they run on different "
+                    "clocks; with a simulator's sensor (sim time on /clock) start this node "
+                    "with use_sim_time:=true"
+                )
+            return handshake <= latest < now + 1_000_000_000 and (
+                self.io.estimator_label == handshake
+            )
+
+        self.io.wait(
+            heard,
+            f"waiting for the estimator to hear {WRENCH_TOPIC} and {POSE_TOPIC}",
+            wall_timeout=self.p("estimate_timeout"),
+        )
 
     def _call(self, client, request, what: str):
         """The answer of a service; RunError if it is not there within ``sim_timeout`` s,
