@@ -446,8 +446,14 @@ def page() -> str:
         "Regenerate: python docs/nodes.py > docs/nodes.md -->",
         "",
         "Every node's topics, services and parameters; `ros2 param describe` gives the same "
-        "descriptions. QoS, publishers and subscribers of every topic: [design.md, Wire "
-        "contract](design.md#wire-contract).",
+        "descriptions (and, as its constraints, what each takes). QoS, publishers and "
+        "subscribers of every topic: [design.md, Wire contract](design.md#wire-contract).",
+        "",
+        "A parameter's column *takes* says what it takes; any other value is refused, "
+        "naming the parameter, the value and the range: at start the node ends with "
+        "`cannot start: <name>=<value> refused: ...` (exit code 1), at a set the set fails "
+        "with that reason, and the demo's flags and the replay's options the same way "
+        "(exit code 2) ([design.md, Inputs](design.md#inputs-refused-where-they-enter)).",
         "",
         *sim_node(),
         *estimator_node(),
