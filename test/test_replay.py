@@ -261,3 +261,25 @@ def test_every_option_has_its_help():
     with pytest.raises(SystemExit) as done, contextlib.redirect_stdout(io.StringIO()) as out:
         replay.main(["--help"])
     assert done.value.code == 0 and "--accuracy" in out.getvalue()
+
+
+def test_a_defect_in_one_run_is_its_error_and_the_others_go_on(tmp_path, capsys, monkeypatch):
+    """An exception that reaches a run's top level is a defect: said with its traceback
+    as an internal error, that run's ERROR in the table, exit code 3; the other runs go
+    on (here a missing path, refused as such)."""
+
+    original = replay.replay
+
+    def defect(bag, args):
+        if bag == SAMPLE:
+            raise ZeroDivisionError("a defect")
+        return original(bag, args)
+
+    monkeypatch.setattr(replay, "replay", defect)
+    code = replay.main([str(SAMPLE), str(tmp_path / "missing"), "--csv", str(tmp_path / "r.csv")])
+    out, err = capsys.readouterr()
+    assert code == replay.INTERNAL_ERROR_CODE == 3
+    assert f"{SAMPLE}: internal error\nTraceback" in err and "ZeroDivisionError" in err
+    rows = list(csv.DictReader((tmp_path / "r.csv").open()))
+    assert rows[0]["status"] == "ERROR" and rows[0]["reason"].startswith("internal error: ")
+    assert rows[1]["status"] == "NO BAG" and out.splitlines()[-1] == "1 ERROR, 1 NO BAG of 2"

@@ -53,6 +53,7 @@ from pathlib import Path
 from com_core.bags.reader import INCOMPLETE_TEXT, BagReading
 from com_core.contract import (
     ERROR,
+    INTERNAL_ERROR,
     OBJECT_PREFIX,
     OK,
     POSE_TOPIC,
@@ -80,7 +81,7 @@ ROBOT_FRAMES = ("sensor_frame", "base_frame")
 """The settings a run's robot configuration gives the replay."""
 
 
-INTERNAL_ERROR = 3
+INTERNAL_ERROR_CODE = 3
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -165,14 +166,16 @@ def option_settings(args: argparse.Namespace) -> dict[str, object]:
 
 def replay_captured(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None, str, str]:
     """``replay`` of one run with what it prints kept: (exit code, solution, stdout,
-    stderr); a bug of this program is said with its traceback, and the other runs go on."""
+    stderr); a defect of this program is said with its traceback and is that run's ERROR
+    (``INTERNAL_ERROR`` in its reason, exit code 3), and the other runs go on."""
     out, err = io.StringIO(), io.StringIO()
     with redirect_stdout(out), redirect_stderr(err):
         try:
             code, solution = replay(bag, args)
-        except Exception:
-            print(f"replay: {bag}: internal error\n{traceback.format_exc()}", file=sys.stderr)
-            code, solution = INTERNAL_ERROR, None
+        except Exception as exc:
+            print(f"replay: {bag}: {INTERNAL_ERROR}\n{traceback.format_exc()}", file=sys.stderr)
+            code = INTERNAL_ERROR_CODE
+            solution = Solution(ERROR, f"{INTERNAL_ERROR}: {exc!r}", args.method)
     return code, solution, out.getvalue(), err.getvalue()
 
 
