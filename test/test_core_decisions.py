@@ -298,12 +298,14 @@ def test_the_held_mass_is_the_force_beyond_the_tare_along_gravity_in_its_window(
     forces[-1, :3] = -1e3  # at its end: not in it
     assert held_mass(stamps, forces, 300, 900, tare) == pytest.approx(0.2, abs=1e-12)
     assert held_mass(stamps, forces, 1000, 2000, tare) is None
+    assert held_mass(stamps, forces, 300, 900, np.zeros(3)) is None  # a tare quantised to 0
 
 
 def test_the_grasp_holds_from_min_load():
     assert grasp_holds(0.005, 0.005) and grasp_holds(0.2, 0.005)
     assert not grasp_holds(0.0049, 0.005)
     assert not grasp_holds(-0.01, 0.0)
+    assert not grasp_holds(float("nan"), 0.005)
 
 
 def test_fingers_closed_beyond_a_fortieth_of_their_stroke_may_hold_an_object():

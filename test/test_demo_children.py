@@ -57,7 +57,7 @@ def test_last_error_line_of_no_output_is_empty():
 @pytest.mark.parametrize(
     ("flags", "refusal"),
     [
-        (["--tilt", "3.0"], "--tilt=3.0 refused: must be in (0, pi/2) rad; "),
+        (["--tilt", "3.0"], "--tilt=3.0 refused: must be in [0.01, pi/2) rad; "),
         (["--mass", "-1"], "--mass=-1.0 refused: must be in [0.001, 5] kg; "),
         (["--mass", "nan"], "--mass=nan refused: must be a finite number [0.001, 5] kg; "),
         (["--sigma-f", "0"], "sigma_f=0.0 refused: below half the resolution_f 0.0625 N"),

@@ -263,6 +263,18 @@ def test_every_replay_option_refused_is_named_before_any_run_is_read(name, tmp_p
         assert option in said or name in said or "is not a rosbag2 directory" in said, said
 
 
+def test_the_replays_files_are_refused_by_name_before_any_run_is_read(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    for argv, named in (
+        (["--csv", str(blocker / "r.csv")], "--csv="),
+        (["--tare", str(tmp_path / "none.json")], "--tare="),
+        (["--robot-description", str(tmp_path / "none.urdf")], "--robot-description="),
+    ):
+        code, said = replay_answer([str(SAMPLE), *argv])
+        assert code == 2 and named in said and " refused: " in said, said
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", REPLAY_OPTIONS)
 def test_every_replay_option_it_takes_replays_the_sample_run(name):

@@ -81,7 +81,7 @@ def test_what_a_table_says_each_input_takes():
 
 def test_problems_names_each_refused_value_and_each_unknown_name():
     refused = problems(SEQUENCER, {"tilt": 3.0, "dwell": 1.0, "tilts": 0.5})
-    assert refused[0].startswith("tilt=3.0 refused: must be in (0, pi/2) rad")
+    assert refused[0].startswith("tilt=3.0 refused: must be in [0.01, pi/2) rad")
     assert refused[1].startswith("'tilts' is no input here (known: ")
     assert len(refused) == 2
 
@@ -137,3 +137,17 @@ def test_the_sequencers_parameters_refuse_what_has_no_meaning(name, value):
 )
 def test_the_estimators_settings_refuse_what_has_no_meaning(name, value):
     assert SETTINGS[name].problem(value).startswith(f"{name}={value!r} refused: ")
+
+
+def test_a_path_is_writable_or_refused_by_name_and_left_as_it_was(tmp_path):
+    from com_core.inputs import unwritable
+
+    assert unwritable("bag_dir", tmp_path / "a" / "b", directory=True) == ""
+    assert (tmp_path / "a" / "b").is_dir() and not any((tmp_path / "a" / "b").iterdir())
+    assert unwritable("tare_cache", tmp_path / "c" / "cache.json") == ""
+    assert not (tmp_path / "c" / "cache.json").exists()  # no empty file left behind
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    why = unwritable("bag_dir", blocker / "bags", directory=True)
+    assert why.startswith(f"bag_dir='{blocker / 'bags'}' refused: cannot be written"), why
+    assert unwritable("tare_cache", blocker / "cache.json").startswith("tare_cache=")

@@ -35,7 +35,7 @@ def test_each_bad_option_is_named_with_its_value():
     _, problems = goal_options(goal)
     assert len(problems) == 4, problems
     text = "; ".join(problems)
-    assert "tilt=3.0 refused: must be in (0, pi/2) rad" in text
+    assert "tilt=3.0 refused: must be in [0.01, pi/2) rad" in text
     assert "dwell=nan refused: must be a finite number [0.1, 300] s" in text
     assert "fewer_poses=7 refused: must be PARAMETER (-1), NO (0) or YES (1)" in text
     assert "information='guess' refused: must be one of" in text

@@ -74,7 +74,7 @@ from com_core.estimation.settings import (
 from com_core.estimation.solution import Solution, format_solution
 from com_core.estimation.static_windows import find_static_windows, split_load_levels
 from com_core.estimation.tare_cache import BAG_TARE_FILE
-from com_core.inputs import problems
+from com_core.inputs import refusal, unwritable
 from com_core.robot.config import BAG_ROBOT_FILE, RobotConfigError, read_robot_config
 
 ROBOT_FRAMES = ("sensor_frame", "base_frame")
@@ -137,7 +137,16 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.jobs < 1:
         parser.error(f"-j {args.jobs}: must be 1 or more")
-    if refused := problems(SETTINGS, option_settings(args)):
+    refused = [  # each named by its option
+        why
+        for name, value in option_settings(args).items()
+        if (why := SETTINGS[name].problem(value, "--" + name.replace("_", "-")))
+    ]
+    if args.csv is not None and (why := unwritable("--csv", args.csv)):
+        refused.append(why)
+    if args.tare is not None and not args.tare.is_file():
+        refused.append(refusal("--tare", str(args.tare), "is no file"))
+    if refused:
         parser.error("; ".join(refused))  # before any run is read: exit code 2
     runs = [run for path in args.bags for run in bag_directories(path)]
     codes, rows = [], []

@@ -13,7 +13,8 @@ from com_core.inputs import Input, table_of
 
 __all__ = ["PARAMETERS"]
 
-_TILT = dict(unit="rad", low=0.0, high=math.pi / 2, low_open=True, high_open=True)
+# a tilt well beyond the arm's rest tolerance (5 mrad), else a pose is taken for the last
+_TILT = dict(unit="rad", low=0.01, high=math.pi / 2, high_open=True)
 _DWELL = dict(unit="s", low=0.1, high=300.0)  # 100 samples at 1 kHz and more
 _WAIT = dict(unit="s", low=0.5, high=600.0)
 _PLAN_NOISE = "for the prediction until a tare pass of the hand in the tare cache has learnt it"

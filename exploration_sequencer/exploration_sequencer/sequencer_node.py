@@ -94,7 +94,7 @@ from com_core.estimation.tare_cache import (
     use_tares,
 )
 from com_core.estimation.windows import Window
-from com_core.inputs import problems
+from com_core.inputs import problems, unwritable
 from com_core.planning.decisions import (
     BIAS_AFTER_SUFFIX,
     BIAS_WINDOW_SUFFIX,
@@ -452,6 +452,12 @@ class SequencerNode(Node):
     def explore(self, run_id: str) -> tuple[bool, str]:
         """One exploration; returns (success, summary). Raises RunError."""
         log = self.get_logger()
+        for name, path, directory in (
+            ("bag_dir", self.p("bag_dir"), True),
+            ("tare_cache", self._cache_path(), False),
+        ):
+            if why := unwritable(name, path, directory):
+                raise RunError(why)  # before anything moves
         self.io.sim_timeout = self.p("sim_timeout")
         self.arm.speed, self.arm.settle = self.p("speed"), self.p("settle")
         self.io.wait(lambda: self.io.joints, "waiting for the joint states", wall_timeout=None)
@@ -642,7 +648,10 @@ class SequencerNode(Node):
         stamps, wrenches, _ = decode_wrench_batch(raws)
         mass = held_mass(stamps, wrenches, end - dwell, end, tare_home.force)
         if mass is None:
-            raise RunError("no wrenches arrived while weighing the grasp")
+            raise RunError(
+                "the grasp cannot be weighed: no wrenches arrived, or the empty hand's tare "
+                "weighs nothing (a force resolution coarser than the hand's weight?)"
+            )
         if not grasp_holds(mass, self.p("min_load")):
             self.arm.put_back(home, pick)
             raise RunError(

@@ -386,9 +386,11 @@ class SimNode(Node):
 
     def _report(self) -> None:
         """Log the world's events and saturation; republish ground truth that moved."""
-        for event in self.world.events:
-            log = self.get_logger().warning if "collision:" in event else self.get_logger().info
-            log(event)
+        for event in self.world.events:  # one call site per severity (rclpy's rule)
+            if "collision:" in event:
+                self.get_logger().warning(event)
+            else:
+                self.get_logger().info(event)
         self.world.events.clear()
         saturated, self._saturated_readings = self._saturated_readings, 0
         if saturated and not self._saturated:

@@ -18,12 +18,22 @@ Nothing here imports rclpy.
 from __future__ import annotations
 
 import math
+import tempfile
 from array import array
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
-__all__ = ["Input", "InputError", "number_text", "problems", "refusal", "table_of"]
+__all__ = [
+    "Input",
+    "InputError",
+    "number_text",
+    "problems",
+    "refusal",
+    "table_of",
+    "unwritable",
+]
 
 KINDS = ("float", "int", "bool", "str", "floats", "strings")
 """An input's type: a number, a flag, a text, or a list of numbers or of texts."""
@@ -224,3 +234,22 @@ def table_of(rows: Iterable[Input]) -> dict[str, Input]:
             raise ValueError(f"input {row.name!r} twice")
         out[row.name] = row
     return out
+
+
+def unwritable(name: str, path: str | Path, directory: bool = False) -> str:
+    """Why the input ``name`` cannot have ``path`` to write to ('' when it can): a
+    ``directory`` (or a file's directory) is created if missing and must take a new
+    file; a file that is there must open for appending (it is left as it was)."""
+    path = Path(path)
+    folder = path if directory else path.parent
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        if not directory and path.exists():
+            with path.open("a"):
+                pass
+        else:
+            with tempfile.TemporaryFile(dir=folder):
+                pass
+    except OSError as error:
+        return refusal(name, str(path), f"cannot be written ({error.strerror or error})")
+    return ""

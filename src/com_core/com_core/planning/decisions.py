@@ -454,11 +454,12 @@ def held_mass(
     """kg the hand holds beyond the tare: the mean force of the samples stamped in
     [``start_ns``, ``end_ns``) minus ``tare_force`` (N, the empty hand at the same pose),
     along gravity (the tare force's direction), over g. ``forces``: shape (n, >= 3), the
-    force first. None when no sample is in the interval."""
+    force first. None when no sample is in the interval, or the tare weighs nothing (a
+    hand the sensor does not see: no direction of gravity)."""
     held = np.asarray(forces)[(stamps >= start_ns) & (stamps < end_ns), :3]
-    if len(held) == 0:
-        return None
     tare = np.asarray(tare_force, dtype=np.float64)
+    if len(held) == 0 or not np.linalg.norm(tare) > 0:
+        return None
     gravity = tare / np.linalg.norm(tare)
     return float((held.mean(axis=0) - tare) @ gravity) / STANDARD_GRAVITY
 
@@ -466,7 +467,7 @@ def held_mass(
 def grasp_holds(mass: float, min_load: float) -> bool:
     """The grasp holds the object: ``mass`` (kg, ``held_mass``) is not below
     ``min_load`` kg."""
-    return not mass < min_load
+    return mass >= min_load  # NaN: not held
 
 
 def planned_run_time(
