@@ -91,8 +91,9 @@ class Arm:
         self, goal: list[float], what: str, arrival_ns: int, must_arrive: bool = True
     ) -> int:
         """Wait until the arm rests at ``goal`` and ``settle`` s more, counted from the
-        first joint state that shows it resting (however late this node notices); returns
-        the end of ``settle``, sim time, ns.
+        first joint state that shows it resting (however late this node notices) and no
+        earlier than ``arrival_ns``, the move's planned end; returns the end of
+        ``settle``, sim time, ns.
 
         The wait ends 5 s + twice the time to ``arrival_ns`` after the call (wall; a sim
         runs at least real time); then TimeoutRunError, or with ``must_arrive`` False a
@@ -112,7 +113,9 @@ class Arm:
             if not resting(joints, self.config.arm_joints, goal):
                 break
             rested = stamp
-        ready = rested + round(self.settle * 1e9)
+        # never before the move's planned end: a move smaller than the rest tolerance
+        # looks resting at its goal before it has begun
+        ready = max(rested, arrival_ns) + round(self.settle * 1e9)
         io.sleep_until(ready, f"settling at {what}")
         return ready
 
