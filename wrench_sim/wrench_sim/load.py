@@ -30,6 +30,7 @@ import numpy as np
 import pybullet
 from numpy.typing import NDArray
 
+from com_core.robot.dynamics import inertial_parameters
 from wrench_sim.scene import Scene
 from wrench_sim.vibration import Vibration
 
@@ -74,6 +75,30 @@ class GroundTruth:
         origin, R = scene.sensor_pose()
         com_world = np.array(scene.client.getBasePositionAndOrientation(scene.object_body)[0])
         return scene.object.mass, R.T @ (com_world - origin)
+
+    def inertial_parameters(self, held: bool) -> NDArray[np.float64]:
+        """pi (10,) of everything beyond the sensor (the hand's links and, when ``held``, the
+        object), as pybullet simulates them: mass, first moment and inertia about the sensor
+        origin in ``ft_sensor`` (``com_core.robot.dynamics``' order)."""
+        scene = self._scene
+        c = scene.client
+        origin, R = scene.sensor_pose()
+        bodies = [(scene.robot_body, link) for link in scene.load_links]
+        bodies += [(scene.object_body, -1)] if held else []
+        total = np.zeros(10)
+        for body, link in bodies:
+            info = c.getDynamicsInfo(body, link)
+            if link == -1:
+                position, orientation = c.getBasePositionAndOrientation(body)
+            else:
+                position, orientation = c.getLinkState(body, link, computeForwardKinematics=True)[
+                    :2
+                ]
+            axes = R.T @ np.array(c.getMatrixFromQuaternion(orientation)).reshape(3, 3)
+            inertia = axes @ np.diag(info[2]) @ axes.T  # about the COM, sensor axes
+            com = R.T @ (np.array(position) - origin)
+            total += inertial_parameters(info[0], com, inertia)
+        return total
 
     def load(self, held: bool) -> tuple[float, NDArray[np.float64]]:
         """Mass (kg) and COM (m, ``ft_sensor``) of everything beyond the sensor: the hand and,

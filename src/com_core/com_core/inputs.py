@@ -3,11 +3,11 @@
 A node's parameters (at start and at every set), the demo's flags, an Explore goal's
 options and the replay's options are described by ``Input`` rows: the value's type, its
 range or choices, the lengths a list may have, the values that mean "someone else's"
-(NaN: the sensor profile's, '' : none), the unit and the fix to suggest. ``Input.problem``
+(NaN: the sensor profile's; '': none), the unit and the fix to suggest. ``Input.problem``
 checks one value against its row and says why it is refused in a line that names the
 input, the value, what is allowed and, where there is one, the fix::
 
-    tilt=3.0 refused: must be in (0, pi/2) rad; a wrist tilt from home
+    tilt=3.0 refused: must be in [0.01, pi/2) rad; a tilt the wrist makes from home, ...
 
 Checks between values (a profile's noise against its resolution, a COM inside the
 object) and against the arm (reach, the plan's information) stay with the tables and

@@ -1,0 +1,80 @@
+"""The wrench a rigid load exerts on the wrist sensor while the arm moves, linear in the
+load's 10 inertial parameters.
+
+Newton-Euler in the sensor frame s, with pinocchio's spatial vectors: a rigid body of
+inertial parameters pi moving with the sensor's spatial velocity v and acceleration a
+(gravity included as an acceleration of the base, as RNEA does) needs the wrench
+Y(v, a) pi (``pinocchio.frameBodyRegressor``); the sensor reads the opposite, the load's
+wrench on it::
+
+    w_s = -Y(v_s, a_s - g_s) pi
+
+At rest this is f = m g_s, tau = m c x g_s: the static model the estimators fit
+(``sensing.wrench_model``, the paper's eq. (1)-(2)). ``pi`` is pinocchio's order
+(``Inertia.toDynamicParameters``): m (kg), m c (kg m, 3), and the inertia about the
+sensor origin in s (kg m^2): I_xx, I_xy, I_yy, I_xz, I_yz, I_zz.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from com_core.robot.model import RobotModel
+
+__all__ = ["inertial_parameters", "load_of", "sensor_regressor"]
+
+
+def sensor_regressor(
+    robot: RobotModel,
+    positions: Sequence[float],
+    velocities: Sequence[float],
+    accelerations: Sequence[float],
+) -> NDArray[np.float64]:
+    """Y (6, 10) with w_s = Y @ pi: the wrench (N, N m; force first, in the sensor frame,
+    about its origin) a rigid load of parameters pi exerts on the sensor at these joint
+    positions (rad, m), velocities and accelerations (per s, per s^2), each in
+    ``robot.joint_names`` order, under ``robot.gravity``."""
+    import pinocchio
+
+    model, data = robot.model, robot.data
+    q = robot._configuration(positions)
+    v, a = np.zeros(model.nv), np.zeros(model.nv)
+    for name, dq, ddq in zip(robot.joint_names, velocities, accelerations, strict=True):
+        at = model.idx_vs[model.getJointId(name)]
+        v[at], a[at] = dq, ddq
+    pinocchio.framesForwardKinematics(model, data, q)
+    model.gravity.linear = data.oMf[robot._base_id].rotation @ robot.gravity  # in the root
+    pinocchio.rnea(model, data, q, v, a)
+    return -pinocchio.frameBodyRegressor(model, data, robot._sensor_id)
+
+
+def inertial_parameters(
+    mass: float, com: ArrayLike, inertia_at_com: ArrayLike
+) -> NDArray[np.float64]:
+    """pi (10,): a body of ``mass`` (kg) with its centre of mass at ``com`` (m, sensor
+    frame) and inertia ``inertia_at_com`` (3, 3; kg m^2, about the COM, sensor axes)."""
+    import pinocchio
+
+    inertia = pinocchio.Inertia(
+        float(mass),
+        np.asarray(com, dtype=np.float64),
+        np.asarray(inertia_at_com, dtype=np.float64),
+    )
+    return np.asarray(inertia.toDynamicParameters(), dtype=np.float64)
+
+
+def load_of(pi: ArrayLike) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
+    """(mass kg, COM m, inertia about the COM kg m^2 (3, 3)) of the parameters ``pi``
+    (``inertial_parameters``' inverse; ValueError for a mass that is not > 0)."""
+    p = np.asarray(pi, dtype=np.float64).reshape(10)
+    mass = float(p[0])
+    if not mass > 0:
+        raise ValueError(f"mass {mass} kg is not > 0")
+    com = p[1:4] / mass
+    ixx, ixy, iyy, ixz, iyz, izz = p[4:]
+    about_origin = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+    shift = mass * (np.dot(com, com) * np.eye(3) - np.outer(com, com))  # parallel axes
+    return mass, com, about_origin - shift
