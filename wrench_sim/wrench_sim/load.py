@@ -1,6 +1,6 @@
 """The load beyond the sensor: the wrench it exerts on the sensor as pybullet's joint sensor
-reads it, and its ground truth (mass and COM in ``ft_sensor``, the frame ``wrench_sim.sensor``
-defines).
+reads it, and its ground truth (mass, COM, inertia and the inertial parameters in
+``ft_sensor``, the frame ``wrench_sim.sensor`` defines).
 
 pybullet's joint force/torque sensor on the sensor's joint reports (F, M), the wrench the
 flange (parent) applies to the child link, in the child's axes. In the default feedback mode
@@ -30,7 +30,7 @@ import numpy as np
 import pybullet
 from numpy.typing import NDArray
 
-from com_core.robot.dynamics import inertial_parameters
+from com_core.robot.dynamics import inertial_parameters, load_of
 from wrench_sim.scene import Scene
 from wrench_sim.vibration import Vibration
 
@@ -81,24 +81,28 @@ class GroundTruth:
         object), as pybullet simulates them: mass, first moment and inertia about the sensor
         origin in ``ft_sensor`` (``com_core.robot.dynamics``' order)."""
         scene = self._scene
-        c = scene.client
-        origin, R = scene.sensor_pose()
-        bodies = [(scene.robot_body, link) for link in scene.load_links]
-        bodies += [(scene.object_body, -1)] if held else []
-        total = np.zeros(10)
-        for body, link in bodies:
-            info = c.getDynamicsInfo(body, link)
-            if link == -1:
-                position, orientation = c.getBasePositionAndOrientation(body)
-            else:
-                position, orientation = c.getLinkState(body, link, computeForwardKinematics=True)[
-                    :2
-                ]
-            axes = R.T @ np.array(c.getMatrixFromQuaternion(orientation)).reshape(3, 3)
-            inertia = axes @ np.diag(info[2]) @ axes.T  # about the COM, sensor axes
-            com = R.T @ (np.array(position) - origin)
-            total += inertial_parameters(info[0], com, inertia)
-        return total
+        pi = sum(self._body_parameters(scene.robot_body, link) for link in scene.load_links)
+        return pi + self._body_parameters(scene.object_body, -1) if held else pi
+
+    def inertias(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The inertias (3, 3) about their COMs in ``ft_sensor`` axes, kg m^2, of the hand
+        (its links beyond the sensor together) and of the object."""
+        scene = self._scene
+        obj = self._body_parameters(scene.object_body, -1)
+        return load_of(self.inertial_parameters(False))[2], load_of(obj)[2]
+
+    def _body_parameters(self, body: int, link: int) -> NDArray[np.float64]:
+        """pi (10,) of one body's link (-1: its base) in ``ft_sensor``, about its origin."""
+        c = self._scene.client
+        origin, R = self._scene.sensor_pose()
+        if link == -1:
+            position, orientation = c.getBasePositionAndOrientation(body)
+        else:  # the link's inertial frame: its COM and principal axes
+            position, orientation = c.getLinkState(body, link, computeForwardKinematics=True)[:2]
+        info = c.getDynamicsInfo(body, link)
+        axes = R.T @ np.array(c.getMatrixFromQuaternion(orientation)).reshape(3, 3)
+        inertia = axes @ np.diag(info[2]) @ axes.T  # about the COM, sensor axes
+        return inertial_parameters(info[0], R.T @ (np.array(position) - origin), inertia)
 
     def load(self, held: bool) -> tuple[float, NDArray[np.float64]]:
         """Mass (kg) and COM (m, ``ft_sensor``) of everything beyond the sensor: the hand and,

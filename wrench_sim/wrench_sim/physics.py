@@ -340,6 +340,16 @@ class ArmWorld:
         """Mass (kg) and COM (3,) in m, ``ft_sensor``, of the object, wherever it is."""
         return self._truth.object()
 
+    def inertia_ground_truth(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The inertias (3, 3), kg m^2, about their COMs in ``ft_sensor`` axes, of the links
+        beyond the sensor together and of the object."""
+        return self._truth.inertias()
+
+    def load_parameters(self) -> NDArray[np.float64]:
+        """pi (10,) of everything beyond the sensor now (the hand and the object when held;
+        ``com_core.robot.dynamics``), as pybullet simulates it."""
+        return self._truth.inertial_parameters(self._gripper.held)
+
     def joint_state(
         self,
     ) -> tuple[tuple[str, ...], list[float], list[float], list[float]]:

@@ -414,10 +414,13 @@ class SimNode(Node):
         held = world.object_held
         last = self._published_object
         changed = force or last is None or held != last[0]
+        mount = self._mount
+        hand_inertia, object_inertia = world.inertia_ground_truth()
         if changed or held:
             mass, com = world.object_ground_truth()
             if changed or np.max(np.abs(com - last[1])) > TRUTH_MOVE_M:
-                self.truth_publisher.publish(_inertia(stamp, mass, self._mount.T @ com))
+                inertia = mount.T @ object_inertia @ mount
+                self.truth_publisher.publish(_inertia(stamp, mass, mount.T @ com, inertia))
                 self._published_object = (held, com)
             if changed:
                 state = "held" if held else "not_held"
@@ -429,7 +432,10 @@ class SimNode(Node):
         hand_mass, hand_com = world.hand_ground_truth()
         last_hand = self._published_hand
         if force or last_hand is None or np.max(np.abs(hand_com - last_hand)) > TRUTH_MOVE_M:
-            self.hand_truth_publisher.publish(_inertia(stamp, hand_mass, self._mount.T @ hand_com))
+            inertia = mount.T @ hand_inertia @ mount
+            self.hand_truth_publisher.publish(
+                _inertia(stamp, hand_mass, mount.T @ hand_com, inertia)
+            )
             self._published_hand = hand_com
 
     def _mounted(self, wrench: np.ndarray) -> np.ndarray:
@@ -452,13 +458,20 @@ def _filled(msg: WrenchStamped, now: int, wrench: np.ndarray) -> WrenchStamped:
     return msg
 
 
-def _inertia(stamp, mass: float, com: np.ndarray) -> InertiaStamped:
+def _inertia(stamp, mass: float, com: np.ndarray, inertia: np.ndarray) -> InertiaStamped:
+    """Mass (kg), COM (m) and inertia about the COM (kg m^2), all in ``ft_sensor``."""
     msg = InertiaStamped()
     msg.header.stamp = stamp
     msg.header.frame_id = SENSOR_FRAME
     msg.inertia.m = float(mass)
     msg.inertia.com.x, msg.inertia.com.y, msg.inertia.com.z = (float(v) for v in com)
+    i = msg.inertia
+    i.ixx, i.ixy, i.ixz, i.iyy, i.iyz, i.izz = (float(inertia[a, b]) for a, b in _UPPER)
     return msg
+
+
+_UPPER = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
+"""The six entries of a symmetric 3x3 matrix InertiaStamped carries."""
 
 
 def main(args: list[str] | None = None) -> int:

@@ -1,5 +1,6 @@
 """The arm: its configuration files, its kinematic model from the URDF, inverse
-kinematics, and the choreography of an exploration's poses.
+kinematics, the choreography of an exploration's poses, and the wrench a load exerts on
+the sensor in motion.
 """
 
 from com_core.robot.choreography import (
@@ -26,6 +27,11 @@ from com_core.robot.config import (
     robot_problems,
     urdf_file,
     write_robot_config,
+)
+from com_core.robot.dynamics import (
+    inertial_parameters,
+    load_of,
+    sensor_regressor,
 )
 from com_core.robot.inverse_kinematics import (
     IkResult,
@@ -59,10 +65,13 @@ __all__ = [
     "TiltPlan",
     "default_robot_config",
     "grasp_point",
+    "inertial_parameters",
     "largest_reachable_tilt",
+    "load_of",
     "read_robot_config",
     "robot_config_path",
     "robot_problems",
+    "sensor_regressor",
     "solve_pose",
     "urdf_file",
     "write_robot_config",
