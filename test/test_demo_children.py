@@ -60,7 +60,7 @@ def test_last_error_line_of_no_output_is_empty():
         (["--tilt", "3.0"], "--tilt=3.0 refused: must be in [0.01, pi/2) rad; "),
         (["--mass", "-1"], "--mass=-1.0 refused: must be in [0.001, 5] kg; "),
         (["--mass", "nan"], "--mass=nan refused: must be a finite number [0.001, 5] kg; "),
-        (["--sigma-f", "0"], "sigma_f=0.0 refused: below half the resolution_f 0.0625 N"),
+        (["--sigma-f", "0"], "--sigma-f=0.0 refused: below half the resolution_f 0.0625 N"),
         (["--axes", "y,z"], "--axes=['y', 'z'] refused: must be one of ['y', 'x']"),
         (["--slip-sigma", "1e-3", "--grasp-mode", "friction"], "--slip-sigma=0.001 refused"),
     ],

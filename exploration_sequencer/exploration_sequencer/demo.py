@@ -253,8 +253,11 @@ def flag_refusals(
                 out[flag] = table[name].problem(value, FLAGS.get(name, ""))
     try:
         sensor_profile({"sensor_profile": args.sensor_profile} | sim)
-    except InputError as error:
-        out["sensor"] = str(error)
+    except InputError as error:  # its parts named by the flags that set them
+        text = str(error)
+        for name in ("sigma_f", "sigma_tau"):
+            text = text.replace(f"{name}=", f"{FLAGS[name]}=")
+        out["sensor"] = text
     out["--timeout"] = TIMEOUT.problem(args.timeout, "--timeout")
     return [line for line in out.values() if line]
 
