@@ -1,6 +1,6 @@
 """From stamped samples and labels to a solution: static windows, the fits (wrenches
-only, or with the robot's kinematics), the exploration session, its settings and the
-tare cache.
+only, or with the robot's kinematics; the 10 inertial parameters in motion), the
+exploration session, its settings and the tare cache.
 """
 
 from com_core.estimation.cutting import (
@@ -61,6 +61,12 @@ from com_core.estimation.inbox import (
     TIME_RESET_NS,
     Inbox,
     shorten,
+)
+from com_core.estimation.inertial import (
+    InertialFit,
+    fit_inertial,
+    log_cholesky,
+    pseudo_inertia,
 )
 from com_core.estimation.known_gravity import (
     BIAS_DRIFT_RATE,
@@ -156,6 +162,7 @@ __all__ = [
     "FitSetup",
     "IllConditionedError",
     "Inbox",
+    "InertialFit",
     "KinematicFit",
     "LoadLevels",
     "MissingTareError",
@@ -184,6 +191,7 @@ __all__ = [
     "exploration_from",
     "feed_bag",
     "find_static_windows",
+    "fit_inertial",
     "format_solution",
     "kinematic_ml",
     "label_static_windows",
@@ -191,10 +199,12 @@ __all__ = [
     "load_cached_tares",
     "load_tares",
     "locate_move",
+    "log_cholesky",
     "ml",
     "mount_rpy",
     "noise_line",
     "noise_model",
+    "pseudo_inertia",
     "reduce_window",
     "reduced_windows",
     "reusable",
