@@ -1,4 +1,5 @@
-"""Before the arm moves: the accuracy a plan will give, and the plan a target asks for."""
+"""Before the arm moves: the accuracy a plan will give, the plan a target asks for, and
+the excitation in motion for the inertial parameters."""
 
 from com_core.planning.advice import (
     Advice,
@@ -35,6 +36,13 @@ from com_core.planning.decisions import (
 from com_core.planning.dwell import (
     dwell_for_target,
 )
+from com_core.planning.excitation import (
+    HARMONICS,
+    SIGMA,
+    Excitation,
+    design_excitation,
+    excitation_information,
+)
 from com_core.planning.planner import (
     HOME,
     Plan,
@@ -54,9 +62,12 @@ __all__ = [
     "BIAS_WINDOW_SUFFIX",
     "GRIPPER_HOLDING",
     "GRIPPER_TIME",
+    "HARMONICS",
     "HOME",
     "METHODS",
+    "SIGMA",
     "Advice",
+    "Excitation",
     "Plan",
     "PlanInfeasible",
     "PlannedRun",
@@ -67,8 +78,10 @@ __all__ = [
     "TareReuse",
     "cached_tare",
     "complete_tare_pass",
+    "design_excitation",
     "dwell_for_target",
     "estimator_calibration",
+    "excitation_information",
     "grasp_holds",
     "held_mass",
     "may_hold_object",
