@@ -140,3 +140,45 @@ def test_the_fit_in_motion_gives_the_load_pybullet_simulates(held_box):
     np.testing.assert_allclose(
         np.linalg.eigvalsh(inertia), np.linalg.eigvalsh(true_inertia), rtol=0.05
     )
+
+
+def test_the_designed_excitation_is_followed_and_gives_the_load(held_box):
+    """The D-optimal wrist excitation (``planning.excitation``, 3 s), sent as waypoints
+    with their velocities and accelerations at 20 Hz: the arm follows it to 5 mrad, and
+    the fit from its readings is near pybullet's load."""
+    from com_core.estimation.inertial import fit_inertial
+    from com_core.planning.excitation import design_excitation
+
+    world = held_box
+    robot = world.config.robot
+    model = RobotModel(world.urdf_text, robot.sensor_frame)
+    home = np.array(robot.home_joints)
+    excitation = design_excitation(model, home, robot.arm_joints[-3:], period=3.0,
+                                   iterations=60, seed=0)  # fmt: skip
+    times = np.arange(1, 61) * 0.05
+    q, dq, ddq = excitation.at(times)
+    start = world.time
+    end = world.command_arm(robot.arm_joints, times, q, 0.0, dq, ddq)
+    positions, velocities, readings, tracking = [], [], [], []
+    while world.time < end + 0.2:
+        world.step()
+        _, joints, speeds, _ = world.joint_state()
+        positions.append(joints[: len(home)])
+        velocities.append(speeds[: len(home)])
+        readings.append(world.raw_wrench)
+        planned = excitation.at(min(world.time - start, excitation.period))[0][0]
+        tracking.append(np.abs(np.array(joints[: len(home)]) - planned).max())
+    assert max(tracking) < 5e-3, max(tracking)
+    accelerations = np.gradient(np.array(velocities), TIME_STEP, axis=0)
+    inner = slice(2, -2)
+    regressors = regressors_of(world, np.array(positions)[inner], np.array(velocities)[inner],
+                               accelerations[inner])  # fmt: skip
+    fit = fit_inertial(regressors, np.array(readings)[inner], [0.1] * 3 + [0.005] * 3)
+    mass, com, _ = load_of(fit.pi)
+    true_mass, true_com, _ = load_of(world.load_parameters())
+    # the simulator's error in motion (docs/design.md) biases the 3-joint excitation's fit:
+    # mass 0.15 %, COM 0.26 mm, principal moments 9-28 %; bounds at that, to be tightened
+    # when the simulator is mended
+    assert mass == pytest.approx(true_mass, rel=5e-3)
+    np.testing.assert_allclose(com, true_com, atol=5e-4)
+    assert fit.chi2 / fit.dof < 2.0  # its model error is of the realistic sensor's noise

@@ -55,6 +55,8 @@ class ArmDriver:
         positions: Sequence[Sequence[float]],
         start_time: float,
         now: float,
+        velocities: Sequence[Sequence[float]] | None = None,
+        accelerations: Sequence[Sequence[float]] | None = None,
     ) -> float:
         """Follow a joint trajectory from ``start_time`` (s, simulated; ``now`` if earlier),
         replacing any running or queued one; a running one goes on until then. Returns the
@@ -64,7 +66,7 @@ class ArmDriver:
         running = self._trajectory
         state = running.sample(start) if running and start > now else self._set_point
         trajectory = trajectory_from_command(
-            joint_names, times, positions, self.limits, start, state
+            joint_names, times, positions, self.limits, start, state, velocities, accelerations
         )
         if start > now:
             self._queued = trajectory

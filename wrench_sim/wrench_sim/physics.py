@@ -197,6 +197,8 @@ class ArmWorld:
         times: Sequence[float],
         positions: Sequence[Sequence[float]],
         start_time: float = 0.0,
+        velocities: Sequence[Sequence[float]] | None = None,
+        accelerations: Sequence[Sequence[float]] | None = None,
     ) -> float:
         """Follow a joint trajectory from ``start_time`` (replacing any running or queued
         one; a running one goes on until then).
@@ -208,6 +210,8 @@ class ArmWorld:
         positions : rad, one row per time, one value per name.
         start_time : s, simulated; now if earlier than now (the JointTrajectory header
             stamp's convention, with 0 for now).
+        velocities, accelerations : rad/s, rad/s^2 at each waypoint, like ``positions``
+            (None: each waypoint at rest; the last one must be).
 
         Returns
         -------
@@ -218,7 +222,9 @@ class ArmWorld:
         ValueError if the command is malformed or unreachable; the arm then keeps its
         current motion.
         """
-        return self._arm.command(joint_names, times, positions, start_time, self.time)
+        return self._arm.command(
+            joint_names, times, positions, start_time, self.time, velocities, accelerations
+        )
 
     def move_arm(self, positions: Sequence[float], duration: float) -> None:
         """Move every arm joint to ``positions`` (rad, ``arm_joints`` order) in ``duration`` s

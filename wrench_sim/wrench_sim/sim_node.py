@@ -258,8 +258,17 @@ class SimNode(Node):
         try:
             times = [p.time_from_start.sec + 1e-9 * p.time_from_start.nanosec for p in msg.points]
             positions = [list(p.positions) for p in msg.points]
+            velocities = [list(p.velocities) for p in msg.points]
+            accelerations = [list(p.accelerations) for p in msg.points]
             start = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
-            end = self.world.command_arm(list(msg.joint_names), times, positions, start)
+            end = self.world.command_arm(
+                list(msg.joint_names),
+                times,
+                positions,
+                start,
+                velocities if any(velocities) else None,
+                accelerations if any(accelerations) else None,
+            )
         except ValueError as error:  # a bad command is refused; the sim goes on
             self.get_logger().error(f"rejected joint trajectory: {error}")
             return

@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 __all__ = ["JointLimits", "QuinticTrajectory", "trajectory_from_command"]
 
 _SAMPLES_PER_SEGMENT = 64
+_AT_REST = 1e-9  # rad/s, rad/s^2: a last point's rates taken as zero (a period's rounding)
 
 
 @dataclass(frozen=True)
@@ -38,11 +39,14 @@ def _quintic_coefficients(
     a0: NDArray[np.float64],
     p1: NDArray[np.float64],
     duration: float,
+    v1: NDArray[np.float64] | float = 0.0,
+    a1: NDArray[np.float64] | float = 0.0,
 ) -> NDArray[np.float64]:
-    """Coefficients (6, n) of p(s) = sum c_k s^k reaching p1 at rest after ``duration`` s."""
+    """Coefficients (6, n) of p(s) = sum c_k s^k reaching p1 with velocity v1 and
+    acceleration a1 (at rest by default) after ``duration`` s."""
     T = duration
-    # p(s) = p0 + v0 s + a0 s^2 / 2 + c3 s^3 + c4 s^4 + c5 s^5; solve p(T) = p1, p'(T) = 0,
-    # p''(T) = 0 for (c3, c4, c5).
+    # p(s) = p0 + v0 s + a0 s^2 / 2 + c3 s^3 + c4 s^4 + c5 s^5; solve p(T) = p1, p'(T) = v1,
+    # p''(T) = a1 for (c3, c4, c5).
     A = np.array(
         [
             [T**3, T**4, T**5],
@@ -50,7 +54,7 @@ def _quintic_coefficients(
             [6.0 * T, 12.0 * T**2, 20.0 * T**3],
         ]
     )
-    rhs = np.stack([p1 - p0 - v0 * T - 0.5 * a0 * T**2, -v0 - a0 * T, -a0])
+    rhs = np.stack([p1 - p0 - v0 * T - 0.5 * a0 * T**2, v1 - v0 - a0 * T, a1 - a0 + 0.0 * p0])
     c345 = np.linalg.solve(A, rhs)
     return np.vstack([p0, v0, 0.5 * a0, c345])
 
@@ -64,6 +68,8 @@ class QuinticTrajectory:
     start : (position, velocity, acceleration), each shape (n,); rad, rad/s, rad/s^2.
     times : shape (k,); s from ``t0``; strictly increasing, > 0.
     positions : shape (k, n); rad; the waypoints.
+    velocities, accelerations : shape (k, n); rad/s, rad/s^2 at each waypoint (None: at
+        rest; the last waypoint is always reached at rest).
     """
 
     def __init__(
@@ -72,14 +78,20 @@ class QuinticTrajectory:
         start: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
         times: NDArray[np.float64],
         positions: NDArray[np.float64],
+        velocities: NDArray[np.float64] | None = None,
+        accelerations: NDArray[np.float64] | None = None,
     ) -> None:
         p, v, a = (np.asarray(x, dtype=np.float64) for x in start)
+        rest = np.zeros_like(np.asarray(positions, dtype=np.float64))
+        velocities = rest if velocities is None else velocities
+        accelerations = rest if accelerations is None else accelerations
         self._knots = t0 + np.concatenate([[0.0], times])
         self._coefficients = []
         for i, target in enumerate(positions):
             duration = self._knots[i + 1] - self._knots[i]
-            self._coefficients.append(_quintic_coefficients(p, v, a, target, duration))
-            p, v, a = target, np.zeros_like(v), np.zeros_like(a)
+            v1, a1 = velocities[i], accelerations[i]
+            self._coefficients.append(_quintic_coefficients(p, v, a, target, duration, v1, a1))
+            p, v, a = target, v1, a1
         self._final = np.asarray(positions[-1], dtype=np.float64)
 
     @property
@@ -125,6 +137,8 @@ def trajectory_from_command(
     limits: JointLimits,
     t_now: float,
     start: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+    velocities: ArrayLike | None = None,
+    accelerations: ArrayLike | None = None,
 ) -> QuinticTrajectory:
     """Check a joint trajectory command and build the trajectory that follows it.
 
@@ -138,6 +152,9 @@ def trajectory_from_command(
     t_now : s; current time.
     start : current set point (position, velocity, acceleration), each shape (n,), in the
         order of ``limits.names``. Joints not commanded hold their set point.
+    velocities, accelerations : like ``positions``, rad/s and rad/s^2 at each waypoint
+        (JointTrajectoryPoint's; None or empty: each waypoint at rest); the last waypoint
+        must be at rest.
 
     Returns
     -------
@@ -184,13 +201,18 @@ def trajectory_from_command(
         )
     full = np.tile(np.asarray(start[0], dtype=np.float64), (times.size, 1))
     full[:, index] = commanded
+    rates = [
+        _waypoint_rates(name, x, commanded.shape, index, len(limits.names))
+        for name, x in (("velocities", velocities), ("accelerations", accelerations))
+    ]
     if times[0] == 0.0:
         if np.max(np.abs(full[0] - start[0])) > 1e-3:
             raise ValueError("a point at time 0 must equal the current position (within 1 mrad)")
-        full, times = full[1:], times[1:]
+        full, times, rates = full[1:], times[1:], [r[1:] for r in rates]
         if times.size == 0:
             times, full = np.array([1e-3]), np.asarray(start[0], dtype=np.float64)[None, :]
-    trajectory = QuinticTrajectory(t_now, start, times, full)
+            rates = [np.zeros_like(full), np.zeros_like(full)]
+    trajectory = QuinticTrajectory(t_now, start, times, full, *rates)
     too_fast = trajectory.peak_speed() > limits.velocity
     if np.any(too_fast):
         joint = limits.names[int(np.argmax(too_fast))]
@@ -199,3 +221,24 @@ def trajectory_from_command(
             f"{limits.velocity[int(np.argmax(too_fast))]:.3f} rad/s; give it more time"
         )
     return trajectory
+
+
+def _waypoint_rates(
+    name: str, rates: ArrayLike | None, shape: tuple[int, int], index: list[int], n: int
+) -> NDArray[np.float64]:
+    """The waypoints' ``name`` (velocities or accelerations) over all n joints, shape (k, n):
+    zero when None or empty; ValueError unless ``shape`` (k, joints), finite and zero at
+    the last waypoint."""
+    out = np.zeros((shape[0], n))
+    if rates is None or np.size(rates) == 0:
+        return out
+    given = np.asarray(rates, dtype=np.float64)
+    if given.shape != shape:
+        raise ValueError(f"{name}: {given.shape} values for {shape} positions")
+    if not np.all(np.isfinite(given)):
+        raise ValueError(f"NaN or inf in {name}")
+    if np.any(np.abs(given[-1]) > _AT_REST):
+        raise ValueError(f"{name} at the last point must be 0 (the arm ends at rest)")
+    out[:, index] = given
+    out[-1] = 0.0
+    return out
