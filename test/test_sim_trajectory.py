@@ -130,3 +130,42 @@ def test_a_trajectory_built_directly_samples_its_segments():
     assert trajectory.sample(2.0)[0].tolist() == pytest.approx([1.0, 0.0, 0.0])
     p = trajectory.sample(3.0)[0]  # half-way through the second segment
     assert p.tolist() == pytest.approx([1.0, 0.5, 0.0], abs=1e-12)
+
+
+def test_waypoints_with_velocities_and_accelerations_follow_a_smooth_motion():
+    """A smooth motion sampled at 20 Hz with its velocity and acceleration: the quintics
+    through the samples are the motion to 1e-5 rad between them (a designed excitation's
+    path)."""
+    rest = (np.zeros(3), np.zeros(3), np.zeros(3))
+    w = np.pi / 2.0  # rad/s: 0.3 (1 - cos w t)^2 / 4, at rest at 0 and at 4 s
+    times = np.arange(1, 81) * 0.05
+    share = np.array([1.0, 0.5, 0.0])
+
+    def motion(t):
+        c, s = np.cos(w * np.asarray(t))[..., None], np.sin(w * np.asarray(t))[..., None]
+        q = 0.075 * (1 - c) ** 2 * share
+        dq = 0.15 * w * (1 - c) * s * share
+        ddq = 0.15 * w**2 * (s**2 + (1 - c) * c) * share
+        return q, dq, ddq
+
+    q, dq, ddq = motion(times)
+    trajectory = trajectory_from_command(LIMITS.names, times, q, LIMITS, 0.0, rest, dq, ddq)
+    between = np.arange(0.0, 4.0, 0.013)
+    sampled = np.array([trajectory.sample(t)[0] for t in between])
+    assert_allclose(sampled, motion(between)[0], atol=1e-5)
+
+
+@pytest.mark.parametrize(
+    ("velocities", "message"),
+    [
+        ([[0.0] * 3, [np.nan, 0.0, 0.0]], "NaN or inf in velocities"),
+        ([[0.0] * 3], r"velocities: \(1, 3\) values for \(2, 3\) positions"),
+        ([[0.0] * 3, [0.1, 0.0, 0.0]], "velocities at the last point must be 0"),
+    ],
+)
+def test_malformed_waypoint_velocities_are_refused(velocities, message):
+    rest = (np.zeros(3), np.zeros(3), np.zeros(3))
+    with pytest.raises(ValueError, match=message):
+        trajectory_from_command(
+            LIMITS.names, [1.0, 2.0], [[0.1] * 3, [0.2] * 3], LIMITS, 0.0, rest, velocities
+        )
