@@ -29,24 +29,30 @@ def held_box():
 
 def follow(world: ArmWorld, swings: list[np.ndarray]) -> tuple[np.ndarray, ...]:
     """Swing the arm by each of ``swings`` (rad, about home) in turn, SEGMENT s each, and
-    home; (joint positions, velocities, accelerations differenced at 1 kHz, readings N and
-    N m in ``ft_sensor``) per step, without the differences' ends."""
-    robot = world.config.robot
-    home = np.array(robot.home_joints)
+    home; ``record_until`` its end."""
+    home = np.array(world.config.robot.home_joints)
     waypoints = [home + swing for swing in swings] + [home]
-    end = world.command_arm(
-        robot.arm_joints, [SEGMENT * (k + 1) for k in range(len(waypoints))], waypoints
-    )
-    positions, velocities, readings = [], [], []
+    times = [SEGMENT * (k + 1) for k in range(len(waypoints))]
+    return record_until(world, world.command_arm(world.config.robot.arm_joints, times, waypoints))
+
+
+def record_until(world: ArmWorld, end: float) -> tuple[np.ndarray, ...]:
+    """Step to ``end`` + 0.2 s (sim): (sim times s, joint positions, velocities,
+    accelerations differenced at 1 kHz, readings N and N m in ``ft_sensor``) per step,
+    without the differences' ends."""
+    arm = len(world.config.robot.arm_joints)
+    times, positions, velocities, readings = [], [], [], []
     while world.time < end + 0.2:
         world.step()
         _, q, dq, _ = world.joint_state()
-        positions.append(q[: len(home)])
-        velocities.append(dq[: len(home)])
+        times.append(world.time)
+        positions.append(q[:arm])
+        velocities.append(dq[:arm])
         readings.append(world.raw_wrench)
     accelerations = np.gradient(np.array(velocities), TIME_STEP, axis=0)
     inner = slice(2, -2)
-    return tuple(np.array(x)[inner] for x in (positions, velocities, accelerations, readings))
+    recorded = (times, positions, velocities, accelerations, readings)
+    return tuple(np.array(x)[inner] for x in recorded)
 
 
 def regressors_of(world: ArmWorld, positions, velocities, accelerations) -> np.ndarray:
@@ -58,13 +64,23 @@ def regressors_of(world: ArmWorld, positions, velocities, accelerations) -> np.n
     return np.array([sensor_regressor(model, *x) for x in motion])
 
 
+def fitted(world: ArmWorld, motion, readings) -> tuple:
+    """(the fit of the readings along ``motion`` (positions, velocities, accelerations)
+    with the realistic sensor's noise per sample, its load, pybullet's load): each load
+    as (mass kg, COM m, inertia about the COM kg m^2)."""
+    from com_core.estimation.inertial import fit_inertial
+
+    fit = fit_inertial(regressors_of(world, *motion), readings, [0.1] * 3 + [0.005] * 3)
+    return fit, load_of(fit.pi), load_of(world.load_parameters())
+
+
 def wrist_motion(world: ArmWorld, amplitudes: list[float]) -> tuple[np.ndarray, ...]:
     """Swing the three wrist joints by ``amplitudes`` (rad) about home, back and forth in
     five segments; (the readings, the inverse dynamics' wrench, the static model's at the
     same joints), each (n, 6), N and N m, ``ft_sensor``."""
     swing = np.zeros(len(world.config.robot.arm_joints))
     swing[-3:] = amplitudes
-    positions, velocities, accelerations, readings = follow(
+    _, positions, velocities, accelerations, readings = follow(
         world, [swing * (-1) ** k for k in range(5)]
     )
     pi = world.load_parameters()
@@ -125,16 +141,13 @@ def test_the_fit_in_motion_gives_the_load_pybullet_simulates(held_box):
     """Seven random wrist moves (5.6 s), the ideal sensor: the 10 parameters of hand and
     box together from the readings (``estimation.inertial``) are pybullet's, mass to
     0.1 %, COM to 0.1 mm, principal moments to 5 % (the model error above)."""
-    from com_core.estimation.inertial import fit_inertial
-
     rng = np.random.default_rng(1)
     swings = [np.concatenate([np.zeros(4), rng.uniform(-1, 1, 3) * [0.4, 0.4, 0.5]])
               for _ in range(7)]  # fmt: skip
-    *motion, readings = follow(held_box, swings)
-    regressors = regressors_of(held_box, *motion)
-    fit = fit_inertial(regressors, readings, [0.1] * 3 + [0.005] * 3)
-    mass, com, inertia = load_of(fit.pi)
-    true_mass, true_com, true_inertia = load_of(held_box.load_parameters())
+    _, *motion, readings = follow(held_box, swings)
+    _, (mass, com, inertia), (true_mass, true_com, true_inertia) = fitted(
+        held_box, motion, readings
+    )
     assert mass == pytest.approx(true_mass, rel=1e-3)
     np.testing.assert_allclose(com, true_com, atol=1e-4)
     np.testing.assert_allclose(
@@ -146,7 +159,6 @@ def test_the_designed_excitation_is_followed_and_gives_the_load(held_box):
     """The D-optimal wrist excitation (``planning.excitation``, 3 s), sent as waypoints
     with their velocities and accelerations at 20 Hz: the arm follows it to 5 mrad, and
     the fit from its readings is near pybullet's load."""
-    from com_core.estimation.inertial import fit_inertial
     from com_core.planning.excitation import design_excitation
 
     world = held_box
@@ -159,23 +171,10 @@ def test_the_designed_excitation_is_followed_and_gives_the_load(held_box):
     q, dq, ddq = excitation.at(times)
     start = world.time
     end = world.command_arm(robot.arm_joints, times, q, 0.0, dq, ddq)
-    positions, velocities, readings, tracking = [], [], [], []
-    while world.time < end + 0.2:
-        world.step()
-        _, joints, speeds, _ = world.joint_state()
-        positions.append(joints[: len(home)])
-        velocities.append(speeds[: len(home)])
-        readings.append(world.raw_wrench)
-        planned = excitation.at(min(world.time - start, excitation.period))[0][0]
-        tracking.append(np.abs(np.array(joints[: len(home)]) - planned).max())
-    assert max(tracking) < 5e-3, max(tracking)
-    accelerations = np.gradient(np.array(velocities), TIME_STEP, axis=0)
-    inner = slice(2, -2)
-    regressors = regressors_of(world, np.array(positions)[inner], np.array(velocities)[inner],
-                               accelerations[inner])  # fmt: skip
-    fit = fit_inertial(regressors, np.array(readings)[inner], [0.1] * 3 + [0.005] * 3)
-    mass, com, _ = load_of(fit.pi)
-    true_mass, true_com, _ = load_of(world.load_parameters())
+    stamps, *motion, readings = record_until(world, end)
+    planned = excitation.at(np.minimum(stamps - start, excitation.period))[0]
+    assert np.abs(motion[0] - planned).max() < 5e-3
+    fit, (mass, com, _), (true_mass, true_com, _) = fitted(world, motion, readings)
     # the simulator's error in motion (docs/design.md) biases the 3-joint excitation's fit:
     # mass 0.15 %, COM 0.26 mm, principal moments 9-28 %; bounds at that, to be tightened
     # when the simulator is mended
