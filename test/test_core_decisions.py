@@ -29,6 +29,7 @@ from com_core.planning.decisions import (
     plan_for_target,
     plan_within_reach,
     planning_noise,
+    predicted_run,
     reachable_tilt,
     requested_plan,
     tare_cache_path,
@@ -311,3 +312,13 @@ def test_the_grasp_holds_from_min_load():
 def test_fingers_closed_beyond_a_fortieth_of_their_stroke_may_hold_an_object():
     assert GRIPPER_HOLDING == 0.025
     assert may_hold_object(0.03) and not may_hold_object(0.025) and not may_hold_object(0.0)
+
+
+def test_a_target_refused_at_a_small_tilt_says_what_raise_tilt_would_do():
+    """The target cannot be met at the tilt set: the refusal adds the planner's answer with
+    raise_tilt (a plan to allow, or its own refusal)."""
+    small = settings(tilt=0.05, target_com_sigma=1e-3, max_object_time=60.0)
+    with pytest.raises(PlanInfeasible, match=r"with raise_tilt it plans tilt 0\.5") as refused:
+        predicted_run(plan_within_reach(small, PANDA, NOISE), small, PANDA, "ml", "wrenches")
+    assert str(refused.value).startswith("target COM sigma cannot be met: ")
+    assert "allow raise_tilt" in str(refused.value)

@@ -298,10 +298,16 @@ def predicted_run(
     PlanInfeasible, with the tilt that would do (``resolving_tilt``), when the plan's
     orientations cannot resolve the fit the estimator makes (``information``: a kinematic
     model with the sensor's mounting needs rotations about two axes, each well beyond the
-    noise); the target's own infeasibility as ``plan_for_target`` says it."""
+    noise); the target's own infeasibility as ``plan_for_target`` says it, and, for a tilt
+    below ``max_tilt``, what the planner would do with ``raise_tilt``."""
     try:
         planned = plan_for_target(planned, settings, motion, method, information)
         return planned, predict(planned.plan, method, information)
+    except PlanInfeasible as refusal:
+        if settings.raise_tilt or not planned.plan.tilt < settings.max_tilt:
+            raise
+        hint = _raised(planned, settings, motion, method, information)
+        raise PlanInfeasible(f"{refusal}; {hint}") from refusal
     except EstimationError as error:
         plan, target = planned.plan, settings.target_com_sigma
         ceiling = reachable_tilt(replace(plan, tilt=settings.max_tilt), motion, [])
@@ -324,6 +330,22 @@ def predicted_run(
         raise PlanInfeasible(
             f"tilt={plan.tilt!r} refused: too small for the {model} model ({error}); {fix}"
         ) from error
+
+
+def _raised(
+    planned: PlannedRun, settings: RunSettings, motion: Choreography, method: str, information: str
+) -> str:
+    """What the planner would do for the target with ``raise_tilt`` (the remedy a tilt
+    below ``max_tilt`` may hide)."""
+    try:
+        raised = plan_for_target(planned, replace(settings, raise_tilt=True), motion, method,
+                                 information)  # fmt: skip
+    except (PlanInfeasible, EstimationError) as refusal:
+        return f"with raise_tilt as well: {refusal}"
+    return (
+        f"with raise_tilt it plans tilt {raised.plan.tilt:.3f} rad and dwell "
+        f"{raised.plan.dwell:g} s per pose: allow raise_tilt"
+    )
 
 
 def resolving_tilt(
