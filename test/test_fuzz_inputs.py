@@ -105,18 +105,22 @@ def test_every_run_setting_it_takes_is_planned_or_refused_with_advice(name):
         assert refusal == "" or "cannot be met" in refusal or "refused" in refusal, refusal
 
 
-@pytest.mark.parametrize(
-    ("field", "values"),
-    [
-        ("target_com_sigma", [math.nan, -1e-3, math.inf, 1e9, 5e-3]),
-        ("tilt", [math.nan, -0.5, 3.0, math.inf, 1e-9, 0.3]),
-        ("max_tilt", [math.nan, -0.5, 3.0, 1.2]),
-        ("dwell", [math.nan, -1.0, 1e9, math.inf, 0.5]),
-        ("raise_tilt", [-128, -2, 2, 127, 0, 1]),
-        ("fewer_poses", [-128, -2, 2, 127, 0, 1]),
-        ("information", ["", " ", "guess", "x" * 300, "wrenches", "kinematics"]),
-    ],
-)
+GOAL_VALUES = {
+    "target_com_sigma": [math.nan, -1e-3, math.inf, 1e9, 5e-3],
+    "tilt": [math.nan, -0.5, 3.0, math.inf, 1e-9, 0.3],
+    "max_tilt": [math.nan, -0.5, 3.0, 1.2],
+    "dwell": [math.nan, -1.0, 1e9, math.inf, 0.5],
+    "raise_tilt": [-128, -2, 2, 127, 0, 1],
+    "fewer_poses": [-128, -2, 2, 127, 0, 1],
+    "information": ["", " ", "guess", "x" * 300, "wrenches", "kinematics"],
+}
+
+
+def test_the_fuzz_covers_every_goal_field():
+    assert set(GOAL_VALUES) == set(Explore.Goal.get_fields_and_field_types())
+
+
+@pytest.mark.parametrize(("field", "values"), GOAL_VALUES.items())
 def test_every_goal_field_is_taken_or_refused_by_name(field, values):
     for value in values:
         options, refusals = goal_options(Explore.Goal(**{field: value}))
