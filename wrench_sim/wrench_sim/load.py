@@ -10,6 +10,9 @@ load on the sensor would be f = -F, tau = -(M + d x F). The scene sets
 joint origin, so the conversion is just f = -F, tau = -M (the two agree, bench/README.md,
 Simulation rate).
 
+In motion Bullet's reading carries velocity terms it counts twice; ``read`` takes them off
+(``wrench_sim.feedback``), so the reading is the inverse dynamics of the load.
+
 Each step's true wrench (``LoadWrench.wrench``) is the mean of the last two steps' readings
 (a 2-tap anti-alias filter, a zero at 500 Hz): it removes any remaining two-step oscillation
 and delays the signal by half a step.
@@ -31,10 +34,13 @@ import pybullet
 from numpy.typing import NDArray
 
 from com_core.robot.dynamics import inertial_parameters, load_of
+from wrench_sim.feedback import CountedTwice
 from wrench_sim.scene import Scene
 from wrench_sim.vibration import Vibration
 
 __all__ = ["GroundTruth", "LoadWrench"]
+
+_STILL = 1e-4  # rad/s, m/s: below this on every joint the wrench counted twice is < 1e-9 N
 
 
 class GroundTruth:
@@ -134,7 +140,13 @@ class LoadWrench:
         self._get_joint_state = functools.partial(
             pybullet.getJointState, physicsClientId=c._client
         )
+        self._get_joint_states = functools.partial(
+            pybullet.getJointStates, physicsClientId=c._client
+        )
         c.enableJointForceTorqueSensor(scene.robot_body, scene.sensor, True)
+        self._counted_twice = CountedTwice(
+            c, scene.robot_body, scene.urdf_text, scene.sensor, scene.load_links
+        )
         self._raw = np.zeros(6)
         self._previous_raw = np.zeros(6)
         self._vibration = vibration
@@ -144,9 +156,13 @@ class LoadWrench:
         """Take the reading of the step just run; ``moving``: a trajectory is running."""
         self._previous_raw = self._raw
         # (F, M): the flange's wrench on the hand, hand axes, M about the joint origin.
-        self._raw = np.negative(
-            self._get_joint_state(self._scene.robot_body, self._scene.sensor)[2]
-        )
+        body = self._scene.robot_body
+        self._raw = np.negative(self._get_joint_state(body, self._scene.sensor)[2])
+        states = self._get_joint_states(body, self._counted_twice.joints)
+        velocities = [state[1] for state in states]
+        if max(map(abs, velocities)) > _STILL:
+            positions = [state[0] for state in states]
+            self._raw -= self._counted_twice.wrench(positions, velocities)
         if self._vibration is not None:
             self._raw = self._raw + self._ringing(moving)
 

@@ -94,6 +94,10 @@ class Scene:
         self._scale_hand_mass()
         self.plane = c.loadURDF("plane.urdf")
         self.stand, self.object_body = self._load_stand_and_object()
+        # Bullet drags every moving body by default (0.04 of its momentum per s, and more
+        # with speed); a real arm and its load in air feel nothing of that size
+        for body in (self.robot_body, self.object_body):
+            c.changeDynamics(body, -1, linearDamping=0.0, angularDamping=0.0)
 
     def _load_robot(
         self, root: ET.Element, sensor_joint: ET.Element, beyond: list[ET.Element]
