@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["InertialFit", "fit_inertial", "log_cholesky", "pseudo_inertia"]
+__all__ = ["InertialFit", "fit_inertial", "fit_whitened", "log_cholesky", "pseudo_inertia"]
 
 _FLOOR = 1e-9
 """The smallest eigenvalue (kg, kg m^2) a projected pseudo-inertia starts from."""
@@ -88,8 +88,14 @@ def fit_inertial(
     if n < 2 or Y.shape[1:] != (6, 10) or w.shape != (n, 6):
         raise ValueError(f"need (n, 6, 10) regressors and (n, 6) wrenches, n >= 2; got {Y.shape}")
     scale = 1.0 / np.asarray(sigma, dtype=np.float64).reshape(1, 6, 1)
-    A = (Y * scale).reshape(-1, 10)
-    b = (w * scale[..., 0]).reshape(-1)
+    return fit_whitened((Y * scale).reshape(-1, 10), (w * scale[..., 0]).reshape(-1), iterations)
+
+
+def fit_whitened(A: ArrayLike, b: ArrayLike, iterations: int = 50) -> InertialFit:
+    """``fit_inertial`` of the whitened system A pi = b + e, e white of unit variance
+    (A (rows, 10), b (rows,)): the rows already divided by their noise, or passed through
+    its whitening filter (``estimation.motion``)."""
+    A, b = np.asarray(A, dtype=np.float64), np.asarray(b, dtype=np.float64)
     rank = np.linalg.matrix_rank(A)
     if rank < 10:
         raise ValueError(f"the motion excites {rank} of the 10 inertial parameters")

@@ -1,0 +1,306 @@
+"""Mass, COM and inertia of the load from one wrist motion: joint states and wrenches.
+
+The sensor reads, at each of its samples k (time t_k, s),
+
+    w_k = Y(q, dq, ddq)(t_k - delay) pi + b + e_k            (``robot.dynamics``)
+
+with pi the load's 10 inertial parameters (the hand's and the object's together), b the
+sensor's bias (6,; constant over a few seconds of motion), e_k its noise and ``delay`` how
+much later the wrench is stamped than the joint state of the same instant (the sensor's
+low-pass and transport against the arm's; a first-order low-pass of time constant T
+delays slow signals by T). The fit, step by step:
+
+1. **Joint motion, zero phase.** q, dq and ddq at any instant from the joint positions
+   alone: a Savitzky-Golay fit (a polynomial of ``ORDER`` over ``WINDOW`` s centred on the
+   nearest joint sample; Savitzky and Golay 1964), evaluated at the instant. It is
+   symmetric, so it delays nothing; it passes the excitation's harmonics (a few Hz)
+   unchanged and smooths the encoders' noise out of the accelerations. The wrenches are
+   not filtered: each raw sample keeps its own noise, which step 3 weighs exactly, and
+   nothing has to be aligned with a filter's delay.
+2. **Delay, estimated.** The weighted residual of the linear fit is minimised over the
+   delay: a 1 ms grid over +-``MAX_DELAY``, then a parabola through the three best.
+3. **Coloured noise, weighed.** The sensor's noise model (``sensing.noise``: per-axis AR,
+   learnt from the tare's windows) whitens the rows: each axis's samples and regressor
+   columns go through the model's prediction-error filter and are divided by its
+   innovation's sigma, the generalised least squares of the AR model. The covariance is
+   then the Cramer-Rao bound under that noise, and chi^2 tests the model.
+4. **Bias eliminated, load consistent.** b enters linearly and unconstrained; it is
+   projected out (variable projection), and the 10 parameters are fitted physically
+   consistent (``estimation.inertial``: log-Cholesky when the least squares estimate is
+   not). A known hand (its parameters from an empty-hand motion, ``hand``) is taken off
+   first, so what is fitted, and made consistent, is the object alone.
+5. **Error bars.** The covariance adds the hand's (when given), the calibration's common
+   error propagated through the fit (``sensing.calibration``), and the encoders' noise
+   through the accelerations (``position_sigma``); it is widened by chi^2/dof when the
+   fit's residual is larger than the noise model allows.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from com_core.estimation.inertial import fit_whitened
+from com_core.robot.dynamics import load_of, sensor_regressor
+from com_core.robot.model import RobotModel
+from com_core.sensing.calibration import Calibration
+from com_core.sensing.noise import NoiseModel
+
+__all__ = ["MAX_DELAY", "MotionFit", "fit_motion", "joint_motion", "regressors_along"]
+
+WINDOW = 0.1
+"""s: the span of joint samples each Savitzky-Golay polynomial is fitted to."""
+ORDER = 4
+"""The Savitzky-Golay polynomial's degree."""
+MAX_DELAY = 0.03
+"""s: the largest delay, either way, searched between wrench and joint stamps."""
+_DELAY_STEP = 3e-3  # s, the delay search's grid
+_SEARCH_EVERY = 5  # the delay search uses every 5th wrench sample
+
+
+@dataclass(frozen=True)
+class MotionFit:
+    """The load's parameters from one motion (see module).
+
+    pi : (10,) the object's (or, without a known hand, the whole load's) parameters: m
+        (kg), m c (kg m), inertia about the sensor origin (kg m^2), ``ft_sensor``.
+    cov : (10, 10) their covariance, every share included (module, step 5).
+    bias : (6,) the sensor's bias over the motion, N and N m.
+    delay : s, the wrench stamps' delay behind the joint states' (estimated).
+    chi2, dof : the whitened residual's sum of squares and its degrees of freedom.
+    constrained : the least squares estimate was not a physical body; ``pi`` is the
+        consistent one nearest the data.
+    samples : wrench samples fitted.
+    """
+
+    pi: NDArray[np.float64]
+    cov: NDArray[np.float64]
+    bias: NDArray[np.float64]
+    delay: float
+    chi2: float
+    dof: int
+    constrained: bool
+    samples: int
+
+    def load(self) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
+        """(mass kg, COM m, inertia about the COM kg m^2 (3, 3)), ``ft_sensor``."""
+        return load_of(self.pi)
+
+    def load_cov(self) -> NDArray[np.float64]:
+        """(10, 10) covariance of (mass, COM (3), the inertia about the COM's Ixx, Ixy, Iyy,
+        Ixz, Iyz, Izz), propagated from ``cov`` to first order."""
+        jac = np.zeros((10, 10))
+        base = _load_vector(self.pi)
+        for i in range(10):
+            step = 1e-6 * max(abs(self.pi[i]), 1e-6)
+            shifted = self.pi.copy()
+            shifted[i] += step
+            jac[:, i] = (_load_vector(shifted) - base) / step
+        return jac @ self.cov @ jac.T
+
+
+def _load_vector(pi: NDArray[np.float64]) -> NDArray[np.float64]:
+    mass, com, inertia = load_of(pi)
+    upper = inertia[[0, 0, 1, 0, 1, 2], [0, 1, 1, 2, 2, 2]]
+    return np.concatenate([[mass], com, upper])
+
+
+def joint_motion(
+    times: ArrayLike, positions: ArrayLike, at: ArrayLike
+) -> tuple[NDArray[np.float64], ...]:
+    """(q, dq, ddq), each (len(at), joints): rad, rad/s, rad/s^2 at the instants ``at``
+    (s) from joint ``positions`` (samples, joints) stamped ``times`` (s, increasing, evenly
+    spaced): step 1 of the module. ValueError for an instant without ``WINDOW`` / 2 of
+    samples on both sides, or stamps that are not evenly spaced (a gap of 1.5 periods)."""
+    t = np.asarray(times, dtype=np.float64)
+    x = np.asarray(positions, dtype=np.float64)
+    at = np.asarray(at, dtype=np.float64)
+    period = (t[-1] - t[0]) / (len(t) - 1)
+    if not np.all(np.diff(t) < 1.5 * period) or not period > 0:
+        raise ValueError("the joint states are not evenly spaced (a gap of 1.5 periods)")
+    half = max(round(WINDOW / 2 / period), ORDER // 2 + 1)
+    nearest = np.rint((at - t[0]) / period).astype(int)
+    if nearest.min() < half or nearest.max() > len(t) - 1 - half:
+        raise ValueError(
+            f"joint states must cover {half * period:.3f} s before and after every wrench "
+            f"fitted: they span [{t[0]:.3f}, {t[-1]:.3f}] s, the wrenches [{at.min():.3f}, "
+            f"{at.max():.3f}] s"
+        )
+    offsets = np.arange(-half, half + 1)
+    # the least squares polynomial's coefficients c = P x over each window, in periods
+    P = np.linalg.pinv(offsets[:, None] ** np.arange(ORDER + 1)[None, :].astype(float))
+    windows = x[nearest[:, None] + offsets[None, :]]  # (n, 2 half + 1, joints)
+    c = np.einsum("pw,nwj->npj", P, windows)  # (n, ORDER + 1, joints)
+    s = ((at - t[nearest]) / period)[:, None]  # where in the window, periods
+    powers = np.arange(ORDER + 1)
+    q = np.einsum("np,npj->nj", s**powers, c)
+    dq = np.einsum("np,npj->nj", (powers * s ** np.maximum(powers - 1, 0)), c) / period
+    second = powers * (powers - 1) * s ** np.maximum(powers - 2, 0)
+    ddq = np.einsum("np,npj->nj", second, c) / period**2
+    return q, dq, ddq
+
+
+def regressors_along(
+    robot: RobotModel, q: NDArray[np.float64], dq: NDArray[np.float64], ddq: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """(n, 6, 10): ``sensor_regressor`` at each row of q, dq, ddq."""
+    return np.array([sensor_regressor(robot, *row) for row in zip(q, dq, ddq, strict=True)])
+
+
+def fit_motion(
+    robot: RobotModel,
+    joint_times: ArrayLike,
+    joint_positions: ArrayLike,
+    wrench_times: ArrayLike,
+    wrenches: ArrayLike,
+    noise: NoiseModel,
+    hand: tuple[ArrayLike, ArrayLike] | None = None,
+    calibration: Calibration | None = None,
+    position_sigma: float = 0.0,
+) -> MotionFit:
+    """The load's parameters from the ``wrenches`` (n, 6; N, N m, ``ft_sensor``, stamped
+    ``wrench_times`` s, evenly spaced, one motion) and the joint positions (samples,
+    ``robot.joint_names``; rad, m) stamped ``joint_times`` (s), with the sensor's ``noise``
+    model (see module). ``hand``: (pi, cov) of the empty hand, taken off; None: the whole
+    load is fitted. ``calibration``: the sensor's stated accuracy (None: perfect).
+    ``position_sigma``: rad, the encoders' noise per joint sample. ValueError when the
+    motion does not excite the 10 parameters or the joint states do not cover it."""
+    w = np.asarray(wrenches, dtype=np.float64)
+    t = np.asarray(wrench_times, dtype=np.float64)
+    jt = np.asarray(joint_times, dtype=np.float64)
+    jq = np.asarray(joint_positions, dtype=np.float64)
+    hand_pi = np.zeros(10) if hand is None else np.asarray(hand[0], dtype=np.float64)
+    inner = (t - MAX_DELAY - WINDOW > jt[0]) & (t + MAX_DELAY + WINDOW < jt[-1])
+    t, w = t[inner], w[inner]
+    if len(t) < 100:
+        raise ValueError(
+            f"{len(t)} wrench samples lie within the joint states' span less "
+            f"{MAX_DELAY + WINDOW:.2f} s at each end: too short a motion"
+        )
+
+    def regressors(delay: float, every: int = 1) -> NDArray[np.float64]:
+        return regressors_along(robot, *joint_motion(jt, jq, t[::every] - delay))
+
+    def residual(delay: float) -> float:
+        Y = regressors(delay, _SEARCH_EVERY)
+        A, b = _whitened_system(Y, w[::_SEARCH_EVERY] - Y @ hand_pi, noise, _SEARCH_EVERY)
+        solution, *_ = np.linalg.lstsq(A, b, rcond=None)
+        r = b - A @ solution
+        return float(r @ r)
+
+    delay = _best_delay(residual)
+    Y = regressors(delay)
+    object_wrench = w - Y @ hand_pi
+    A, b = _whitened_system(Y, object_wrench, noise, 1)
+    A_pi, A_bias = A[:, :10], A[:, 10:]
+    basis, _ = np.linalg.qr(A_bias)
+
+    def project(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        return x - basis @ (basis.T @ x)
+
+    fit = fit_whitened(project(A_pi), project(b))
+    bias, *_ = np.linalg.lstsq(A_bias, b - A_pi @ fit.pi, rcond=None)
+    dof = A.shape[0] - 16
+    cov = fit.cov.copy()
+    if calibration is not None:
+        cov += _calibration_share(calibration, Y @ fit.pi, noise, project, fit.cov, A_pi)
+    if position_sigma > 0:
+        cov += _encoder_share(robot, jt, jq, t - delay, fit.pi + hand_pi, position_sigma,
+                              noise, fit.cov, project, A_pi)  # fmt: skip
+    cov *= max(1.0, fit.chi2 / dof)
+    if hand is not None:
+        cov += np.asarray(hand[1], dtype=np.float64)
+    return MotionFit(fit.pi, cov, bias, delay, fit.chi2, dof, fit.constrained, len(t))
+
+
+def _best_delay(residual) -> float:
+    """The delay (s) minimising ``residual(delay)``: the grid, then a parabola."""
+    grid = np.arange(-MAX_DELAY, MAX_DELAY + _DELAY_STEP / 2, _DELAY_STEP)
+    costs = np.array([residual(d) for d in grid])
+    k = int(np.clip(np.argmin(costs), 1, len(grid) - 2))
+    left, middle, right = costs[k - 1 : k + 2]
+    curvature = left - 2 * middle + right
+    shift = 0.5 * (left - right) / curvature if curvature > 0 else 0.0
+    return float(grid[k] + np.clip(shift, -1.0, 1.0) * _DELAY_STEP)
+
+
+def _whitened_system(
+    Y: NDArray[np.float64], w: NDArray[np.float64], noise: NoiseModel, every: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(A (rows, 16), b (rows,)): the regressors (n, 6, 10) with the bias's columns, and
+    the wrenches (n, 6), through each axis's prediction-error filter over samples ``every``
+    apart (white noise between them when the correlation is short beside that; step 3)."""
+    columns = np.concatenate([Y, np.broadcast_to(np.eye(6), (len(Y), 6, 6))], axis=2)
+    out_A, out_b = [], []
+    for a in range(6):
+        phi = noise.ar[a] if every == 1 else ()
+        sigma = np.sqrt(noise.innovation[a] if every == 1 else noise.cov[a, a])
+        out_A.append(_prediction_errors(columns[:, a, :], phi) / sigma)
+        out_b.append(_prediction_errors(w[:, a], phi) / sigma)
+    return np.concatenate(out_A), np.concatenate(out_b)
+
+
+def _prediction_errors(x: NDArray[np.float64], phi: Sequence[float]) -> NDArray[np.float64]:
+    """x_t - sum_i phi_i x_(t-i) for t >= len(phi), along the first axis."""
+    p = len(phi)
+    out = x[p:].copy()
+    for i, c in enumerate(phi, start=1):
+        out -= c * x[p - i : len(x) - i]
+    return out
+
+
+def _calibration_share(
+    calibration: Calibration,
+    object_wrench: NDArray[np.float64],
+    noise: NoiseModel,
+    project,
+    cov: NDArray[np.float64],
+    A_pi: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """(10, 10): the calibration's common error E on the object's wrench (n, 6),
+    propagated through the whitened least squares (``sensing.calibration``)."""
+    J = np.stack([calibration.jacobian(x) for x in object_wrench])  # (n, 6, 36)
+    whitened = np.concatenate(
+        [
+            _prediction_errors(J[:, a, :], noise.ar[a]) / np.sqrt(noise.innovation[a])
+            for a in range(6)
+        ]
+    )
+    gain = cov @ project(A_pi).T @ project(whitened)  # d pi / d vec(E), (10, 36)
+    return calibration.sigma**2 * gain @ gain.T
+
+
+def _encoder_share(
+    robot: RobotModel,
+    jt: NDArray[np.float64],
+    jq: NDArray[np.float64],
+    at: NDArray[np.float64],
+    pi: NDArray[np.float64],
+    sigma: float,
+    noise: NoiseModel,
+    cov: NDArray[np.float64],
+    project,
+    A_pi: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """(10, 10): the encoders' white noise ``sigma`` (rad) per joint sample, through the
+    Savitzky-Golay fit into q, dq, ddq and the predicted wrench, then through the
+    whitened least squares: the covariance of the fit's shift over 8 seeded draws of the
+    noise (a small share: a Monte Carlo is exact enough and cheaper than the Jacobian)."""
+    base = regressors_along(robot, *joint_motion(jt, jq, at)) @ pi
+    gains = []
+    rng = np.random.default_rng(0)
+    for _ in range(8):
+        shaken = jq + sigma * rng.standard_normal(jq.shape)
+        delta = regressors_along(robot, *joint_motion(jt, shaken, at)) @ pi - base
+        whitened = np.concatenate(
+            [
+                _prediction_errors(delta[:, a], noise.ar[a]) / np.sqrt(noise.innovation[a])
+                for a in range(6)
+            ]
+        )
+        gains.append(cov @ project(A_pi).T @ project(whitened))
+    spread = np.array(gains)
+    return spread.T @ spread / len(gains)
