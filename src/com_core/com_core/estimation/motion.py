@@ -49,7 +49,14 @@ from com_core.robot.model import RobotModel
 from com_core.sensing.calibration import Calibration
 from com_core.sensing.noise import NoiseModel
 
-__all__ = ["MAX_DELAY", "MotionFit", "fit_motion", "joint_motion", "regressors_along"]
+__all__ = [
+    "MAX_DELAY",
+    "MotionFit",
+    "fit_motion",
+    "joint_motion",
+    "load_vector",
+    "regressors_along",
+]
 
 WINDOW = 0.1
 """s: the span of joint samples each Savitzky-Golay polynomial is fitted to."""
@@ -89,20 +96,26 @@ class MotionFit:
         """(mass kg, COM m, inertia about the COM kg m^2 (3, 3)), ``ft_sensor``."""
         return load_of(self.pi)
 
+    def load_vector(self) -> NDArray[np.float64]:
+        """(10,): mass, COM (3) and the inertia about the COM's Ixx, Ixy, Iyy, Ixz, Iyz, Izz
+        (``load_vector``), whose covariance ``load_cov`` is."""
+        return load_vector(self.pi)
+
     def load_cov(self) -> NDArray[np.float64]:
-        """(10, 10) covariance of (mass, COM (3), the inertia about the COM's Ixx, Ixy, Iyy,
-        Ixz, Iyz, Izz), propagated from ``cov`` to first order."""
+        """(10, 10) covariance of ``load_vector``, propagated from ``cov`` to first order."""
         jac = np.zeros((10, 10))
-        base = _load_vector(self.pi)
+        base = load_vector(self.pi)
         for i in range(10):
             step = 1e-6 * max(abs(self.pi[i]), 1e-6)
             shifted = self.pi.copy()
             shifted[i] += step
-            jac[:, i] = (_load_vector(shifted) - base) / step
+            jac[:, i] = (load_vector(shifted) - base) / step
         return jac @ self.cov @ jac.T
 
 
-def _load_vector(pi: NDArray[np.float64]) -> NDArray[np.float64]:
+def load_vector(pi: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(10,) of the parameters ``pi``: mass (kg), COM (m) and the inertia about the COM
+    (kg m^2) as Ixx, Ixy, Iyy, Ixz, Iyz, Izz."""
     mass, com, inertia = load_of(pi)
     upper = inertia[[0, 0, 1, 0, 1, 2], [0, 1, 1, 2, 2, 2]]
     return np.concatenate([[mass], com, upper])
