@@ -245,20 +245,10 @@ def test_the_motion_fit_through_the_realistic_sensor_gives_the_object():
     from com_core.sensing.calibration import Calibration
     from com_core.sensing.noise import ar1_noise
     from com_core.sensing.sensor_profiles import PROFILES
-    from com_core.sensing.wrench_model import SensorModel, calibration_matrix
-    from wrench_sim.sensor import BiasDrift, WrenchSensor
+    from wrench_sim.sensor import profile_sensor
 
     p = PROFILES["realistic"]
-    rng = np.random.default_rng(7)
-    model = SensorModel.from_scalars(
-        p.sigma_f, p.sigma_tau, resolution_f=p.resolution_f, resolution_tau=p.resolution_tau,
-        limit_f=p.limit_f, limit_tau=p.limit_tau, rate_hz=1000.0,
-        correlation_time=p.correlation_time,
-        calibration=calibration_matrix(p.calibration_accuracy, p.limit_f, p.limit_tau, rng),
-    )  # fmt: skip
-    drift = BiasDrift([p.warmup_f] * 3 + [p.warmup_tau] * 3, p.warmup_time,
-                      [p.random_walk_f] * 3 + [p.random_walk_tau] * 3, rng)  # fmt: skip
-    sensor = WrenchSensor(model, rng, drift)
+    sensor = profile_sensor(p, seed=7, serial=7)
     noise = ar1_noise([p.sigma_f] * 3 + [p.sigma_tau] * 3, p.correlation_time, 1000.0)
     calibration = Calibration(p.calibration_accuracy, p.limit_f, p.limit_tau)
     world = ArmWorld(SimConfig(object_mass=0.5, seed=3))
