@@ -75,6 +75,8 @@ class MotionFit:
     pi : (10,) the object's (or, without a known hand, the whole load's) parameters: m
         (kg), m c (kg m), inertia about the sensor origin (kg m^2), ``ft_sensor``.
     cov : (10, 10) their covariance, every share included (module, step 5).
+    bound : (10, 10) the share of the sensor's noise alone: the Cramer-Rao bound of this
+        motion under the noise model.
     bias : (6,) the sensor's bias over the motion, N and N m.
     delay : s, the wrench stamps' delay behind the joint states' (estimated).
     chi2, dof : the whitened residual's sum of squares and its degrees of freedom.
@@ -85,6 +87,7 @@ class MotionFit:
 
     pi: NDArray[np.float64]
     cov: NDArray[np.float64]
+    bound: NDArray[np.float64]
     bias: NDArray[np.float64]
     delay: float
     chi2: float
@@ -101,8 +104,9 @@ class MotionFit:
         (``load_vector``), whose covariance ``load_cov`` is."""
         return load_vector(self.pi)
 
-    def load_cov(self) -> NDArray[np.float64]:
-        """(10, 10) covariance of ``load_vector``, propagated from ``cov`` to first order."""
+    def load_cov(self, cov: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+        """(10, 10) covariance of ``load_vector``, propagated to first order from ``cov``
+        (default: the fit's, ``self.cov``; ``self.bound`` for the bound's)."""
         jac = np.zeros((10, 10))
         base = load_vector(self.pi)
         for i in range(10):
@@ -110,7 +114,7 @@ class MotionFit:
             shifted = self.pi.copy()
             shifted[i] += step
             jac[:, i] = (load_vector(shifted) - base) / step
-        return jac @ self.cov @ jac.T
+        return jac @ (self.cov if cov is None else cov) @ jac.T
 
 
 def load_vector(pi: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -226,7 +230,7 @@ def fit_motion(
     cov *= max(1.0, fit.chi2 / dof)
     if hand is not None:
         cov += np.asarray(hand[1], dtype=np.float64)
-    return MotionFit(fit.pi, cov, bias, delay, fit.chi2, dof, fit.constrained, len(t))
+    return MotionFit(fit.pi, cov, fit.cov, bias, delay, fit.chi2, dof, fit.constrained, len(t))
 
 
 def _best_delay(residual) -> float:
