@@ -52,6 +52,7 @@ from com_core.sensing.noise import NoiseModel
 __all__ = [
     "MAX_DELAY",
     "MotionFit",
+    "compensated",
     "fit_motion",
     "joint_motion",
     "load_vector",
@@ -231,6 +232,25 @@ def fit_motion(
     if hand is not None:
         cov += np.asarray(hand[1], dtype=np.float64)
     return MotionFit(fit.pi, cov, fit.cov, bias, delay, fit.chi2, dof, fit.constrained, len(t))
+
+
+def compensated(
+    robot: RobotModel,
+    pi: ArrayLike,
+    bias: ArrayLike,
+    delay: float,
+    joint_times: ArrayLike,
+    joint_positions: ArrayLike,
+    wrench_times: ArrayLike,
+    wrenches: ArrayLike,
+) -> NDArray[np.float64]:
+    """(n, 6): the ``wrenches`` (N, N m, ``ft_sensor``, stamped ``wrench_times`` s) less
+    the wrench of the load ``pi`` (10,; hand and object together) along the joint motion
+    (``joint_motion`` of the positions, ``delay`` s earlier) and less ``bias`` (6,): what
+    the sensor reads beyond the load in motion, its noise alone when the load is right."""
+    at = np.asarray(wrench_times, dtype=np.float64) - delay
+    Y = regressors_along(robot, *joint_motion(joint_times, joint_positions, at))
+    return np.asarray(wrenches, dtype=np.float64) - Y @ np.asarray(pi) - np.asarray(bias)
 
 
 def _best_delay(residual) -> float:
