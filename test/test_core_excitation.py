@@ -58,3 +58,16 @@ def test_the_design_excites_every_parameter_and_beats_its_start(panda, home, des
     assert np.linalg.matrix_rank(excitation_information(panda, designed)) == 16
     again = design_excitation(panda, home, WRIST, iterations=40, seed=1)
     assert again.log_det == designed.log_det  # the same seed, the same motion
+
+
+def test_an_excitation_is_designed_once_and_read_back_to_the_bit(panda, home, tmp_path):
+    from com_core.planning.excitation import cached_excitation
+
+    path = tmp_path / "excitations.json"
+    first = cached_excitation(path, panda, home, WRIST, iterations=5, seed=2)
+    again = cached_excitation(path, panda, home, WRIST, iterations=5, seed=2)
+    assert again.a.tobytes() == first.a.tobytes() and again.b.tobytes() == first.b.tobytes()
+    assert again.log_det == first.log_det and again.joints == first.joints
+    other = cached_excitation(path, panda, home, WRIST, iterations=5, seed=3)
+    assert other.a.tobytes() != first.a.tobytes()
+    assert len(__import__("json").loads(path.read_text())["entries"]) == 2

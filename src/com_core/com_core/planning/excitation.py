@@ -21,8 +21,12 @@ shrinking steps (numpy only). The same seed, arm and grasp give the same motion.
 
 from __future__ import annotations
 
+import hashlib
+import json
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,7 +34,14 @@ from numpy.typing import NDArray
 from com_core.robot.dynamics import sensor_regressor
 from com_core.robot.model import RobotModel
 
-__all__ = ["HARMONICS", "SIGMA", "Excitation", "design_excitation", "excitation_information"]
+__all__ = [
+    "HARMONICS",
+    "SIGMA",
+    "Excitation",
+    "cached_excitation",
+    "design_excitation",
+    "excitation_information",
+]
 
 HARMONICS = 3
 """Harmonics per joint."""
@@ -134,6 +145,53 @@ def design_excitation(
         else:
             step = max(step * 0.97, 0.05)
     return best
+
+
+def cached_excitation(
+    path: str | Path,
+    robot: RobotModel,
+    home: Sequence[float],
+    joints: Sequence[str],
+    period: float = 4.0,
+    max_acceleration: float = 8.0,
+    iterations: int = 150,
+    seed: int = 0,
+) -> Excitation:
+    """``design_excitation``'s motion, read from the JSON file ``path`` when it was
+    designed before for the same arm (its URDF's SHA-256), home, joints and settings (to
+    the last bit: JSON floats round-trip), else designed and added to the file (written
+    whole to a temporary file, then renamed: a reader never sees half of it)."""
+    request = {
+        "urdf_sha256": robot.urdf_sha256,
+        "home": [float(x) for x in home],
+        "joints": list(joints),
+        "period": float(period),
+        "max_acceleration": float(max_acceleration),
+        "iterations": int(iterations),
+        "seed": int(seed),
+    }
+    key = hashlib.sha256(json.dumps(request, sort_keys=True).encode()).hexdigest()
+    path = Path(path)
+    entries = json.loads(path.read_text())["entries"] if path.exists() else {}
+    if key in entries:
+        e = entries[key]["excitation"]
+        return Excitation(
+            tuple(e["joint_names"]),
+            np.array(e["home"]),
+            tuple(e["joints"]),
+            e["period"],
+            np.array(e["a"]),
+            np.array(e["b"]),
+            e["log_det"],
+        )
+    designed = design_excitation(robot, home, joints, period, max_acceleration, iterations, seed)
+    fields = {name: getattr(designed, name) for name in Excitation.__dataclass_fields__}
+    stored = {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in fields.items()}
+    entries[key] = {"request": request, "excitation": stored}
+    temporary = path.with_name(f".{path.name}.{os.getpid()}")
+    temporary.write_text(json.dumps({"entries": entries}, indent=1))
+    temporary.replace(path)
+    return designed
 
 
 def _at_rest(coefficients: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:

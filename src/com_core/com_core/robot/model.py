@@ -12,6 +12,7 @@ missing joint is an error that names it.
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
@@ -53,6 +54,7 @@ class RobotModel:
         except (RuntimeError, ValueError) as error:
             raise KinematicsError(f"the URDF does not parse: {error}") from error
         self.data = self.model.createData()
+        self.urdf_sha256 = hashlib.sha256(urdf.encode()).hexdigest()  # what the model is of
         frames = [frame.name for frame in self.model.frames]
         root = next((f.name for f in self.model.frames if f.type == pinocchio.FrameType.BODY), "")
         base_frame = base_frame or root or frames[0]  # the root link, a TF frame
