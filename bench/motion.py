@@ -81,7 +81,7 @@ def one_object(config, model, excitation, shape, mass, seed, every) -> dict:
         grasp(world)
         recorded = run_motion(world, excitation, sensor, every)
         start = time.perf_counter()
-        fit = fit_motion(model, *recorded, noise, (hand.pi, hand.cov), calibration)
+        fit = fit_motion(model, *recorded, noise, hand, calibration)
         seconds = time.perf_counter() - start
         true_mass, true_com = world.object_ground_truth()
         true_inertia = world.inertia_ground_truth()[1]

@@ -101,8 +101,8 @@ def sim_node() -> list[str]:
         interface(
             c.JOINT_STATES_TOPIC,
             "out",
-            "100 Hz sim time; the configuration's `arm_joints`, then `gripper_joints` "
-            "(rigid mode: the virtual gripper's position)",
+            "the configuration's `joint_state_rate` (Panda 1 kHz), sim time; its `arm_joints`, "
+            "then `gripper_joints` (rigid mode: the virtual gripper's position)",
         ),
         interface(
             c.TRUTH_TOPIC,

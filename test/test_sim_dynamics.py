@@ -285,7 +285,7 @@ def test_the_motion_fit_through_the_realistic_sensor_gives_the_object():
     try:
         hand = fit()
         grasp(world)
-        box = fit((hand.pi, hand.cov))
+        box = fit(hand)
         mass, com = world.object_ground_truth()
         truth = load_vector(inertial_parameters(mass, com, world.inertia_ground_truth()[1]))
         z = (box.load_vector() - truth) / np.sqrt(np.diag(box.load_cov()))

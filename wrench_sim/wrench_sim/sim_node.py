@@ -21,7 +21,7 @@ Publishes (names in ``com_core.contract``; stamps in sim time):
   ``ft_sensor`` as the readings), one per wrench sample with the same stamp; then one zero
   wrench, at the first wrench sample after the last push ended.
 - JOINT_STATES_TOPIC (sensor_msgs/JointState): the configuration's ``arm_joints`` and
-  ``gripper_joints``, 100 Hz.
+  ``gripper_joints``, at its ``joint_state_rate`` (the Panda's 1 kHz).
 - TRUTH_TOPIC, HAND_TRUTH_TOPIC (geometry_msgs/InertiaStamped, latched): the object's and the
   hand's mass and COM in ``ft_sensor``, republished when they change.
 - OBJECT_TOPIC (std_msgs/String, latched): shape, mass, grasp mode and held state.
@@ -92,7 +92,6 @@ from wrench_sim.physics import SENSOR_FRAME, TIME_STEP, ArmWorld, SimConfig
 from wrench_sim.sensor import BiasDrift, WrenchSensor, random_streams
 
 _SPIN_EVERY = 50  # steps between spin_once calls (50 ms of sim time; one costs ~0.2 ms)
-_JOINT_STATE_EVERY = 10  # steps: 100 Hz
 _REPORT_EVERY = 50  # steps between checks of events, saturation and ground truth
 _LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
@@ -154,6 +153,7 @@ class SimNode(Node):
         self._drift = np.array(parameter("bias_drift").value, dtype=np.float64)  # per s
         self._real_time_factor = parameter("real_time_factor").value
         self._publish_every = round(1000.0 / parameter("rate").value)
+        self._joint_state_every = round(1000.0 / robot.joint_state_rate)  # steps
         self._clock_every = round(1000.0 / parameter("clock_rate").value)
         self._pace_origin: tuple[float, float] | None = None
 
@@ -194,7 +194,8 @@ class SimNode(Node):
             f"ready: robot {robot.robot}, {spec.shape} {spec.mass:.3f} kg, COM offset "
             f"({offset_mm}) mm, grasp {self.world.config.grasp_mode}, seed "
             f"{self.world.config.seed}, wrench at "
-            f"{1.0 / (self._publish_every * TIME_STEP):.0f} Hz, real-time factor "
+            f"{1.0 / (self._publish_every * TIME_STEP):.0f} Hz, joint states at "
+            f"{1.0 / (self._joint_state_every * TIME_STEP):.0f} Hz, real-time factor "
             f"{self._real_time_factor or 'max'}"
         )
 
@@ -339,7 +340,7 @@ class SimNode(Node):
                     self._publish_wrench(now, reading)
                     if self._push_scheduled:
                         self._publish_applied(now)
-            if publish and steps % _JOINT_STATE_EVERY == 0:
+            if publish and steps % self._joint_state_every == 0:
                 self._publish_joint_state(now)
             if steps % _REPORT_EVERY == 0:
                 self._report()

@@ -29,10 +29,11 @@ delays slow signals by T). The fit, step by step:
    consistent (``estimation.inertial``: log-Cholesky when the least squares estimate is
    not). A known hand (its parameters from an empty-hand motion, ``hand``) is taken off
    first, so what is fitted, and made consistent, is the object alone.
-5. **Error bars.** The covariance adds the hand's (when given), the calibration's common
-   error propagated through the fit (``sensing.calibration``), and the encoders' noise
-   through the accelerations (``position_sigma``); it is widened by chi^2/dof when the
-   fit's residual is larger than the noise model allows.
+5. **Error bars.** The covariance adds the calibration's common error propagated through
+   the fit (``sensing.calibration``), the encoders' noise through the accelerations
+   (``position_sigma``), widened by chi^2/dof when the fit's residual is larger than the
+   noise model allows, and the hand's (when given) but for its calibration share: the
+   calibration's error is common to both motions, so the hand's part of it cancels.
 """
 
 from __future__ import annotations
@@ -78,6 +79,10 @@ class MotionFit:
     cov : (10, 10) their covariance, every share included (module, step 5).
     bound : (10, 10) the share of the sensor's noise alone: the Cramer-Rao bound of this
         motion under the noise model.
+    calibration_cov : (10, 10) the calibration's share (zero without a calibration). A
+        fit of the object with this hand taken off does not inherit it: the calibration's
+        error is common to both motions, and what is left of it in the object's fit is
+        the error on the object's own wrench.
     bias : (6,) the sensor's bias over the motion, N and N m.
     delay : s, the wrench stamps' delay behind the joint states' (estimated).
     chi2, dof : the whitened residual's sum of squares and its degrees of freedom.
@@ -89,6 +94,7 @@ class MotionFit:
     pi: NDArray[np.float64]
     cov: NDArray[np.float64]
     bound: NDArray[np.float64]
+    calibration_cov: NDArray[np.float64]
     bias: NDArray[np.float64]
     delay: float
     chi2: float
@@ -175,22 +181,22 @@ def fit_motion(
     wrench_times: ArrayLike,
     wrenches: ArrayLike,
     noise: NoiseModel,
-    hand: tuple[ArrayLike, ArrayLike] | None = None,
+    hand: MotionFit | None = None,
     calibration: Calibration | None = None,
     position_sigma: float = 0.0,
 ) -> MotionFit:
     """The load's parameters from the ``wrenches`` (n, 6; N, N m, ``ft_sensor``, stamped
     ``wrench_times`` s, evenly spaced, one motion) and the joint positions (samples,
     ``robot.joint_names``; rad, m) stamped ``joint_times`` (s), with the sensor's ``noise``
-    model (see module). ``hand``: (pi, cov) of the empty hand, taken off; None: the whole
-    load is fitted. ``calibration``: the sensor's stated accuracy (None: perfect).
+    model (see module). ``hand``: the empty hand's fit, taken off; None: the whole load is
+    fitted. ``calibration``: the sensor's stated accuracy (None: perfect).
     ``position_sigma``: rad, the encoders' noise per joint sample. ValueError when the
     motion does not excite the 10 parameters or the joint states do not cover it."""
     w = np.asarray(wrenches, dtype=np.float64)
     t = np.asarray(wrench_times, dtype=np.float64)
     jt = np.asarray(joint_times, dtype=np.float64)
     jq = np.asarray(joint_positions, dtype=np.float64)
-    hand_pi = np.zeros(10) if hand is None else np.asarray(hand[0], dtype=np.float64)
+    hand_pi = np.zeros(10) if hand is None else hand.pi
     inner = (t - MAX_DELAY - WINDOW > jt[0]) & (t + MAX_DELAY + WINDOW < jt[-1])
     t, w = t[inner], w[inner]
     if len(t) < 100:
@@ -222,16 +228,20 @@ def fit_motion(
     fit = fit_whitened(project(A_pi), project(b))
     bias, *_ = np.linalg.lstsq(A_bias, b - A_pi @ fit.pi, rcond=None)
     dof = A.shape[0] - 16
-    cov = fit.cov.copy()
-    if calibration is not None:
-        cov += _calibration_share(calibration, Y @ fit.pi, noise, project, fit.cov, A_pi)
+    calibration_cov = (
+        np.zeros((10, 10))
+        if calibration is None
+        else _calibration_share(calibration, Y @ fit.pi, noise, project, fit.cov, A_pi)
+    )
+    cov = fit.cov + calibration_cov
     if position_sigma > 0:
         cov += _encoder_share(robot, jt, jq, t - delay, fit.pi + hand_pi, position_sigma,
                               noise, fit.cov, project, A_pi)  # fmt: skip
     cov *= max(1.0, fit.chi2 / dof)
     if hand is not None:
-        cov += np.asarray(hand[1], dtype=np.float64)
-    return MotionFit(fit.pi, cov, fit.cov, bias, delay, fit.chi2, dof, fit.constrained, len(t))
+        cov += hand.cov - hand.calibration_cov
+    return MotionFit(fit.pi, cov, fit.cov, calibration_cov, bias, delay, fit.chi2, dof,
+                     fit.constrained, len(t))  # fmt: skip
 
 
 def compensated(

@@ -18,6 +18,8 @@ holds, under ``/**: ros__parameters:`` so that every node reads the keys it uses
   ``gripper_closed``: its command (std_msgs/Float64MultiArray, one value) and joint
   position open and closed (m or rad). ``finger_gap``: m, each pad's distance from the
   centre at open and at closed (the sim's virtual fingers, linear between).
+- ``joint_state_rate``: Hz, how often the arm publishes /joint_states (Franka's FCI 1 kHz,
+  UR's RTDE 500 Hz), at most the sim's 1 kHz; optional, 100 Hz when a file lacks it.
 
 ``robot_problems`` checks a configuration against a robot model (every frame and joint
 in its URDF, home and pick within the joint limits) and says what is wrong by name.
@@ -84,6 +86,7 @@ class RobotConfig:
     home_joints: tuple[float, ...]
     pick_joints: tuple[float, ...]
     hand_id: str
+    joint_state_rate: float = 100.0
 
     def __post_init__(self) -> None:
         for key in ("robot", "urdf", "base_frame", "sensor_frame", "grasp_frame", "hand_id"):
@@ -114,15 +117,22 @@ class RobotConfig:
             raise RobotConfigError("gripper_open and gripper_closed must differ")
         if not 0.0 <= self.finger_gap[1] < self.finger_gap[0]:
             raise RobotConfigError("finger_gap must be [open, closed] m with open > closed >= 0")
+        if not (_finite(self.joint_state_rate) and 0.0 < self.joint_state_rate <= 1000.0):
+            raise RobotConfigError(
+                f"joint_state_rate must be in (0, 1000] Hz (the sim steps at 1 kHz), got "
+                f"{self.joint_state_rate!r}"
+            )
 
     @classmethod
     def from_parameters(cls, values: Mapping[str, Any]) -> RobotConfig:
         """The configuration of parameter values by key (extra keys are ignored)."""
-        missing = [key for key in KEYS if key not in values]
+        missing = [key for key in KEYS if key not in values and key not in OPTIONAL_KEYS]
         if missing:
             raise RobotConfigError(f"missing key(s) {', '.join(missing)}")
         fields = {}
         for key, field in cls.__dataclass_fields__.items():
+            if key not in values:
+                continue  # an optional key: its default
             value = values[key]
             if str(field.type).startswith("tuple"):  # a list, or rclpy's array.array
                 if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
@@ -147,6 +157,8 @@ class RobotConfig:
 
 KEYS = tuple(RobotConfig.__dataclass_fields__)
 """Every key of a robot configuration, in the file's order."""
+OPTIONAL_KEYS = frozenset({"joint_state_rate"})
+"""Keys a file may leave out (added after files were written): their defaults stand."""
 
 
 def _finite(value: object) -> bool:
