@@ -123,6 +123,19 @@ def test_malformed_and_repeated_joint_states_leave_the_track_as_it_was(panda):
     assert c.payload_wrench_at(5 * MS) is not None  # the history is kept
     held = Compensator(payload_of(), panda)
     held.add_joint_state(0, NAMES, START, SPEED[:3])
-    held.add_joint_state(1 * MS, NAMES, START + 1e-3, [float("nan")] * len(NAMES))
-    w = held.payload_wrench_at(1 * MS)
+    held.add_joint_state(5 * MS, NAMES, START + 1e-3, [float("nan")] * len(NAMES))
+    w = held.payload_wrench_at(5 * MS)
     assert held.payload_wrench_at(30 * MS) == w  # no rate: held
+
+
+def test_a_fast_arms_states_are_kept_every_min_spacing(panda):
+    """1 kHz joint states (Franka's): one 4 ms after the latest kept is kept, one sooner
+    is not (W there is the latest kept's, held without velocities)."""
+    payload = payload_of()
+    c = Compensator(payload, panda)
+    other = START + 0.1
+    assert c.add_joint_state(0, NAMES, START)
+    assert c.add_joint_state(3 * MS, NAMES, other)  # taken, not kept: too soon
+    np.testing.assert_allclose(c.payload_wrench_at(3 * MS), at(panda, payload, START))
+    assert c.add_joint_state(4 * MS, NAMES, other)
+    np.testing.assert_allclose(c.payload_wrench_at(4 * MS), at(panda, payload, other))

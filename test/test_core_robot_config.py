@@ -70,12 +70,16 @@ def test_files_that_cannot_serve_are_refused_naming_the_file_and_the_key(tmp_pat
         (values | {"gripper_joints": "drive_joint"}, "gripper_joints must be a list"),
         (values | {"gripper_joints": ["joint6"]}, "joint6 in both arm_joints and gripper_"),
         (values | {"arm_joints": ["joint1"] * 6}, "arm_joints names a joint twice"),
+        (values | {"joint_state_rate": 0.0}, r"joint_state_rate must be in \(0, 1000\] Hz"),
+        (values | {"joint_state_rate": 2000.0}, "joint_state_rate must be in"),
     ]
     for changed, named in cases:
         path = write(tmp_path, changed)
         with pytest.raises(RobotConfigError, match=named) as error:
             read_robot_config(str(path))
         assert str(path) in str(error.value)
+    older = write(tmp_path, {k: v for k, v in values.items() if k != "joint_state_rate"})
+    assert read_robot_config(str(older)).joint_state_rate == 100.0  # optional: its default
     path = tmp_path / "plain.yaml"
     path.write_text(yaml.safe_dump(values))  # not a ROS 2 parameters file
     with pytest.raises(RobotConfigError, match="ros__parameters"):
