@@ -29,43 +29,14 @@ from com_core.planning.excitation import design_excitation
 from com_core.robot.config import read_robot_config
 from com_core.robot.dynamics import inertial_parameters
 from com_core.robot.model import RobotModel
-from com_core.sensing.calibration import Calibration
-from com_core.sensing.noise import ar1_noise
 from com_core.sensing.sensor_profiles import PROFILES
 from wrench_sim.config import SimConfig
 from wrench_sim.physics import ArmWorld
 from wrench_sim.sensor import profile_sensor
+from wrench_sim.studies import grasp, run_excitation
 
 SHAPES = ("box", "cylinder", "mug")
 PROFILE = PROFILES["realistic"]
-
-
-def run_motion(world: ArmWorld, excitation, sensor, every: int):
-    """Run ``excitation`` from home and 0.3 s of rest after it: (joint stamps, positions)
-    every ``every`` steps, and (wrench stamps, readings) every step."""
-    robot = world.config.robot
-    times = np.arange(1, round(20 * excitation.period) + 1) * 0.05
-    q, dq, ddq = excitation.at(times)
-    end = world.command_arm(robot.arm_joints, times, q, 0.0, dq, ddq)
-    stamps, positions, readings = [], [], []
-    while world.time < end + 0.3:
-        world.step()
-        stamps.append(world.time)
-        positions.append(world.joint_state()[1][: len(robot.arm_joints)])
-        readings.append(sensor.read(world.wrench, world.time))
-    stamps, positions = np.array(stamps), np.array(positions)
-    return stamps[::every], positions[::every], stamps, np.array(readings)
-
-
-def grasp(world: ArmWorld) -> None:
-    """Pick the object from its stand and bring it home."""
-    robot = world.config.robot
-    world.move_arm(robot.pick_joints, 3.0)
-    world.command_gripper(robot.gripper_closed)
-    world.run(0.5)
-    if not world.object_held:
-        raise RuntimeError(f"the grasp failed: {world.events}")
-    world.move_arm(robot.home_joints, 3.0)
 
 
 def one_object(config, model, excitation, shape, mass, seed, every) -> dict:
@@ -73,13 +44,11 @@ def one_object(config, model, excitation, shape, mass, seed, every) -> dict:
     world = ArmWorld(SimConfig(robot=config, object_shape=shape, object_mass=mass, seed=seed))
     try:
         sensor = profile_sensor(PROFILE, seed=seed, serial=seed)
-        noise = ar1_noise([PROFILE.sigma_f] * 3 + [PROFILE.sigma_tau] * 3,
-                          PROFILE.correlation_time, 1000.0)  # fmt: skip
-        calibration = Calibration(PROFILE.calibration_accuracy, PROFILE.limit_f, PROFILE.limit_tau)
-        hand = fit_motion(model, *run_motion(world, excitation, sensor, every), noise,
+        noise, calibration = PROFILE.noise_model(), PROFILE.calibration()
+        hand = fit_motion(model, *run_excitation(world, excitation, sensor, every), noise,
                           calibration=calibration)  # fmt: skip
         grasp(world)
-        recorded = run_motion(world, excitation, sensor, every)
+        recorded = run_excitation(world, excitation, sensor, every)
         start = time.perf_counter()
         fit = fit_motion(model, *recorded, noise, hand, calibration)
         seconds = time.perf_counter() - start

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import PANDA
+from test_core_noise import ar1
 
 from com_core.estimation.motion import MAX_DELAY, fit_motion, joint_motion, regressors_along
 from com_core.planning.excitation import design_excitation
@@ -51,17 +52,6 @@ def excitation_at(excitation, t):
     q, dq, ddq = excitation.at(np.clip(t, 0.0, excitation.period))
     moving = ((t >= 0.0) & (t <= excitation.period))[:, None]
     return q, dq * moving, ddq * moving
-
-
-def ar1(rng, n: int) -> np.ndarray:
-    """(n, 6) noise of sigma ``SIGMA`` through the sensor's first-order low-pass."""
-    phi = np.exp(-1.0 / (RATE * CORRELATION))
-    white = rng.standard_normal((n, 6)) * SIGMA * np.sqrt(1 - phi**2)
-    out = np.empty((n, 6))
-    out[0] = rng.standard_normal(6) * SIGMA
-    for k in range(1, n):
-        out[k] = phi * out[k - 1] + white[k]
-    return out
 
 
 @pytest.mark.parametrize(("rate", "within"), [(1000.0, 5e-5), (100.0, 2e-3)])
@@ -114,7 +104,7 @@ def test_with_coloured_noise_the_error_bars_hold(panda, recording):
     rng = np.random.default_rng(11)
     z, z_white = [], []
     for draw in range(6):
-        noisy = w + ar1(rng, len(w))
+        noisy = w + ar1(len(w), CORRELATION, rng, SIGMA)
         fit = fit_motion(panda, times, positions, wrench_times, noisy, noise)
         assert abs(fit.delay - 0.0065) < 3e-4 and 0.9 < fit.chi2 / fit.dof < 1.1
         z.append((fit.pi - LOAD) / np.sqrt(np.diag(fit.cov)))

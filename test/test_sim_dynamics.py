@@ -76,6 +76,16 @@ def fitted(world: ArmWorld, motion, readings) -> tuple:
     return fit, load_of(fit.pi), load_of(world.load_parameters())
 
 
+def assert_same_load(load: tuple, truth: tuple, com_within: float) -> None:
+    """Two loads (mass, COM, inertia about the COM): mass to 0.01 %, COM to ``com_within``
+    m, principal moments to 1 %."""
+    (mass, com, inertia), (true_mass, true_com, true_inertia) = load, truth
+    assert mass == pytest.approx(true_mass, rel=1e-4)
+    np.testing.assert_allclose(com, true_com, atol=com_within)
+    moments, true_moments = np.linalg.eigvalsh(inertia), np.linalg.eigvalsh(true_inertia)
+    np.testing.assert_allclose(moments, true_moments, rtol=0.01)
+
+
 def wrist_motion(world: ArmWorld, amplitudes: list[float]) -> tuple[np.ndarray, ...]:
     """Swing the three wrist joints by ``amplitudes`` (rad) about home, back and forth in
     five segments; (the readings, the inverse dynamics' wrench, the static model's at the
@@ -147,19 +157,13 @@ def test_the_fit_in_motion_gives_the_load_pybullet_simulates(held_box):
     swings = [np.concatenate([np.zeros(4), rng.uniform(-1, 1, 3) * [0.4, 0.4, 0.5]])
               for _ in range(7)]  # fmt: skip
     _, *motion, readings = follow(held_box, swings)
-    _, (mass, com, inertia), (true_mass, true_com, true_inertia) = fitted(
-        held_box, motion, readings
-    )
-    assert mass == pytest.approx(true_mass, rel=1e-4)
-    np.testing.assert_allclose(com, true_com, atol=1e-5)
-    np.testing.assert_allclose(
-        np.linalg.eigvalsh(inertia), np.linalg.eigvalsh(true_inertia), rtol=0.01
-    )
+    _, load, truth = fitted(held_box, motion, readings)
+    assert_same_load(load, truth, com_within=1e-5)
 
 
 def test_the_designed_excitation_is_followed_and_gives_the_load(held_box):
     """The D-optimal wrist excitation (``planning.excitation``, 3 s), sent as waypoints
-    with their velocities and accelerations at 20 Hz: the arm follows it to 5 mrad, and
+    with their velocities and accelerations at 20 Hz: the arm follows it to 0.5 mrad, and
     the fit from its readings is pybullet's load (measured: 0.04 mrad; mass 0.003 %, COM
     0.004 mm, principal moments 0.2 %)."""
     from com_core.planning.excitation import design_excitation
@@ -177,14 +181,8 @@ def test_the_designed_excitation_is_followed_and_gives_the_load(held_box):
     stamps, *motion, readings = record_until(world, end)
     planned = excitation.at(np.minimum(stamps - start, excitation.period))[0]
     assert np.abs(motion[0] - planned).max() < 5e-4
-    fit, (mass, com, inertia), (true_mass, true_com, true_inertia) = fitted(
-        world, motion, readings
-    )
-    assert mass == pytest.approx(true_mass, rel=1e-4)
-    np.testing.assert_allclose(com, true_com, atol=2e-5)
-    np.testing.assert_allclose(
-        np.linalg.eigvalsh(inertia), np.linalg.eigvalsh(true_inertia), rtol=0.01
-    )
+    fit, load, truth = fitted(world, motion, readings)
+    assert_same_load(load, truth, com_within=2e-5)
     assert fit.chi2 / fit.dof < 0.01  # the model error is far below the realistic noise
 
 
@@ -250,15 +248,13 @@ def test_the_motion_fit_through_the_realistic_sensor_gives_the_object():
         regressors_along,
     )
     from com_core.planning.excitation import design_excitation
-    from com_core.sensing.calibration import Calibration
-    from com_core.sensing.noise import ar1_noise
     from com_core.sensing.sensor_profiles import PROFILES
     from wrench_sim.sensor import profile_sensor
+    from wrench_sim.studies import run_excitation
 
     p = PROFILES["realistic"]
     sensor = profile_sensor(p, seed=7, serial=7)
-    noise = ar1_noise([p.sigma_f] * 3 + [p.sigma_tau] * 3, p.correlation_time, 1000.0)
-    calibration = Calibration(p.calibration_accuracy, p.limit_f, p.limit_tau)
+    noise, calibration = p.noise_model(), p.calibration()
     world = ArmWorld(SimConfig(object_mass=0.5, seed=3))
     robot = world.config.robot
     model = RobotModel(world.urdf_text, robot.sensor_frame)
@@ -266,18 +262,7 @@ def test_the_motion_fit_through_the_realistic_sensor_gives_the_object():
                                    period=3.0, iterations=60, seed=0)  # fmt: skip
 
     def record(motion) -> tuple[np.ndarray, ...]:
-        """Run ``motion``: joint stamps and positions at 100 Hz, wrench stamps and readings."""
-        times = np.arange(1, 61) * 0.05
-        q, dq, ddq = motion.at(times)
-        end = world.command_arm(robot.arm_joints, times, q, 0.0, dq, ddq)
-        stamps, positions, wrenches = [], [], []
-        while world.time < end + 0.3:
-            world.step()
-            stamps.append(world.time)
-            positions.append(world.joint_state()[1][: len(robot.arm_joints)])
-            wrenches.append(sensor.read(world.wrench, world.time))
-        stamps, positions = np.array(stamps), np.array(positions)
-        return stamps[::10], positions[::10], stamps, np.array(wrenches)
+        return run_excitation(world, motion, sensor, joint_every=10)  # joint states 100 Hz
 
     def fit(hand=None):
         return fit_motion(model, *record(excitation), noise, hand, calibration)

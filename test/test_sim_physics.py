@@ -18,6 +18,7 @@ from numpy.testing import assert_allclose
 
 from com_core.robot.config import read_robot_config
 from com_core.sensing.wrench_model import STANDARD_GRAVITY, SensorModel, gravity_wrench
+from wrench_sim import studies
 from wrench_sim.objects import SHAPES, holdable_com_range, object_spec
 from wrench_sim.physics import TIME_STEP, ArmWorld, SimConfig
 from wrench_sim.sensor import WrenchSensor, random_streams
@@ -85,13 +86,8 @@ XARM_POSES = {
 
 
 def grasp(world: ArmWorld) -> None:
-    """Pick the object from its stand and lift it to the home pose."""
-    robot = world.config.robot
-    world.move_arm(robot.pick_joints, 3.0)
-    world.command_gripper(robot.gripper_closed)
-    world.run(0.5)
-    assert world.object_held, world.events
-    world.move_arm(robot.home_joints, 3.0)
+    """Pick the object from its stand and lift it to the home pose, without a collision."""
+    studies.grasp(world)
     assert world.collisions == 0, world.events
 
 

@@ -29,6 +29,8 @@ from __future__ import annotations
 from dataclasses import dataclass, fields, replace
 
 from com_core.inputs import refusal
+from com_core.sensing.calibration import Calibration
+from com_core.sensing.noise import NoiseModel, ar1_noise
 
 __all__ = ["DEFAULT_PROFILE", "PROFILES", "SensorProfile"]
 
@@ -91,6 +93,18 @@ class SensorProfile:
                     )
                 )
         return out
+
+    def noise_model(self, rate_hz: float = 1000.0) -> NoiseModel:
+        """The noise of this sensor's samples at ``rate_hz``, as an estimator that knew it
+        would assume (``sensing.noise``: AR(1) through the low-pass)."""
+        sigma = [self.sigma_f] * 3 + [self.sigma_tau] * 3
+        return ar1_noise(sigma, self.correlation_time, rate_hz)
+
+    def calibration(self) -> Calibration | None:
+        """The calibration error's term as an estimator takes it (None: a perfect one)."""
+        if self.calibration_accuracy <= 0:
+            return None
+        return Calibration(self.calibration_accuracy, self.limit_f, self.limit_tau)
 
     @property
     def modes(self) -> tuple[tuple[float, float], ...]:
