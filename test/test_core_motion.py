@@ -122,3 +122,21 @@ def test_the_delay_is_searched_within_its_bound(panda, recording):
     noise = ar1_noise(SIGMA, 0.0, RATE)
     fit = fit_motion(panda, times, positions, wrench_times + 0.02, w, noise)
     assert fit.delay == pytest.approx(0.0265, abs=3e-5) and MAX_DELAY > 0.0265
+
+
+def test_noisy_encoders_widen_the_error_bars_to_what_they_do(panda, recording):
+    """Encoders with 2e-5 rad of white noise per sample (several times a real arm's) and
+    a sensor nearly without noise, three draws: with ``position_sigma`` the errors over
+    the sigmas have an rms within 2.5 (their errors-in-variables bias included); over the
+    sensor noise's share alone they would be beyond 10."""
+    times, positions, wrench_times, w = recording
+    rng = np.random.default_rng(3)
+    noise = ar1_noise(SIGMA * 1e-3, 0.0, RATE)
+    z, z_bound = [], []
+    for _ in range(3):
+        shaken = positions + 2e-5 * rng.standard_normal(positions.shape)
+        fit = fit_motion(panda, times, shaken, wrench_times, w, noise, position_sigma=2e-5)
+        z.append((fit.pi - LOAD) / np.sqrt(np.diag(fit.cov)))
+        z_bound.append((fit.pi - LOAD) / np.sqrt(np.diag(fit.bound)))
+    assert np.sqrt(np.mean(np.square(z))) < 2.5, z
+    assert np.sqrt(np.mean(np.square(z_bound))) > 10.0, z_bound

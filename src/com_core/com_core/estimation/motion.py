@@ -32,8 +32,9 @@ delays slow signals by T). The fit, step by step:
 5. **Error bars.** The covariance adds the calibration's common error propagated through
    the fit (``sensing.calibration``), the encoders' noise through the accelerations
    (``position_sigma``), widened by chi^2/dof when the fit's residual is larger than the
-   noise model allows, and the hand's (when given) but for its calibration share: the
-   calibration's error is common to both motions, so the hand's part of it cancels.
+   noise model and the encoders' noise allow, and the hand's (when given) but for its
+   calibration share: the calibration's error is common to both motions, so the hand's
+   part of it cancels.
 """
 
 from __future__ import annotations
@@ -234,10 +235,13 @@ def fit_motion(
         else _calibration_share(calibration, Y @ fit.pi, noise, project, fit.cov, A_pi)
     )
     cov = fit.cov + calibration_cov
+    expected = 1.0  # chi^2 / dof the noise model and the encoders' noise explain
     if position_sigma > 0:
-        cov += _encoder_share(robot, jt, jq, t - delay, fit.pi + hand_pi, position_sigma,
-                              noise, fit.cov, project, A_pi)  # fmt: skip
-    cov *= max(1.0, fit.chi2 / dof)
+        load = fit.pi + hand_pi
+        share, expected = _encoder_share(robot, jt, jq, t - delay, load, position_sigma,
+                                         noise, fit.cov, project, A_pi)  # fmt: skip
+        cov += share
+    cov *= max(1.0, fit.chi2 / dof / expected)
     if hand is not None:
         cov += hand.cov - hand.calibration_cov
     return MotionFit(fit.pi, cov, fit.cov, calibration_cov, bias, delay, fit.chi2, dof,
@@ -278,16 +282,22 @@ def _whitened_system(
     Y: NDArray[np.float64], w: NDArray[np.float64], noise: NoiseModel, every: int
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(A (rows, 16), b (rows,)): the regressors (n, 6, 10) with the bias's columns, and
-    the wrenches (n, 6), through each axis's prediction-error filter over samples ``every``
-    apart (white noise between them when the correlation is short beside that; step 3)."""
+    the wrenches (n, 6), ``_whiten``ed."""
     columns = np.concatenate([Y, np.broadcast_to(np.eye(6), (len(Y), 6, 6))], axis=2)
-    out_A, out_b = [], []
+    return _whiten(columns, noise, every), _whiten(w, noise, every)
+
+
+def _whiten(x: NDArray[np.float64], noise: NoiseModel, every: int = 1) -> NDArray[np.float64]:
+    """x (n, 6, ...) per axis through the noise model's prediction-error filter, divided
+    by its innovation's sigma, the axes stacked: (rows, ...) (step 3). Samples ``every``
+    > 1 apart are taken as white, each divided by its sigma (the correlation short beside
+    the spacing: the delay search's subsample)."""
+    out = []
     for a in range(6):
         phi = noise.ar[a] if every == 1 else ()
         sigma = np.sqrt(noise.innovation[a] if every == 1 else noise.cov[a, a])
-        out_A.append(_prediction_errors(columns[:, a, :], phi) / sigma)
-        out_b.append(_prediction_errors(w[:, a], phi) / sigma)
-    return np.concatenate(out_A), np.concatenate(out_b)
+        out.append(_prediction_errors(x[:, a], phi) / sigma)
+    return np.concatenate(out)
 
 
 def _prediction_errors(x: NDArray[np.float64], phi: Sequence[float]) -> NDArray[np.float64]:
@@ -310,13 +320,7 @@ def _calibration_share(
     """(10, 10): the calibration's common error E on the object's wrench (n, 6),
     propagated through the whitened least squares (``sensing.calibration``)."""
     J = np.stack([calibration.jacobian(x) for x in object_wrench])  # (n, 6, 36)
-    whitened = np.concatenate(
-        [
-            _prediction_errors(J[:, a, :], noise.ar[a]) / np.sqrt(noise.innovation[a])
-            for a in range(6)
-        ]
-    )
-    gain = cov @ project(A_pi).T @ project(whitened)  # d pi / d vec(E), (10, 36)
+    gain = cov @ project(A_pi).T @ project(_whiten(J, noise))  # d pi / d vec(E), (10, 36)
     return calibration.sigma**2 * gain @ gain.T
 
 
@@ -331,23 +335,20 @@ def _encoder_share(
     cov: NDArray[np.float64],
     project,
     A_pi: NDArray[np.float64],
-) -> NDArray[np.float64]:
-    """(10, 10): the encoders' white noise ``sigma`` (rad) per joint sample, through the
-    Savitzky-Golay fit into q, dq, ddq and the predicted wrench, then through the
-    whitened least squares: the covariance of the fit's shift over 8 seeded draws of the
-    noise (a small share: a Monte Carlo is exact enough and cheaper than the Jacobian)."""
+) -> tuple[NDArray[np.float64], float]:
+    """(the share (10, 10), chi^2 / dof expected with it): the encoders' white noise
+    ``sigma`` (rad) per joint sample, through the Savitzky-Golay fit into q, dq, ddq and
+    the predicted wrench, then through the whitened least squares: the covariance of the
+    fit's shift over 8 seeded draws of the noise (a small share: a Monte Carlo is exact
+    enough and cheaper than the Jacobian), and 1 plus the whitened wrench error's mean
+    square per row (what it adds to the residual)."""
     base = regressors_along(robot, *joint_motion(jt, jq, at)) @ pi
-    gains = []
+    shifts, added = [], []
     rng = np.random.default_rng(0)
     for _ in range(8):
         shaken = jq + sigma * rng.standard_normal(jq.shape)
-        delta = regressors_along(robot, *joint_motion(jt, shaken, at)) @ pi - base
-        whitened = np.concatenate(
-            [
-                _prediction_errors(delta[:, a], noise.ar[a]) / np.sqrt(noise.innovation[a])
-                for a in range(6)
-            ]
-        )
-        gains.append(cov @ project(A_pi).T @ project(whitened))
-    spread = np.array(gains)
-    return spread.T @ spread / len(gains)
+        delta = _whiten(regressors_along(robot, *joint_motion(jt, shaken, at)) @ pi - base, noise)
+        shifts.append(cov @ project(A_pi).T @ project(delta))
+        added.append(np.mean(delta**2))
+    spread = np.array(shifts)
+    return spread.T @ spread / len(shifts), 1.0 + float(np.mean(added))
