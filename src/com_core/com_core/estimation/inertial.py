@@ -133,6 +133,9 @@ def _consistent_fit(
         step = np.linalg.solve(jac.T @ jac + damping * np.eye(10), -jac.T @ residual)
         trial = theta + step
         trial_pi = np.asarray(pinocchio.LogCholeskyParameters(trial).toDynamicParameters())
+        if not np.all(np.isfinite(trial_pi)):  # a step too long for the exponentials
+            damping *= 10.0
+            continue
         trial_residual = A @ trial_pi - b
         if trial_residual @ trial_residual < cost:
             theta, damping = trial, damping * 0.3
