@@ -2,6 +2,7 @@
 
     source ./env.sh && python bench/motion.py [--objects 50] [--robots panda,xarm6]
         [--masses 0.05,0.2,0.5,2.0] [--period 3.0] [--joint-rate 100] [--seed 0]
+        [--calibration-accuracy 0.01]
 
 In process, no ROS: for each arm, mass and object (box, cylinder, mug in turn, COM offset
 drawn from the object's seed) a simulator holds the empty hand, runs the arm's D-optimal
@@ -39,12 +40,12 @@ SHAPES = ("box", "cylinder", "mug")
 PROFILE = PROFILES["realistic"]
 
 
-def one_object(config, model, excitation, shape, mass, seed, every) -> dict:
+def one_object(config, model, excitation, shape, mass, seed, every, profile) -> dict:
     """Hand, grasp, object: the object's errors, its error / sigma and its bound."""
     world = ArmWorld(SimConfig(robot=config, object_shape=shape, object_mass=mass, seed=seed))
     try:
-        sensor = profile_sensor(PROFILE, seed=seed, serial=seed)
-        noise, calibration = PROFILE.noise_model(), PROFILE.calibration()
+        sensor = profile_sensor(profile, seed=seed, serial=seed)
+        noise, calibration = profile.noise_model(), profile.calibration()
         hand = fit_motion(model, *run_excitation(world, excitation, sensor, every), noise,
                           calibration=calibration)  # fmt: skip
         grasp(world)
@@ -93,10 +94,14 @@ def main() -> None:
     parser.add_argument("--period", type=float, default=3.0)
     parser.add_argument("--joint-rate", type=float, default=100.0)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--calibration-accuracy", type=float,
+                        default=PROFILE.calibration_accuracy)  # fmt: skip
     args = parser.parse_args()
+    profile = PROFILE.with_overrides(calibration_accuracy=args.calibration_accuracy)
     every = round(1000.0 / args.joint_rate)
     print(f"{args.objects} objects per case, {args.period:g} s of motion, joint states at "
-          f"{1000.0 / every:g} Hz, the realistic sensor")  # fmt: skip
+          f"{1000.0 / every:g} Hz, the realistic sensor, calibration accuracy "
+          f"{args.calibration_accuracy:g}")  # fmt: skip
     header = (f"{'arm':>6} {'kg':>5}  {'mass p95':>8} {'COM p95 mm':>10} {'moments p95':>11} "
               f"{'axes p95':>8}  {'rms z m, COM, I':>17}  {'bound m, COM mm, I':>20} "
               f"{'delay ms':>8} {'fit s':>5}")  # fmt: skip
@@ -109,9 +114,10 @@ def main() -> None:
         excitation = design_excitation(model, config.home_joints, config.arm_joints[-3:],
                                        period=args.period, seed=args.seed)  # fmt: skip
         for mass in (float(m) for m in args.masses.split(",")):
+            seeds = range(args.seed, args.seed + args.objects)
             results = [
-                one_object(config, model, excitation, SHAPES[k % 3], mass, args.seed + k, every)
-                for k in range(args.objects)
+                one_object(config, model, excitation, SHAPES[k % 3], mass, k, every, profile)
+                for k in seeds
             ]
             z = np.array([r["z"] for r in results])
             bound = np.median([r["bound"] for r in results], axis=0)
