@@ -13,9 +13,9 @@ at ``--joint-rate``. ``estimation.motion.fit_motion`` fits the hand, then the ob
 the hand taken off, the delay estimated and the noise model the profile's. Per case: the
 95th percentile of the mass, COM and principal moments' errors, the rms of error / sigma
 (mass, COM, inertia), the median sigmas the noise alone allows (the bound), and the
-median fit time. Goal, for 0.5 kg and more and at most
-3 s of motion: COM <= 1 mm and mass <= 0.5 % at the 95th percentile, principal moments
-within 10 %, rms(error / sigma) near 1.
+median fit time. Goal, for 0.5 kg and more and at most 3 s of motion: COM <= 1 mm and
+mass <= 0.5 % at the 95th percentile, principal moments within 10 %, rms(error / sigma)
+near 1 (the figures and what they say: bench/README.md).
 """
 
 from __future__ import annotations
