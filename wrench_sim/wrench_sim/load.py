@@ -34,6 +34,7 @@ import pybullet
 from numpy.typing import NDArray
 
 from com_core.robot.dynamics import inertial_parameters, load_of
+from com_core.sensing.wrench_model import skew
 from wrench_sim.feedback import CountedTwice
 from wrench_sim.scene import Scene
 from wrench_sim.vibration import Vibration
@@ -152,7 +153,8 @@ class LoadWrench:
         self._raw = np.zeros(6)
         self._previous_raw = np.zeros(6)
         self._vibration = vibration
-        self._load = truth.load(False) if vibration is not None else (0.0, np.zeros(3))
+        self._load = (0.0, np.zeros((3, 3)))  # mass, skew(COM): tau = COM x f, without np.cross
+        self.update_load(False)
 
     def read(self, moving: bool) -> None:
         """Take the reading of the step just run; ``moving``: a trajectory is running."""
@@ -175,7 +177,8 @@ class LoadWrench:
     def update_load(self, held: bool) -> None:
         """Take the load's mass and COM anew for the ringing (the object ``held`` or not)."""
         if self._vibration is not None:
-            self._load = self._truth.load(held)
+            mass, com = self._truth.load(held)
+            self._load = (mass, skew(com))
 
     def _ringing(self, moving: bool) -> NDArray[np.float64]:
         """The wrench (6,) the load's reaction to the structure's vibration adds to the
@@ -187,9 +190,9 @@ class LoadWrench:
         R = np.array(scene.client.getMatrixFromQuaternion(state[5])).reshape(3, 3)
         assert self._vibration is not None
         accel = R.T @ self._vibration.step(np.array(state[6]), moving)
-        mass, com = self._load
+        mass, com_cross = self._load
         force = -mass * accel
-        return np.concatenate([force, np.cross(com, force)])
+        return np.concatenate([force, com_cross @ force])
 
     @property
     def wrench(self) -> NDArray[np.float64]:
