@@ -28,7 +28,14 @@ from numpy.typing import ArrayLike, NDArray
 from com_core.sensing.sensor_profiles import SensorProfile
 from com_core.sensing.wrench_model import SensorModel, calibration_matrix
 
-__all__ = ["BiasDrift", "WrenchSensor", "profile_sensor", "random_streams"]
+__all__ = [
+    "BiasDrift",
+    "WrenchSensor",
+    "profile_calibration",
+    "profile_drift",
+    "profile_sensor",
+    "random_streams",
+]
 
 _STREAMS = ("object", "sensor", "slip", "calibration", "drift")
 _BLOCK = 1000  # samples of unit normals drawn at once
@@ -140,26 +147,34 @@ def _uncalibrated(model: SensorModel, bias: NDArray[np.float64]) -> NDArray[np.f
     return np.linalg.solve(model.calibration, bias)
 
 
+def profile_calibration(profile: SensorProfile, serial: int) -> NDArray[np.float64] | None:
+    """The calibration (6, 6) of the sensor ``serial`` with ``profile``'s accuracy, drawn
+    from the serial's stream (None: a perfect one)."""
+    p = profile
+    if p.calibration_accuracy <= 0:
+        return None
+    stream = random_streams(serial)["calibration"]
+    return calibration_matrix(p.calibration_accuracy, p.limit_f, p.limit_tau, stream)
+
+
+def profile_drift(profile: SensorProfile, rng: np.random.Generator) -> BiasDrift:
+    """``profile``'s warm-up and random walk of the bias, drawn from ``rng``."""
+    p = profile
+    walk = [p.random_walk_f] * 3 + [p.random_walk_tau] * 3
+    return BiasDrift([p.warmup_f] * 3 + [p.warmup_tau] * 3, p.warmup_time, walk, rng)
+
+
 def profile_sensor(
     profile: SensorProfile, seed: int, serial: int, rate_hz: float = 1000.0
 ) -> WrenchSensor:
     """A sensor of every part of ``profile`` (``com_core.sensing.sensor_profiles``),
     publishing at ``rate_hz``: its drift and noise drawn from ``seed``'s streams, its
     calibration from ``serial``'s, as the simulator draws them (for offline studies and
-    tests; the node builds its own from its parameters)."""
+    tests; the node builds its model from its parameters)."""
     p, streams = profile, random_streams(seed)
-    calibration = (
-        calibration_matrix(
-            p.calibration_accuracy, p.limit_f, p.limit_tau, random_streams(serial)["calibration"]
-        )
-        if p.calibration_accuracy > 0
-        else None
-    )
     model = SensorModel.from_scalars(
         p.sigma_f, p.sigma_tau, resolution_f=p.resolution_f, resolution_tau=p.resolution_tau,
         limit_f=p.limit_f, limit_tau=p.limit_tau, rate_hz=rate_hz,
-        correlation_time=p.correlation_time, calibration=calibration,
+        correlation_time=p.correlation_time, calibration=profile_calibration(p, serial),
     )  # fmt: skip
-    walk = [p.random_walk_f] * 3 + [p.random_walk_tau] * 3
-    drift = BiasDrift([p.warmup_f] * 3 + [p.warmup_tau] * 3, p.warmup_time, walk, streams["drift"])
-    return WrenchSensor(model, streams["sensor"], drift)
+    return WrenchSensor(model, streams["sensor"], profile_drift(p, streams["drift"]))

@@ -81,7 +81,7 @@ from com_core.inputs import InputError
 from com_core.robot.config import KEYS, RobotConfig, RobotConfigError
 from com_core.runtime.rosenv import keep_dds_local, start_refusal
 from com_core.sensing.sensor_profiles import SensorProfile
-from com_core.sensing.wrench_model import SensorModel, calibration_matrix, rotation_about
+from com_core.sensing.wrench_model import SensorModel, rotation_about
 from wrench_sim.parameters import (
     SENSOR_PARAMETERS,
     check_parameter,
@@ -89,7 +89,7 @@ from wrench_sim.parameters import (
     sensor_profile,
 )
 from wrench_sim.physics import SENSOR_FRAME, TIME_STEP, ArmWorld, SimConfig
-from wrench_sim.sensor import BiasDrift, WrenchSensor, random_streams
+from wrench_sim.sensor import WrenchSensor, profile_calibration, profile_drift, random_streams
 
 _SPIN_EVERY = 50  # steps between spin_once calls (50 ms of sim time; one costs ~0.2 ms)
 _REPORT_EVERY = 50  # steps between checks of events, saturation and ground truth
@@ -112,16 +112,7 @@ class SimNode(Node):
         self.profile = self._profile()
         streams = random_streams(parameter("seed").value)
         p = self.profile
-        self._calibration = (
-            calibration_matrix(
-                p.calibration_accuracy,
-                p.limit_f,
-                p.limit_tau,
-                random_streams(parameter("sensor_serial").value)["calibration"],
-            )
-            if p.calibration_accuracy > 0
-            else None
-        )
+        self._calibration = profile_calibration(p, parameter("sensor_serial").value)
         self.world = ArmWorld(
             SimConfig(
                 robot=robot,
@@ -143,12 +134,7 @@ class SimNode(Node):
         self._mount = (
             rotation_about("z", yaw) @ rotation_about("y", pitch) @ rotation_about("x", roll)
         )
-        drift = BiasDrift(
-            [p.warmup_f] * 3 + [p.warmup_tau] * 3,
-            p.warmup_time,
-            [p.random_walk_f] * 3 + [p.random_walk_tau] * 3,
-            streams["drift"],
-        )
+        drift = profile_drift(p, streams["drift"])
         self.sensor = WrenchSensor(self._sensor_model(), streams["sensor"], drift)
         self._drift = np.array(parameter("bias_drift").value, dtype=np.float64)  # per s
         self._real_time_factor = parameter("real_time_factor").value
