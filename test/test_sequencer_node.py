@@ -505,9 +505,13 @@ def test_the_demo_prints_its_summary_and_exits_cleanly(ros_env, tmp_path):
     held = re.search(r"holding: .* over (\d+) samples: f \(([-+\d., ]+)\) \+- \(([\d., ]+)\)", out)
     assert held and int(held.group(1)) > 500, out
     mean, sd = (np.array([float(v) for v in held.group(k).split(",")]) for k in (2, 3))
-    # + the estimate's own error: 3 sigma of its mass's weight (its COM's torque likewise)
-    sigma_mass = float(re.search(r"estimate: mass [\d.]+ \+- ([\d.]+) g", out).group(1))
-    assert np.all(np.abs(mean) < 5 * sd + 3 * sigma_mass * 1e-3 * 9.81), out
+    # + what the model predicts at a pose no fit used: the verification's sigma (the
+    # estimate's error, the sensor's drift since the last window, its calibration), times
+    # the verification's own allowance
+    verified = re.search(r"verification 'diagonal': f \([-\d., ]+\) \+- \(([\d., ]+)\) N", out)
+    allowed = float(re.search(r"sigma \(([\d.]+) allowed\)", out).group(1))
+    predicted = np.array([float(v) for v in verified.group(1).split(",")])
+    assert np.all(np.abs(mean) < 5 * sd + allowed * predicted), out
     logs = "".join(p.read_text() for p in (tmp_path / "logs").glob("*.log"))
     for text in UNCLEAN_EXIT:
         assert text not in out + logs, out + logs
@@ -579,9 +583,10 @@ def test_the_compensated_stream_shows_a_push_without_gravity_and_payload_files_l
     stream shows that push within its noise, and zero before it, while the raw stream
     shows gravity plus the push.
 
-    Tolerances: 4.5 sigma of the difference of two means of the compensated stream over
-    0.4 s (0.1 N and 5 mN m per sample: 7 mN and 0.35 mN m) plus the estimate's own error
-    at a new pose (the verification's sigma, about 7 mN and 0.4 mN m): 0.045 N, 2.5 mN m.
+    Tolerances: 4.5 sigma of the difference of two means of the compensated stream (0.1 N
+    and 5 mN m per sample over the samples this subscriber got, 7 mN and 0.35 mN m with all
+    400 of 0.4 s) and the estimate's own error at a new pose (the verification's sigma,
+    about 7 mN and 0.4 mN m): 0.045 N and 2.4 mN m with every sample.
     """
     import yaml
     from geometry_msgs.msg import WrenchStamped
@@ -646,16 +651,17 @@ def test_the_compensated_stream_shows_a_push_without_gravity_and_payload_files_l
     raw = {s: w for s, _, w in streams["raw"]}
     during = [s for s in compensated if start + 0.5e9 <= s <= stop]  # the arm recovered
     before = [s for s in compensated if start - 1.0e9 <= s < start - 0.5e9]
-    # of 500 each; a best-effort subscriber on two cores may miss some; with 200 the
-    # tolerances below are 4.5 standard errors of the difference of two means
-    assert len(during) > 200 and len(before) > 200, (len(during), len(before))
+    # of 500 each; a best-effort subscriber on two cores misses some
+    assert len(during) > 100 and len(before) > 100, (len(during), len(before))
+    counted = np.sqrt(1 / len(during) + 1 / len(before))
+    atol_f, atol_tau = 4.5 * np.hypot(0.1 * counted, 7e-3), 4.5 * np.hypot(5e-3 * counted, 4e-4)
     mean = lambda stamps, d: np.mean([d[s] for s in stamps], axis=0)  # noqa: E731
     pushed = mean(during, applied) if all(s in applied for s in during) else None
     assert pushed is not None, "compensated samples without an applied wrench"
     contact = mean(during, compensated) - mean(before, compensated)
-    np.testing.assert_allclose(contact[:3], pushed[:3], atol=0.045)
-    np.testing.assert_allclose(contact[3:], pushed[3:], atol=2.5e-3)
-    np.testing.assert_allclose(mean(before, compensated)[:3], 0.0, atol=0.045)
+    np.testing.assert_allclose(contact[:3], pushed[:3], atol=atol_f)
+    np.testing.assert_allclose(contact[3:], pushed[3:], atol=atol_tau)
+    np.testing.assert_allclose(mean(before, compensated)[:3], 0.0, atol=atol_f)
     both = [s for s in during if s in raw]  # this subscriber may miss a best-effort sample
     gravity = mean(both, raw) - mean(both, compensated)
     assert np.linalg.norm(gravity[:3]) > 5.0  # the hand and the object, some 1.1 kg
