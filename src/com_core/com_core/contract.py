@@ -41,6 +41,10 @@ __all__ = [
     "LATEST_LABEL_KEY",
     "LATEST_STAMP_KEY",
     "LIVE_STATUS_NAME",
+    "MOTION_OBJECT",
+    "MOTION_PREFIX",
+    "MOTION_TARE",
+    "MOTION_VERIFY",
     "MOVING",
     "OBJECT_PREFIX",
     "OBJECT_TOPIC",
@@ -144,6 +148,16 @@ OBJECT_PREFIX = "object/"
 VERIFY_PREFIX = "verify/"
 """``verify/<pose>``: a static window with the object in the hand at a pose no fit uses,
 where the compensated wrench is checked (``verification``)."""
+MOTION_PREFIX = "motion/"
+"""``motion/<what>``: a span of the wrist's excitation, fitted along the motion
+(``com_core.estimation.motion_solution``): one of the three below."""
+MOTION_TARE = MOTION_PREFIX + "tare"
+"""The excitation with the empty hand."""
+MOTION_OBJECT = MOTION_PREFIX + "object"
+"""The excitation with the object in the hand."""
+MOTION_VERIFY = MOTION_PREFIX + "verify"
+"""Another motion with the object, that no fit uses: the compensated wrench is checked
+along it."""
 MOVING = "moving"
 """Ends a window; the arm moves (also the handshake label)."""
 DONE = "done"
@@ -160,14 +174,15 @@ def done_stamp(labels: Sequence[tuple[int, str]]) -> int | None:
     """Stamp (ns) of the first ``done`` that arrived after a window label, or None.
 
     ``labels``: (stamp ns, label) in arrival order. A ``done`` with no window label
-    (``tare/``, ``object/``, ``verify/``) before it ends an earlier exploration (the latched
-    label a late-joining subscriber or a recorder gets first), not this one; with a
+    (``tare/``, ``object/``, ``verify/``, ``motion/``) before it ends an earlier
+    exploration (the latched label a late-joining subscriber or a recorder gets first),
+    not this one; with a
     restarted clock its stamp could fall anywhere, so the order of arrival decides, not
     the stamp.
     """
     seen_window = False
     for stamp, label in labels:
-        if label.startswith((TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX)):
+        if label.startswith((TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX, MOTION_PREFIX)):
             seen_window = True
         elif label == DONE and seen_window:
             return stamp

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from com_core.contract import OBJECT_PREFIX, TARE_PREFIX, VERIFY_PREFIX
+from com_core.contract import MOTION_PREFIX, OBJECT_PREFIX, TARE_PREFIX, VERIFY_PREFIX
 from com_core.estimation.errors import WindowError
 from com_core.estimation.inbox import Inbox, shorten
 from com_core.estimation.windows import Window, reduce_window
@@ -29,6 +29,7 @@ __all__ = [
     "JOINT_MOTION",
     "JOINT_STATE_GAP",
     "Segments",
+    "motion_spans",
     "noise_model",
     "reduced_windows",
     "segments",
@@ -46,8 +47,13 @@ Segments = list[tuple[str, NDArray[np.float64]]]
 """(label, samples (n, 6) N and N m, sensor frame) per window label."""
 
 
-def spans(inbox: Inbox, until_ns: int | None = None) -> dict[str, list[tuple[int, int]]]:
-    """[start, stop) stamps (ns) of every tare, object and verify window, per label.
+def spans(
+    inbox: Inbox,
+    until_ns: int | None = None,
+    prefixes: tuple[str, ...] = (TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX),
+) -> dict[str, list[tuple[int, int]]]:
+    """[start, stop) stamps (ns) of every window whose label starts with one of
+    ``prefixes`` (the static windows: tare, object and verify), per label.
 
     Windows run from a label's stamp to the next label's; ``until_ns`` ends the last
     one (default: the ``done`` label, else after the last sample).
@@ -61,9 +67,14 @@ def spans(inbox: Inbox, until_ns: int | None = None) -> dict[str, list[tuple[int
     bounds = [s for s, _ in labels[1:]] + [end if end is not None else 2**62]
     out: dict[str, list[tuple[int, int]]] = {}
     for (start, label), stop in zip(labels, bounds, strict=True):
-        if label.startswith((TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX)):
+        if label.startswith(prefixes):
             out.setdefault(label, []).append((start, stop))
     return out
+
+
+def motion_spans(inbox: Inbox, until_ns: int | None = None) -> dict[str, list[tuple[int, int]]]:
+    """``spans`` of the ``motion/`` labels (``com_core.contract``)."""
+    return spans(inbox, until_ns, (MOTION_PREFIX,))
 
 
 def segments(inbox: Inbox, until_ns: int | None = None) -> Segments:

@@ -58,6 +58,7 @@ __all__ = [
     "fit_motion",
     "joint_motion",
     "load_vector",
+    "principal_moments",
     "regressors_along",
 ]
 
@@ -129,8 +130,24 @@ def load_vector(pi: NDArray[np.float64]) -> NDArray[np.float64]:
     """(10,) of the parameters ``pi``: mass (kg), COM (m) and the inertia about the COM
     (kg m^2) as Ixx, Ixy, Iyy, Ixz, Iyz, Izz."""
     mass, com, inertia = load_of(pi)
-    upper = inertia[[0, 0, 1, 0, 1, 2], [0, 1, 1, 2, 2, 2]]
+    upper = inertia[_UPPER]
     return np.concatenate([[mass], com, upper])
+
+
+_UPPER = ([0, 0, 1, 0, 1, 2], [0, 1, 1, 2, 2, 2])  # Ixx, Ixy, Iyy, Ixz, Iyz, Izz
+
+
+def principal_moments(
+    inertia: NDArray[np.float64], cov: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(the principal moments (3,) of ``inertia`` (3, 3), ascending, their sigmas (3,)):
+    kg m^2; ``cov`` (6, 6) is the covariance of the inertia's Ixx, Ixy, Iyy, Ixz, Iyz,
+    Izz, propagated to first order (d lambda_k = v_k^T dI v_k)."""
+    moments, axes = np.linalg.eigh(inertia)
+    rows, columns = _UPPER
+    twice = np.where(np.array(rows) == np.array(columns), 1.0, 2.0)
+    gradient = axes[rows, :] * axes[columns, :] * twice[:, None]  # (6, 3)
+    return moments, np.sqrt(np.einsum("ik,ij,jk->k", gradient, cov, gradient))
 
 
 def joint_motion(

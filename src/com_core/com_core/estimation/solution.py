@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 from com_core.contract import ERROR, OK, VERIFY_PREFIX, WARN
 from com_core.estimation.cutting import (
+    motion_spans,
     noise_model,
     reduced_windows,
     segments,
@@ -38,9 +39,17 @@ from com_core.estimation.cutting import (
 )
 from com_core.estimation.errors import EstimationError, MissingTareError, WindowError
 from com_core.estimation.estimators import Consistency, Estimate, check_consistency
-from com_core.estimation.fits import WRENCHES, FitSetup, check_load_direction
+from com_core.estimation.fits import KINEMATICS, WRENCHES, FitSetup, check_load_direction
 from com_core.estimation.inbox import Inbox, shorten
 from com_core.estimation.known_gravity import KinematicFit, mount_rpy
+from com_core.estimation.motion import principal_moments
+from com_core.estimation.motion_solution import (
+    MOTION,
+    STATIC,
+    MotionCheck,
+    MotionResult,
+    solve_motion,
+)
 from com_core.estimation.stats import chi2_isf
 from com_core.estimation.windows import Window, subtract_tare
 from com_core.sensing.noise import NoiseModel
@@ -89,6 +98,15 @@ class Verification:
     def sigma(self) -> NDArray[np.float64]:
         """(6,) the compensated wrench's sigma per axis, N and N m."""
         return np.sqrt(np.diag(self.cov))
+
+    def as_dict(self) -> dict:
+        """The check's values for ``Solution.as_dict``, keyed by its pose."""
+        return {
+            f"verify_wrench {self.pose}": self.wrench.tolist(),
+            f"verify_sigma {self.pose}": self.sigma.tolist(),
+            f"verify_noise {self.pose}": np.sqrt(np.diag(self.noise)).tolist(),
+            f"verify_distance {self.pose}": [*self.distance, self.allowed],
+        }
 
     def summary(self) -> str:
         f, t = self.wrench[:3], self.wrench[3:]
@@ -140,9 +158,11 @@ class Solution:
     information: str = "wrenches"
     fit: KinematicFit | None = None
     wrenches_sigma_com: NDArray[np.float64] | None = None
-    verifications: tuple[Verification, ...] = ()
+    verifications: tuple[Verification | MotionCheck, ...] = ()
     unverified: str = ""
     noise: NoiseModel | None = None
+    excitation: str = STATIC
+    motion: MotionResult | None = None
 
     @property
     def usable(self) -> bool:
@@ -186,6 +206,7 @@ class Solution:
             "reason": self.reason,
             "method": self.method,
             "information": self.information,
+            "excitation": self.excitation,
             "poses": [w.pose for w in self.windows],
             "notes": list(self.notes),
             "window_samples": dict(self.window_samples),
@@ -203,10 +224,9 @@ class Solution:
             out["wrenches_sigma_com"] = self.wrenches_sigma_com.tolist()
         out |= _fit_dict(self.fit) if self.fit is not None else {}
         for v in self.verifications:
-            out[f"verify_wrench {v.pose}"] = v.wrench.tolist()
-            out[f"verify_sigma {v.pose}"] = v.sigma.tolist()
-            out[f"verify_noise {v.pose}"] = np.sqrt(np.diag(v.noise)).tolist()
-            out[f"verify_distance {v.pose}"] = [*v.distance, v.allowed]
+            out |= v.as_dict()
+        if self.motion is not None:
+            out |= self.motion.as_dict()
         if self.unverified:
             out["unverified"] = self.unverified
         if self.noise is not None:
@@ -234,6 +254,8 @@ def solve(inbox: Inbox, setup: FitSetup, until_ns: int | None = None) -> Solutio
     if noise is not None and setup.noise is not None and noise is not setup.noise:
         changed = noise.changed_from(setup.noise)
         notes += [changed] if changed else []
+    if motion_spans(inbox, until_ns):
+        return _solved_in_motion(inbox, setup, until_ns, notes, counts)
     fresh_tares, objects, verifies, refused = reduced_windows(cut, setup.sensor, noise)
     tares = dict(setup.tares) | fresh_tares
     notes += refused
@@ -282,15 +304,7 @@ def solve(inbox: Inbox, setup: FitSetup, until_ns: int | None = None) -> Solutio
         return Solution(
             ERROR, reason, setup.method, notes=tuple(notes), window_samples=counts, noise=noise
         )
-    status, reason = OK, _summary(estimate)
-    failed = [v.summary() for v in verifications if not v.passed]
-    if not consistency.consistent:
-        status, reason = WARN, consistency.message
-    elif failed:
-        status = WARN
-        reason = "; ".join(failed) + ": the estimate does not hold beyond its poses"
-    elif notes:
-        status, reason = WARN, "; ".join(notes)
+    status, reason = _status(_summary(estimate), consistency, verifications, notes)
     return Solution(
         status,
         reason,
@@ -306,6 +320,55 @@ def solve(inbox: Inbox, setup: FitSetup, until_ns: int | None = None) -> Solutio
         verifications=verifications,
         unverified=unverified,
         noise=noise,
+    )
+
+
+def _status(
+    summary: str,
+    consistency: Consistency,
+    verifications: Sequence[Verification | MotionCheck],
+    notes: Sequence[str],
+) -> tuple[str, str]:
+    """(status, reason) of an estimate with its ``summary``: WARN for an inconsistent fit,
+    a failed verification or dropped input (in that order), else OK."""
+    failed = [v.summary() for v in verifications if not v.passed]
+    if not consistency.consistent:
+        return WARN, consistency.message
+    if failed:
+        return WARN, "; ".join(failed) + ": the estimate does not hold beyond its poses"
+    if notes:
+        return WARN, "; ".join(notes)
+    return OK, summary
+
+
+def _solved_in_motion(
+    inbox: Inbox, setup: FitSetup, until_ns: int | None, notes: list[str], counts: dict
+) -> Solution:
+    """The ``Solution`` of an exploration in motion (``motion_solution.solve_motion``);
+    ``counts`` of its static windows' samples gain the motions'."""
+    stamps = inbox.samples()[0]
+    for label, parts in motion_spans(inbox, until_ns).items():
+        counts[label] = int(sum(np.count_nonzero((stamps >= a) & (stamps < b)) for a, b in parts))
+    try:
+        estimate, consistency, result, checks, noise = solve_motion(inbox, setup, until_ns, notes)
+    except EstimationError as exc:
+        reason = str(exc) + ("; " + "; ".join(notes) if notes else "")
+        return Solution(ERROR, reason, setup.method, notes=tuple(notes), window_samples=counts,
+                        excitation=MOTION)  # fmt: skip
+    summary = _summary(estimate).rsplit(" from ", 1)[0] + ", " + _inertia_summary(result)
+    status, reason = _status(summary, consistency, checks, notes)
+    return Solution(status, reason, setup.method, estimate, consistency, (), tuple(notes),
+                    window_samples=counts, information=KINEMATICS, verifications=checks,
+                    noise=noise, excitation=MOTION, motion=result)  # fmt: skip
+
+
+def _inertia_summary(result: MotionResult) -> str:
+    """The principal moments (kg cm^2) with their sigmas, and the motion's samples."""
+    moments, sigma = principal_moments(result.inertia, result.load_cov[4:, 4:])
+    return (
+        f"principal moments ({', '.join(f'{1e4 * v:.2f}' for v in moments)}) +- "
+        f"({', '.join(f'{1e4 * v:.2f}' for v in sigma)}) kg cm^2 from a motion of "
+        f"{result.object.samples} samples"
     )
 
 

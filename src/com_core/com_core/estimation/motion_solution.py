@@ -1,0 +1,255 @@
+"""The solution of an exploration in motion: the empty hand's motion, the object's and a
+check along a motion neither fit used (docs/design.md, Identification in motion).
+
+The labels ``motion/tare``, ``motion/object`` and ``motion/verify`` (``com_core.contract``)
+span the three motions; the static windows of the same run (``tare/<pose>``, the empty
+hand at rest) give the sensor's noise model. Each motion is fitted by
+``motion.fit_motion`` with the joint states of the inbox: the hand first (the whole load
+of the empty hand), then the object with the hand taken off. The object's fit is
+consistent with one rigid load when its whitened residual is no larger than
+``MAX_CHI2_PER_DOF`` times what the noise model expects (a load that moves in the grasp
+leaves a residual the model has no parameter for). The check along the verification
+motion (``MotionCheck``) compares the rms of the compensated wrench with what the noise,
+the fit's covariance and the calibration predict. Units: N, N m, kg, m, kg m^2, s; the
+sensor frame.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from com_core.contract import MOTION_OBJECT, MOTION_TARE, MOTION_VERIFY
+from com_core.estimation.cutting import motion_spans, noise_model, segments
+from com_core.estimation.errors import EstimationError
+from com_core.estimation.estimators import Consistency, Estimate
+from com_core.estimation.fits import FitSetup
+from com_core.estimation.inbox import Inbox
+from com_core.estimation.motion import (
+    MotionFit,
+    compensated,
+    fit_motion,
+    joint_motion,
+    regressors_along,
+)
+from com_core.estimation.stats import chi2_sf
+from com_core.robot.model import RobotModel
+from com_core.sensing.calibration import Calibration
+from com_core.sensing.noise import NoiseModel
+
+__all__ = [
+    "EXCITATIONS",
+    "MAX_CHI2_PER_DOF",
+    "MAX_RMS_RATIO",
+    "MOTION",
+    "STATIC",
+    "MotionCheck",
+    "MotionResult",
+    "solve_motion",
+]
+
+STATIC, MOTION = "static", "motion"
+EXCITATIONS = (STATIC, MOTION)
+"""How an exploration excites the load: windows at rest, or the wrist's motion."""
+MAX_CHI2_PER_DOF = 1.5
+"""The object's fit is one rigid load while chi^2/dof stays below this (1.0-1.3 measured
+with the realistic sensor, test_sim_dynamics)."""
+MAX_RMS_RATIO = 1.5
+"""The verification motion passes while the compensated wrench's rms, forces and torques
+pooled, stays within this many times its prediction (0.7-1.0 measured)."""
+_FORCE, _TORQUE = slice(0, 3), slice(3, 6)
+
+
+@dataclass(frozen=True)
+class MotionCheck:
+    """The compensated wrench along a motion no fit used: ``rms`` (6,) per axis, N and
+    N m, against ``predicted`` (6,), the rms the sensor's noise, the fit's covariance
+    through the regressor and the calibration's common error give; ``ratio`` (forces,
+    torques) of the pooled rms to the pooled prediction, against ``allowed``; ``n``
+    samples."""
+
+    pose: str
+    rms: NDArray[np.float64]
+    predicted: NDArray[np.float64]
+    ratio: tuple[float, float]
+    allowed: float
+    n: int
+
+    @property
+    def passed(self) -> bool:
+        return max(self.ratio) <= self.allowed
+
+    def summary(self) -> str:
+        return (
+            f"verification along {self.pose!r}: compensated rms {self.ratio[0]:.2f} and "
+            f"{self.ratio[1]:.2f} times the prediction (allowed {self.allowed:.2f})"
+        )
+
+    def as_dict(self) -> dict:
+        return {
+            f"verify_rms {self.pose}": self.rms.tolist(),
+            f"verify_rms_predicted {self.pose}": self.predicted.tolist(),
+            f"verify_ratio {self.pose}": [*self.ratio, self.allowed],
+        }
+
+
+@dataclass(frozen=True)
+class MotionResult:
+    """The fits of one exploration in motion: the empty ``hand``'s (its whole load) and
+    the ``object``'s (the hand taken off); the object's ``inertia`` (3, 3) about its COM
+    and the covariance ``load_cov`` (10, 10) of (mass, COM, Ixx, Ixy, Iyy, Ixz, Iyz, Izz)."""
+
+    hand: MotionFit
+    object: MotionFit
+    inertia: NDArray[np.float64]
+    load_cov: NDArray[np.float64]
+
+    @property
+    def sigma_inertia(self) -> NDArray[np.float64]:
+        """(6,) kg m^2: Ixx, Ixy, Iyy, Ixz, Iyz, Izz."""
+        return np.sqrt(np.diag(self.load_cov)[4:])
+
+    def as_dict(self) -> dict:
+        hand_mass, hand_com, _ = self.hand.load()
+        return {
+            "inertia": self.object.load_vector()[4:].tolist(),
+            "sigma_inertia": self.sigma_inertia.tolist(),
+            "inertia_cov": self.load_cov[4:, 4:].ravel().tolist(),
+            "bias": self.object.bias.tolist(),
+            "hand_mass": hand_mass,
+            "hand_com": hand_com.tolist(),
+            "hand_parameters": self.hand.pi.tolist(),
+            "delay": self.object.delay,
+            "motion_samples": self.object.samples,
+        }
+
+
+def joint_arrays(
+    inbox: Inbox, robot: RobotModel, start_ns: int, stop_ns: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(stamps s (n,), positions (n, ``robot.joint_names``)) of the inbox's joint states
+    in [start_ns, stop_ns); EstimationError when they lack a joint of the model."""
+    rows = [(t, joints) for t, joints in inbox.joint_states if start_ns <= t < stop_ns]
+    names = robot.joint_names
+    try:
+        positions = np.array([[joints[n] for n in names] for _, joints in rows])
+    except KeyError as error:
+        raise EstimationError(f"the joint states lack {error} of the robot model") from error
+    return np.array([t for t, _ in rows], dtype=np.float64) * 1e-9, positions
+
+
+def _motion_data(
+    inbox: Inbox, robot: RobotModel, label: str, until_ns: int | None
+) -> tuple[NDArray[np.float64], ...]:
+    """(joint stamps s, joint positions, wrench stamps s, wrenches) of motion ``label``:
+    the wrenches within its span, the joint states a second beyond it either way."""
+    parts = motion_spans(inbox, until_ns).get(label)
+    if not parts:
+        raise EstimationError(f"no {label!r} span: the motion was not run to its end")
+    start, stop = parts[0][0], parts[-1][1]
+    stamps, wrenches = inbox.samples()
+    inside = (stamps >= start) & (stamps < stop)
+    joint_times, positions = joint_arrays(inbox, robot, start - 10**9, stop + 10**9)
+    return joint_times, positions, stamps[inside] * 1e-9, wrenches[inside]
+
+
+def _fit(
+    inbox: Inbox,
+    robot: RobotModel,
+    label: str,
+    noise: NoiseModel,
+    until_ns: int | None,
+    hand: MotionFit | None = None,
+    calibration: Calibration | None = None,
+) -> MotionFit:
+    try:
+        return fit_motion(robot, *_motion_data(inbox, robot, label, until_ns), noise, hand,
+                          calibration)  # fmt: skip
+    except ValueError as exc:
+        raise EstimationError(f"{label}: {exc}") from exc
+
+
+def check_motion(
+    robot: RobotModel,
+    result: MotionResult,
+    noise: NoiseModel,
+    calibration: Calibration | None,
+    data: tuple[NDArray[np.float64], ...],
+    pose: str,
+) -> MotionCheck:
+    """The ``MotionCheck`` of the load ``result`` along the motion ``data`` (joint stamps
+    s, joint positions, wrench stamps s, wrenches): the wrenches less the hand's and
+    the object's wrench and the object motion's bias."""
+    joint_times, positions, times, wrenches = data
+    fit = result.object
+    margin = 0.1 + abs(fit.delay)
+    inner = (times > joint_times[0] + margin) & (times < joint_times[-1] - margin)
+    times, wrenches = times[inner], wrenches[inner]
+    if len(times) < 100:
+        raise EstimationError(f"{pose}: {len(times)} samples within the joint states' span")
+    load = result.hand.pi + fit.pi
+    left = compensated(robot, load, fit.bias, fit.delay, joint_times, positions, times, wrenches)
+    Y = regressors_along(robot, *joint_motion(joint_times, positions, times - fit.delay))
+    share = np.einsum("nai,ij,naj->a", Y, fit.cov, Y) / len(Y)  # mean diag(Y cov Y^T)
+    if calibration is not None:
+        s = calibration.scale
+        share += calibration.sigma**2 * s**2 * np.mean(np.sum((wrenches / s) ** 2, axis=1))
+    rms = np.sqrt(np.mean(left**2, axis=0))
+    predicted = np.sqrt(noise.variance + share)
+    ratio = tuple(
+        math.sqrt(float(np.sum(rms[k] ** 2) / np.sum(predicted[k] ** 2)))
+        for k in (_FORCE, _TORQUE)
+    )
+    return MotionCheck(pose, rms, predicted, (ratio[0], ratio[1]), MAX_RMS_RATIO, len(times))
+
+
+def solve_motion(
+    inbox: Inbox, setup: FitSetup, until_ns: int | None, notes: list[str]
+) -> tuple[Estimate, Consistency, MotionResult, tuple[MotionCheck, ...], NoiseModel]:
+    """(estimate of mass and COM, consistency, the motion fits, the verification, the
+    noise model) of the motions in ``inbox`` (see module). EstimationError with the
+    reason when there is no robot model, no noise model, or a motion is missing or does
+    not excite the load; a verification motion that cannot be checked is noted."""
+    robot = setup.robot
+    if robot is None:
+        why = setup.robot_problem or "no URDF on /robot_description"
+        raise EstimationError(f"an exploration in motion needs the robot model ({why})")
+    noise = noise_model(inbox, setup.noise, until_ns, segments(inbox, until_ns))
+    if noise is None:
+        raise EstimationError(
+            "no noise model: no empty-hand window at rest to learn it from, and none known"
+        )
+    hand = _fit(inbox, robot, MOTION_TARE, noise, until_ns, None, setup.calibration)
+    fit = _fit(inbox, robot, MOTION_OBJECT, noise, until_ns, hand, setup.calibration)
+    mass, com, inertia = fit.load()
+    load_cov = fit.load_cov()
+    result = MotionResult(hand, fit, inertia, load_cov)
+    per_dof = fit.chi2 / fit.dof
+    consistent = per_dof <= MAX_CHI2_PER_DOF
+    consistency = Consistency(
+        consistent,
+        fit.chi2,
+        fit.dof,
+        chi2_sf(fit.chi2, fit.dof),
+        setup.alpha,
+        None if consistent else "motion",
+        "" if consistent else (
+            f"the object's motion leaves chi^2/dof {per_dof:.2f} (allowed "
+            f"{MAX_CHI2_PER_DOF:.2f}): not one rigid load (did it move in the grasp?)"
+        ),
+    )  # fmt: skip
+    estimate = Estimate(
+        setup.method, mass, com, load_cov[:4, :4], fit.chi2, fit.dof, consistency.p_value,
+        ("motion",),
+    )  # fmt: skip
+    checks: tuple[MotionCheck, ...] = ()
+    if motion_spans(inbox, until_ns).get(MOTION_VERIFY):
+        try:
+            data = _motion_data(inbox, robot, MOTION_VERIFY, until_ns)
+            checks = (check_motion(robot, result, noise, setup.calibration, data, "motion"),)
+        except (EstimationError, ValueError) as exc:
+            notes.append(f"verification left out: {exc}")
+    return estimate, consistency, result, checks, noise
