@@ -80,7 +80,8 @@ def solved():
 def test_a_motion_gives_mass_com_and_inertia_within_their_error_bars(solved):
     """Mass, COM and the six inertia elements within 4 of their sigmas of the truth; the
     principal moments within 4 sigma; the check along the other motion passes (its
-    compensated rms near the prediction), and the solution says it came from motion."""
+    compensated rms near the prediction, not below the noise), and the solution says it
+    came from motion."""
     _, solution, ((mass, com), inertia), _ = solved
     assert solution.status == OK, solution.reason
     assert solution.usable and solution.excitation == "motion"

@@ -5,7 +5,8 @@ Subscribes
     decoded in batches), /exploration_sequencer/pose (std_msgs/Header: frame_id is the
     label, stamp the sensor time from which it applies; reliable, transient local).
 Publishes
-    ~/estimate (geometry_msgs/InertiaStamped: m, com in ft_sensor; transient local): only
+    ~/estimate (geometry_msgs/InertiaStamped: m, com in ft_sensor, and from an exploration
+    in motion the inertia about the COM; transient local): only
     usable estimates (``Solution.usable``: status OK, or WARN for dropped input with a
     consistent fit); an inconsistent fit (the object moved) is on /diagnostics only,
     /diagnostics (diagnostic_msgs/DiagnosticArray: ``com_estimator: exploration`` with the
@@ -231,10 +232,12 @@ class EstimatorNode(Node):
         return solution
 
     def _payload_of(self, solution: Solution) -> Payload | None:
-        """The payload of a usable solution with a kinematic fit, else None (the wrenches
-        alone give no bias nor hand model; a fit without the hand's windows none either)."""
+        """The payload of a usable solution with a kinematic or a motion fit, else None (the
+        wrenches alone give no bias nor hand model; a fit without the hand's windows none
+        either)."""
         robot = self._exploration.robot
-        if not solution.usable or solution.fit is None or robot is None:
+        fitted = solution.fit is not None or solution.motion is not None
+        if not solution.usable or not fitted or robot is None:
             return None
         try:
             frame = self._param("expected_frame") or self._latest_frame  # '': the wrenches'
@@ -565,6 +568,9 @@ class EstimatorNode(Node):
             msg.inertia.com.x, msg.inertia.com.y, msg.inertia.com.z = (
                 float(c) for c in solution.estimate.com
             )
+            if solution.motion is not None:  # about the COM, kg m^2
+                i = msg.inertia
+                i.ixx, i.ixy, i.iyy, i.ixz, i.iyz, i.izz = solution.motion.object.load_vector()[4:]
             self._estimate_pub.publish(msg)
         values = [KeyValue(key=k, value=v) for k, v in solution.diagnostic_values()]
         values.append(KeyValue(key="samples", value=str(self._exploration.sample_count)))

@@ -18,6 +18,7 @@ from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from com_core.contract import ARM_COMMAND_TOPIC, HAND_COMMAND_TOPIC
+from com_core.planning.excitation import Excitation
 from com_core.robot.choreography import Choreography
 from com_core.robot.config import RobotConfig
 from exploration_sequencer.io_node import IoNode, TimeoutRunError
@@ -86,6 +87,24 @@ class Arm:
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(start_ns, 1_000_000_000)
         self._arm_pub.publish(msg)
         return max(start_ns, self._io.now_ns()) + duration
+
+    def follow(self, excitation: Excitation, start_ns: int) -> int:
+        """Send ``excitation`` (a periodic motion from home back to home; the arm rests at
+        home) to start at sim time ``start_ns``, as waypoints with their velocities and
+        accelerations (``Excitation.waypoints``); returns the sim time (ns) it ends."""
+        names = self.config.arm_joints
+        times, q, dq, ddq = excitation.waypoints(names)
+        points = []
+        for t, *row in zip(times, q, dq, ddq, strict=True):
+            secs, nsecs = divmod(round(t * 1e9), 1_000_000_000)
+            points.append(JointTrajectoryPoint(
+                positions=row[0].tolist(), velocities=row[1].tolist(),
+                accelerations=row[2].tolist(), time_from_start=Duration(sec=secs, nanosec=nsecs),
+            ))  # fmt: skip
+        msg = JointTrajectory(joint_names=list(names), points=points)
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(start_ns, 1_000_000_000)
+        self._arm_pub.publish(msg)
+        return start_ns + round(times[-1] * 1e9)
 
     def arrive(
         self, goal: list[float], what: str, arrival_ns: int, must_arrive: bool = True

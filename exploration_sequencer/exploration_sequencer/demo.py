@@ -39,6 +39,7 @@ from com_core.contract import (
     TRUTH_TOPIC,
 )
 from com_core.estimation.fits import INFORMATION
+from com_core.estimation.motion_solution import EXCITATIONS
 from com_core.estimation.settings import SETTINGS
 from com_core.estimation.solution import noise_line, vector_value, verification_lines
 from com_core.inputs import Input, InputError
@@ -111,6 +112,13 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="what the estimator fits (default: its own, kinematics+mount): the wrenches, or "
         "also each window's orientation from the URDF (with the hand and the bias)",
+    )
+    p.add_argument(
+        "--excitation",
+        choices=EXCITATIONS,
+        default=None,
+        help="'static' (tilted poses at rest: mass and COM; the sequencer's default) or "
+        "'motion' (a designed wrist motion: mass, COM and inertia)",
     )
     p.add_argument(
         "--hold",
@@ -203,6 +211,7 @@ def node_parameters(
         "tare_cache": tare_cache,
     } | {k: v for k, v in noise.items() if v > 0}  # none: it plans for its own until a tare
     for key, value in (
+        ("excitation", args.excitation),
         ("tilt", args.tilt),
         ("max_tilt", args.max_tilt),
         ("dwell", args.dwell),
@@ -225,6 +234,7 @@ FLAGS = {
     "max_tilt": "--max-tilt",
     "dwell": "--dwell",
     "target_com_sigma": "--target-sigma",
+    "excitation": "--excitation",
     "tilt_axes": "--axes",
     "bag_dir": "--bag-dir",
 }
@@ -465,6 +475,30 @@ def print_ended(ended: Sequence[Child]) -> None:
         print(f"          log: {child.log}")
 
 
+def print_inertia(values: dict[str, str], truth) -> None:
+    """The inertia about the COM (kg cm^2, ft_sensor) estimated and held, element by
+    element with the error over its sigma, and the principal moments."""
+    from com_core.estimation.motion import principal_moments
+
+    estimate = np.array(vector_value(values, "inertia"))
+    cov = np.array(vector_value(values, "inertia_cov")).reshape(6, 6)
+    held = np.array([truth.ixx, truth.ixy, truth.iyy, truth.ixz, truth.iyz, truth.izz])
+    z = (estimate - held) / np.sqrt(np.diag(cov))
+
+    def matrix(v: np.ndarray) -> np.ndarray:
+        return np.array([[v[0], v[1], v[3]], [v[1], v[2], v[4]], [v[3], v[4], v[5]]])
+
+    moments, sigma = principal_moments(matrix(estimate), cov)
+    true_moments = np.linalg.eigvalsh(matrix(held))
+
+    def cm2(v) -> str:
+        return "(" + ", ".join(f"{1e4 * x:.2f}" for x in v) + ")"
+
+    print(f"inertia:  Ixx, Ixy, Iyy, Ixz, Iyz, Izz {cm2(estimate)} kg cm^2 about the COM")
+    print(f"          truth {cm2(held)}; error / sigma ({', '.join(f'{x:+.1f}' for x in z)})")
+    print(f"          principal moments {cm2(moments)} +- {cm2(sigma)}, truth {cm2(true_moments)}")
+
+
 def summarise_ended(ended: Sequence[Child], started: float) -> None:
     """The summary of a run cut short by children that ended: ``print_ended`` and the wall
     time since ``started``."""
@@ -519,6 +553,8 @@ def print_summary(result, estimates, truths, statuses, wall: float) -> None:
                 f"({', '.join(f'{x:+.2f}' for x in err)}) mm, |e| = "
                 f"{math.sqrt(sum(x * x for x in err)):.2f} mm"
             )
+            if "inertia" in values:
+                print_inertia(values, t)
     print(f"time:     {wall:.1f} s wall in all")
     if " bag " in result.message:
         bag = Path(result.message.rsplit(" bag ", 1)[1].strip())

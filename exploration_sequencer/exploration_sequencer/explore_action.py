@@ -44,14 +44,21 @@ def goal_options(goal: Explore.Goal) -> tuple[dict[str, object], list[str]]:
     if goal.information:
         options["information"] = goal.information
         refused += problems(SETTINGS, {"information": goal.information})
+    if goal.excitation:
+        options["excitation"] = goal.excitation
+        refused += problems(PARAMETERS, {"excitation": goal.excitation})
     return options, refused
 
 
 def _fill_inertia(msg: InertiaStamped, values: Mapping[str, str]) -> None:
-    """``msg``'s mass (kg) and COM (m) from a status's ``values``."""
+    """``msg``'s mass (kg), COM (m) and, when estimated, inertia about the COM (kg m^2)
+    from a status's ``values``."""
     msg.inertia.m = float(values["mass"])
     com = msg.inertia.com
     com.x, com.y, com.z = (float(values[f"com_{a}"]) for a in "xyz")
+    if "inertia" in values:
+        i = msg.inertia
+        i.ixx, i.ixy, i.iyy, i.ixz, i.iyz, i.izz = (float(v) for v in values["inertia"].split(","))
 
 
 def feedback_of(
@@ -78,9 +85,12 @@ def result_of(
     verification (none for a cancelled run)."""
     result = Explore.Result(status=status, message=message, bag=str(bag or ""))
     result.covariance = [math.nan] * 16
+    result.inertia_covariance = [math.nan] * 36
     if "mass" in values and status != Explore.Result.CANCELLED:
         result.estimate.header.frame_id = frame
         _fill_inertia(result.estimate, values)
         result.covariance = [float(v) for v in values["cov"].split(",")]
+        if "inertia_cov" in values:
+            result.inertia_covariance = [float(v) for v in values["inertia_cov"].split(",")]
         result.verification = "; ".join(verification_lines(values))
     return result

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+from com_core.estimation.motion_solution import EXCITATIONS, STATIC
 from com_core.inputs import Input, table_of
 
 __all__ = ["PARAMETERS"]
@@ -25,6 +26,13 @@ def _distinct(axes: list[str]) -> str:
 
 
 PARAMETERS = table_of([
+    Input("excitation", STATIC, "how the load is excited: 'static' (windows at rest at "
+          "tilted poses: mass and COM) or 'motion' (a designed wrist motion: mass, COM and "
+          "inertia; needs the estimator's kinematic information)", kind="str",
+          choices=EXCITATIONS),
+    Input("motion_period", 3.0, "with excitation 'motion': the excitation's period, the time "
+          "of each motion (the empty hand's, the object's and the verification's)", unit="s",
+          low=1.0, high=30.0),
     Input("tilt", math.pi / 6, "wrist tilt from home about each axis", **_TILT,
           fix="a tilt the wrist makes from home, e.g. 0.52 (30 deg)"),
     Input("tilt_axes", ["y", "x"], "sensor axes to tilt about (the pass visits y first)",

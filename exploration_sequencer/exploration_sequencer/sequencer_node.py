@@ -74,6 +74,9 @@ from com_core.contract import (
     EXPLORE_SERVICE,
     INTERNAL_ERROR,
     JOINT_STATES_TOPIC,
+    MOTION_OBJECT,
+    MOTION_TARE,
+    MOTION_VERIFY,
     MOVING,
     OBJECT_PREFIX,
     OK,
@@ -86,6 +89,7 @@ from com_core.contract import (
 )
 from com_core.estimation.exploration import Exploration
 from com_core.estimation.fits import WRENCHES
+from com_core.estimation.motion_solution import MOTION
 from com_core.estimation.solution import noise_line, vector_value, verification_lines
 from com_core.estimation.tare_cache import (
     BAG_TARE_FILE,
@@ -116,7 +120,8 @@ from com_core.planning.decisions import (
     tare_decision,
     tare_reuse,
 )
-from com_core.planning.planner import Plan
+from com_core.planning.excitation import Excitation, cached_excitation
+from com_core.planning.planner import HOME, Plan
 from com_core.planning.prediction import Prediction
 from com_core.robot.choreography import VERIFY_POSE, Choreography
 from com_core.robot.config import (
@@ -139,6 +144,10 @@ from exploration_sequencer.parameters import PARAMETERS
 CANCEL_TIMEOUT = 8.0  # s (wall) a node stopping mid-run gives the way back (SIGINT: 10 s)
 FEEDBACK_PERIOD = 0.5  # s (wall) between an action's feedback messages
 LABEL_ACK_TIMEOUT = 10.0  # s (wall) a pose label waits for its readers' acknowledgement
+EXCITATION_LEAD = 0.2  # s (sim) between sending an excitation and its start
+EXCITATION_REST = 0.3  # s (sim) at rest after an excitation, within its span
+EXCITATION_CACHE = "excitation_cache.json"  # beside the tare cache
+VERIFY_ITERATIONS = 40  # the verification's motion needs no optimum, only another motion
 CLOCKS_APART = 3600 * 10**9  # ns between the sensor's stamps and this clock: two clocks
 
 
@@ -486,6 +495,8 @@ class SequencerNode(Node):
         request = GetParameters.Request(names=names)
         answer = self._call(self._estimator_params, request, "reading the estimator's settings")
         method, information, estimator_cache = (value.string_value for value in answer.values[:3])
+        if self.p("excitation") == MOTION:
+            return self._explore_in_motion(run_id, motion, information)
         drift_rate = tuple(answer.values[3].double_array_value)
         accuracy, full_scale = answer.values[4].double_value, answer.values[5].double_array_value
         calibration = estimator_calibration(accuracy, full_scale)
@@ -499,16 +510,7 @@ class SequencerNode(Node):
             f"run {run_id}: {config.robot}, poses {[n for n, _ in poses]}, "
             f"tilt {plan.tilt:.3f} rad, dwell {plan.dwell:g} s; predicted {prediction}"
         )
-        bag = Path(self.p("bag_dir")).resolve() / run_id
-        self._labels = []
-        self.io.recorder.start(bag)
-        self._bag = bag
-        self._start_ns, self._planned_s = (
-            self.io.now_ns(),
-            self._run_time(plan, True, information != WRENCHES),
-        )
-        write_robot_config(config, bag / BAG_ROBOT_FILE)  # the replay's frames
-
+        bag = self._start_bag(run_id, self._run_time(plan, True, information != WRENCHES))
         self._to_known_state(home, pick)
         self.arm.gripper(close=False)
         tare_home = self._tare(plan, motion, bag, estimator_cache, information != WRENCHES)
@@ -544,6 +546,24 @@ class SequencerNode(Node):
             self.arm.move(home, "home")
         elif not bracket:
             self.arm.put_back(home, pick)
+        plan_line = f"predicted {prediction}; object pass {object_time:.1f} s (sim)"
+        return self._finish(run_id, end, plan_line, bag)
+
+    def _start_bag(self, run_id: str, planned_s: float) -> Path:
+        """Start recording the run to <bag_dir>/<run_id> (with the robot configuration the
+        replay takes its frames from) and its progress, ``planned_s`` s (sim) long."""
+        bag = Path(self.p("bag_dir")).resolve() / run_id
+        self._labels = []
+        self.io.recorder.start(bag)
+        self._bag = bag
+        self._start_ns, self._planned_s = self.io.now_ns(), planned_s
+        write_robot_config(self.config, bag / BAG_ROBOT_FILE)  # the replay's frames
+        return bag
+
+    def _finish(self, run_id: str, end: int, plan_line: str, bag: Path) -> tuple[bool, str]:
+        """After the ``done`` label at ``end`` (ns): the estimator's answer, the payload
+        files when it holds a payload now, the bag closed, the summary and the report;
+        returns (success, summary)."""
         status = self._status = self._estimator_answer(end)
         if (
             status is not None
@@ -551,10 +571,90 @@ class SequencerNode(Node):
         ):
             self._save_payload(bag)  # this run's estimate is the estimator's payload now
         counts = self._stop_recording()
-        summary = _summary(status, prediction, object_time, bag)
-        log.info(f"run {run_id}: {summary} ({sum(counts.values())} messages recorded)")
+        summary = _summary(status, plan_line, bag)
+        self.get_logger().info(
+            f"run {run_id}: {summary} ({sum(counts.values())} messages recorded)"
+        )
         self._write_report(bag)
         return status is not None and status_of(status.level) == OK, summary
+
+    # --- an exploration in motion -------------------------------------------------------
+
+    def _explore_in_motion(
+        self, run_id: str, motion: Choreography, information: str
+    ) -> tuple[bool, str]:
+        """An exploration in motion (docs/design.md, Identification in motion): the empty
+        hand at rest at home (the sensor's noise and bias) and along the excitation, the
+        grasp, the object along the excitation, then along another motion no fit uses,
+        and the return. RunError before anything moves when the estimator's information
+        has no kinematics."""
+        if information == WRENCHES:
+            raise RunError(
+                "excitation 'motion' needs the estimator's information 'kinematics' or "
+                "'kinematics+mount' (it has 'wrenches'): the fit takes the wrist's motion "
+                "from the URDF and the joint states"
+            )
+        config, period = self.config, self.p("motion_period")
+        home, pick = list(config.home_joints), list(config.pick_joints)
+        excitation, verification = self._excitations(motion, period)
+        move = motion.motion_time(home, pick, self.arm.speed) + self.arm.settle
+        planned = 6 * move + 3 * (period + EXCITATION_REST) + self.p("bias_dwell") + 2 * 0.6
+        bag = self._start_bag(run_id, planned)
+        self._to_known_state(home, pick)
+        self.arm.gripper(close=False)
+        self._enter("tare", "phase 1/4: the empty hand at rest, then along the excitation")
+        tare_home = self._captured_tares([(HOME, home)], self.p("bias_dwell"))[0].get(HOME)
+        if tare_home is None:
+            raise RunError(f"the empty hand's window at {HOME} was not recorded")
+        self._excite(MOTION_TARE, excitation)
+        self._enter("grasp and lift", "phase 2/4: grasp and lift")
+        self.arm.move(pick, "the object")
+        self.arm.gripper(close=True, wait=0.6)
+        self._check_grasp(home, tare_home, pick)
+        self._enter("object motion", "phase 3/4: the object along the excitation")
+        end = self._excite(MOTION_OBJECT, excitation)
+        self._enter("verification", "verification: the object along a motion no fit uses")
+        end = self._excite(MOTION_VERIFY, verification)
+        release = self.p("release")
+        self._enter("return", f"phase 4/4: return{' and release' if release else ', holding'}")
+        self._label(end, DONE)
+        self._label(max(end, self.io.now_ns()), MOVING)  # the latched label is no "done"
+        if release:
+            self.arm.put_back(home, pick)
+        joints = ", ".join(excitation.joints)
+        plan_line = f"excitation of {joints}, {period:g} s; object motion {period:.1f} s (sim)"
+        return self._finish(run_id, end, plan_line, bag)
+
+    def _excitations(self, motion: Choreography, period: float) -> tuple[Excitation, Excitation]:
+        """(the excitation of the wrist's last three joints, another one for the
+        verification), each designed once per arm, home and period and cached beside the
+        tare cache (``planning.excitation.cached_excitation``)."""
+        path = self._cache_path().with_name(EXCITATION_CACHE)
+        robot = motion.robot
+        home = [motion.home_positions()[name] for name in robot.joint_names]
+        joints = self.config.arm_joints[-3:]
+        started = time.monotonic()
+        excitation = cached_excitation(path, robot, home, joints, period)
+        verification = cached_excitation(path, robot, home, joints, period,
+                                         iterations=VERIFY_ITERATIONS, seed=1)  # fmt: skip
+        self.get_logger().info(
+            f"excitation: {', '.join(joints)} over {period:g} s, log det "
+            f"{excitation.log_det:.1f} ({time.monotonic() - started:.1f} s, cache {path})"
+        )
+        return excitation, verification
+
+    def _excite(self, label: str, excitation: Excitation) -> int:
+        """Run ``excitation`` from home, labelled ``label`` from its start to
+        ``EXCITATION_REST`` s after its end (the joint states must reach beyond the last
+        wrench the fit takes); returns that end, sim time, ns."""
+        self.arm.move(list(self.config.home_joints), "home")
+        start = self.io.now_ns() + round(EXCITATION_LEAD * 1e9)
+        end = self.arm.follow(excitation, start) + round(EXCITATION_REST * 1e9)
+        self._label(start, label)
+        self.get_logger().info(f"motion {label} from t={start * 1e-9:.3f} s")
+        self.io.sleep_until(end, f"recording {label}")
+        self._label(end, MOVING)
+        return end
 
     # --- steps ------------------------------------------------------------------------
 
@@ -829,10 +929,10 @@ class SequencerNode(Node):
             self.get_logger().error(f"report not written: {exc!r}")
 
 
-def _summary(status, prediction, object_time: float, bag: Path) -> str:
+def _summary(status, plan_line: str, bag: Path) -> str:
     """One line: the estimator's status and message, for a kinematic fit the COM sigma
-    the wrenches alone give on the same windows and the verification, the prediction,
-    the pass, the bag."""
+    the wrenches alone give on the same windows and the verification, the ``plan_line``
+    (the prediction and the pass), the bag."""
     if status is None:
         head = "[ERROR] the estimator did not answer"
     else:
@@ -842,7 +942,7 @@ def _summary(status, prediction, object_time: float, bag: Path) -> str:
             head += f" (wrenches alone: COM +- ({', '.join(f'{v:.2f}' for v in alone)}) mm)"
         head += "".join(f"; {line}" for line in verification_lines(values))
         head += f"; {noise}" if (noise := noise_line(values)) else ""
-    return f"{head}; predicted {prediction}; object pass {object_time:.1f} s (sim); bag {bag}"
+    return f"{head}; {plan_line}; bag {bag}"
 
 
 def _spin_until_shutdown(executor: MultiThreadedExecutor) -> None:

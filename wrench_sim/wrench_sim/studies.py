@@ -10,10 +10,7 @@ from com_core.planning.excitation import Excitation
 from wrench_sim.physics import ArmWorld
 from wrench_sim.sensor import WrenchSensor
 
-__all__ = ["WAYPOINT_RATE", "grasp", "run_excitation"]
-
-WAYPOINT_RATE = 20.0
-"""Hz: the excitation's waypoints (with their velocities and accelerations) sent to the arm."""
+__all__ = ["grasp", "run_excitation"]
 
 
 def grasp(world: ArmWorld) -> None:
@@ -35,8 +32,7 @@ def run_excitation(
     arm joint positions rad) every ``joint_every`` steps, and (wrench stamps s, readings
     N and N m in ``ft_sensor``) of ``sensor`` every step."""
     robot = world.config.robot
-    times = np.arange(1, round(WAYPOINT_RATE * excitation.period) + 1) / WAYPOINT_RATE
-    q, dq, ddq = excitation.at(times)
+    times, q, dq, ddq = excitation.waypoints(robot.arm_joints)
     end = world.command_arm(robot.arm_joints, times, q, 0.0, dq, ddq)
     stamps, positions, readings = [], [], []
     while world.time < end + 0.3:

@@ -85,6 +85,8 @@ class MotionFit:
         fit of the object with this hand taken off does not inherit it: the calibration's
         error is common to both motions, and what is left of it in the object's fit is
         the error on the object's own wrench.
+    calibration_gain : (10, 36) d pi / d vec(E): how the calibration's error E
+        (``sensing.calibration``; row-major) moves ``pi`` (zero without a calibration).
     bias : (6,) the sensor's bias over the motion, N and N m.
     delay : s, the wrench stamps' delay behind the joint states' (estimated).
     chi2, dof : the whitened residual's sum of squares and its degrees of freedom.
@@ -97,6 +99,7 @@ class MotionFit:
     cov: NDArray[np.float64]
     bound: NDArray[np.float64]
     calibration_cov: NDArray[np.float64]
+    calibration_gain: NDArray[np.float64]
     bias: NDArray[np.float64]
     delay: float
     chi2: float
@@ -246,11 +249,12 @@ def fit_motion(
     fit = fit_whitened(project(A_pi), project(b))
     bias, *_ = np.linalg.lstsq(A_bias, b - A_pi @ fit.pi, rcond=None)
     dof = A.shape[0] - 16
-    calibration_cov = (
-        np.zeros((10, 10))
+    gain = (
+        np.zeros((10, 36))
         if calibration is None
-        else _calibration_share(calibration, Y @ fit.pi, noise, project, fit.cov, A_pi)
+        else _calibration_gain(calibration, Y @ fit.pi, noise, project, fit.cov, A_pi)
     )
+    calibration_cov = (0.0 if calibration is None else calibration.sigma**2) * gain @ gain.T
     cov = fit.cov + calibration_cov
     expected = 1.0  # chi^2 / dof the noise model and the encoders' noise explain
     if position_sigma > 0:
@@ -261,7 +265,7 @@ def fit_motion(
     cov *= max(1.0, fit.chi2 / dof / expected)
     if hand is not None:
         cov += hand.cov - hand.calibration_cov
-    return MotionFit(fit.pi, cov, fit.cov, calibration_cov, bias, delay, fit.chi2, dof,
+    return MotionFit(fit.pi, cov, fit.cov, calibration_cov, gain, bias, delay, fit.chi2, dof,
                      fit.constrained, len(t))  # fmt: skip
 
 
@@ -326,7 +330,7 @@ def _prediction_errors(x: NDArray[np.float64], phi: Sequence[float]) -> NDArray[
     return out
 
 
-def _calibration_share(
+def _calibration_gain(
     calibration: Calibration,
     object_wrench: NDArray[np.float64],
     noise: NoiseModel,
@@ -334,11 +338,11 @@ def _calibration_share(
     cov: NDArray[np.float64],
     A_pi: NDArray[np.float64],
 ) -> NDArray[np.float64]:
-    """(10, 10): the calibration's common error E on the object's wrench (n, 6),
-    propagated through the whitened least squares (``sensing.calibration``)."""
+    """(10, 36) d pi / d vec(E): the calibration's common error E on the object's wrench
+    (n, 6) through the whitened least squares (``sensing.calibration``); its share of the
+    covariance is sigma_E^2 gain gain^T."""
     J = np.stack([calibration.jacobian(x) for x in object_wrench])  # (n, 6, 36)
-    gain = cov @ project(A_pi).T @ project(_whiten(J, noise))  # d pi / d vec(E), (10, 36)
-    return calibration.sigma**2 * gain @ gain.T
+    return cov @ project(A_pi).T @ project(_whiten(J, noise))
 
 
 def _encoder_share(

@@ -355,17 +355,18 @@ def _solved_in_motion(
         reason = str(exc) + ("; " + "; ".join(notes) if notes else "")
         return Solution(ERROR, reason, setup.method, notes=tuple(notes), window_samples=counts,
                         excitation=MOTION)  # fmt: skip
-    summary = _summary(estimate).rsplit(" from ", 1)[0] + ", " + _inertia_summary(result)
-    status, reason = _status(summary, consistency, checks, notes)
+    status, reason = _status(_motion_summary(estimate, result), consistency, checks, notes)
     return Solution(status, reason, setup.method, estimate, consistency, (), tuple(notes),
                     window_samples=counts, information=KINEMATICS, verifications=checks,
                     noise=noise, excitation=MOTION, motion=result)  # fmt: skip
 
 
-def _inertia_summary(result: MotionResult) -> str:
-    """The principal moments (kg cm^2) with their sigmas, and the motion's samples."""
+def _motion_summary(e: Estimate, result: MotionResult) -> str:
+    """Mass and COM (``_summary``), the principal moments (kg cm^2) with their sigmas,
+    and the motion's samples."""
     moments, sigma = principal_moments(result.inertia, result.load_cov[4:, 4:])
     return (
+        _summary(e).rsplit(" from ", 1)[0] + ", "
         f"principal moments ({', '.join(f'{1e4 * v:.2f}' for v in moments)}) +- "
         f"({', '.join(f'{1e4 * v:.2f}' for v in sigma)}) kg cm^2 from a motion of "
         f"{result.object.samples} samples"
@@ -413,11 +414,11 @@ def format_solution(solution: Solution) -> str:
     name = solution.method
     if solution.information != WRENCHES:
         name += f" ({solution.information})"
-    return f"[{solution.status}] {name}: {solution.reason}" + (
-        ""
-        if solution.estimate is None or solution.status == OK
-        else f" | {_summary(solution.estimate)}"
-    )
+    e = solution.estimate
+    if e is None or solution.status == OK:
+        return f"[{solution.status}] {name}: {solution.reason}"
+    summary = _summary(e) if solution.motion is None else _motion_summary(e, solution.motion)
+    return f"[{solution.status}] {name}: {solution.reason} | {summary}"
 
 
 def vector_value(values: Mapping[str, str], key: str, scale: float = 1.0) -> list[float] | None:
@@ -433,6 +434,8 @@ def verification_lines(values: Mapping[str, str]) -> list[str]:
     from zero against what the noise allows."""
     lines = []
     for key in values:
+        if key.startswith("verify_ratio "):
+            lines.append(_motion_check_line(values, key.split(" ", 1)[1]))
         if not key.startswith("verify_wrench "):
             continue
         pose = key.split(" ", 1)[1]
@@ -451,6 +454,24 @@ def verification_lines(values: Mapping[str, str]) -> list[str]:
             f"sigma ({d[2]:.2f} allowed)"
         )
     return lines
+
+
+def _motion_check_line(values: Mapping[str, str], pose: str) -> str:
+    """The check along motion ``pose`` (``MotionCheck``) read back: the compensated
+    wrench's rms per axis against its prediction, and their ratio against the allowed."""
+    rms = vector_value(values, f"verify_rms {pose}") or [math.nan] * 6
+    predicted = vector_value(values, f"verify_rms_predicted {pose}") or [math.nan] * 6
+    ratio = vector_value(values, f"verify_ratio {pose}") or [math.nan] * 4
+
+    def vec(v: Sequence[float], scale: float = 1.0) -> str:
+        return "(" + ", ".join(f"{x * scale:.3f}" for x in v) + ")"
+
+    return (
+        f"verification along {pose!r}: compensated rms f {vec(rms[:3])} N, tau "
+        f"{vec(rms[3:], 1e3)} mN m, predicted {vec(predicted[:3])} N, "
+        f"{vec(predicted[3:], 1e3)} mN m; {ratio[0]:.2f} and {ratio[1]:.2f} of it "
+        f"({ratio[2]:.2f} and {ratio[3]:.2f} allowed)"
+    )
 
 
 def noise_line(values: Mapping[str, str]) -> str | None:

@@ -10,9 +10,10 @@
   GravityCompensation filter (plugin ``control_filters/GravityCompensationWrench``),
   which a force controller's filter chain runs: the hand and the object as one mass at
   one CoG in the URDF's sensor frame, and the (tilted) base's gravity.
-- ``payload.urdf``: a URDF fragment, the object as a point mass on a fixed joint from the
-  sensor's URDF frame, for a motion planner or a dynamics model that adds the payload to
-  the robot (the URDF already holds the hand).
+- ``payload.urdf``: a URDF fragment, the object as a link on a fixed joint from the
+  sensor's URDF frame (a point mass, or with its inertia from an exploration in motion),
+  for a motion planner or a dynamics model that adds the payload to the robot (the URDF
+  already holds the hand).
 
 The bias: only ``compensate`` (and so the estimator) subtracts the sensor's bias. The
 filter and the URDF have no bias term: a wrench filtered with these parameters keeps
@@ -128,7 +129,8 @@ _FILE_NOTES = {
     ),
     "covariance": "covariance of (mass, com_x, com_y, com_z): kg^2, kg m, m^2\n",
     "bias": "the sensor's bias (its zero) at time: N, N m; it drifts\n",
-    "hand": "the hand: everything beyond the sensor but the object; kg, m\n",
+    "inertia": "the object's inertia about its com (an exploration in motion): kg m^2\n",
+    "hand": "the hand: everything beyond the sensor but the object; kg, m, kg m^2\n",
     "sensor_frame": "the URDF's frames: of the sensor, and of the base\n",
     "mount": (
         "the sensor's mounting: its axes in sensor_frame are R(mount); mount is a rotation\n"
@@ -191,7 +193,9 @@ def _file_fields(payload: Payload) -> dict:
         "sigma_mass": p.sigma_mass,
         "sigma_com": p.sigma_com.tolist(),
         "bias": {"force": p.bias[:3].tolist(), "torque": p.bias[3:].tolist()},
-        "hand": {"mass": p.hand_mass, "com": p.hand_com.tolist()},
+        **({"inertia": p.inertia.tolist()} if p.inertia is not None else {}),
+        "hand": {"mass": p.hand_mass, "com": p.hand_com.tolist()}
+        | ({"inertia": p.hand_inertia.tolist()} if p.hand_inertia is not None else {}),
         "sensor_frame": p.sensor_frame,
         "base_frame": p.base_frame,
         "mount": p.mount.tolist(),
@@ -286,6 +290,12 @@ def _payload_of(data: Mapping) -> Payload:
         time=_text(data, "time"),
         hand_id=_text(data, "hand_id"),
         noise=_noise(data),
+        inertia=_matrix(data, "inertia", 3) if "inertia" in data else None,
+        hand_inertia=(
+            _matrix(data, "hand.inertia", 3)
+            if isinstance(data.get("hand"), Mapping) and "inertia" in data["hand"]
+            else None
+        ),
     )
 
 
@@ -395,9 +405,19 @@ def _xyz(vector: NDArray[np.float64]) -> str:
 def urdf_snippet(payload: Payload, link: str = "payload") -> str:
     """A URDF fragment to put inside the robot's ``<robot>``: the object as a link
     ``link`` with its mass (kg) at its COM (m, in the sensor's URDF frame: R(mount) com)
-    and zero inertia (a point mass: the inertia is not estimated), on a fixed joint
-    ``<link>_joint`` from ``sensor_frame`` (which must be a link of the URDF)."""
-    com = payload._mount_rotation @ payload.com
+    and its inertia about the COM (kg m^2, R(mount) I R(mount)^T; zero, a point mass,
+    when it was not estimated), on a fixed joint ``<link>_joint`` from ``sensor_frame``
+    (which must be a link of the URDF)."""
+    rotation = payload._mount_rotation
+    com = rotation @ payload.com
+    if payload.inertia is None:
+        inertia = [_xml_comment("inertia not estimated: a point mass"),
+                   '<inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>']  # fmt: skip
+    else:
+        i = rotation @ payload.inertia @ rotation.T
+        elements = zip(("ixx", "ixy", "ixz", "iyy", "iyz", "izz"),
+                       i[[0, 0, 0, 1, 1, 2], [0, 1, 2, 1, 2, 2]], strict=True)  # fmt: skip
+        inertia = ["<inertia " + " ".join(f'{k}="{float(v)!r}"' for k, v in elements) + "/>"]
     note = (
         f"The object held by {payload.hand_id or 'the hand'} (information "
         f"{payload.information}, time {payload.time or 'unknown'}): mass kg, COM m in "
@@ -410,8 +430,7 @@ def urdf_snippet(payload: Payload, link: str = "payload") -> str:
             "  <inertial>",
             f'    <origin xyz="{_xyz(com)}" rpy="0 0 0"/>',
             f'    <mass value="{payload.mass!r}"/>',
-            "    " + _xml_comment("inertia not estimated: a point mass"),
-            '    <inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>',
+            *("    " + line for line in inertia),
             "  </inertial>",
             "</link>",
             f'<joint name={quoteattr(link + "_joint")} type="fixed">',

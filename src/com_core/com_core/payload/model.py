@@ -75,6 +75,8 @@ class Payload:
     time : ISO 8601 (UTC) of the estimate; '' unknown.
     hand_id : names the hand the payload was held by; '' unknown.
     noise : the sensor's noise the estimate learnt (``com_core.sensing.noise``); None unknown.
+    inertia, hand_inertia : (3, 3), kg m^2, the object's and the hand's inertia about
+        their own COMs (an exploration in motion); None not estimated.
 
     Keyword arguments only; arrays are kept as read-only copies, and what the compensation
     needs of them (R(mount), R(base_tilt) g, the wrench per unit gravity) is computed
@@ -100,6 +102,8 @@ class Payload:
     time: str = ""
     hand_id: str = ""
     noise: NoiseModel | None = None
+    inertia: NDArray[np.float64] | None = None
+    hand_inertia: NDArray[np.float64] | None = None
     _mount_rotation: NDArray[np.float64] = field(init=False, repr=False)
     _base_gravity: NDArray[np.float64] = field(init=False, repr=False)
     _wrench_map: NDArray[np.float64] = field(init=False, repr=False)
@@ -115,6 +119,12 @@ class Payload:
             ("gravity", (3,)),
         ):
             object.__setattr__(self, name, _finite_array(getattr(self, name), shape, name))
+        for name in ("inertia", "hand_inertia"):
+            if getattr(self, name) is not None:
+                value = _finite_array(getattr(self, name), (3, 3), name)
+                if not np.allclose(value, value.T, rtol=1e-9, atol=1e-15):
+                    raise PayloadError(f"must be symmetric, got {value.tolist()}", name)
+                object.__setattr__(self, name, value)
         for name in ("mass", "hand_mass"):
             object.__setattr__(self, name, _finite_number(getattr(self, name), name))
         self._check_values()
@@ -278,6 +288,8 @@ def payload_from_solution(
         raise PayloadError(
             f"no usable estimate ({solution.status}: {solution.reason}): nothing to save"
         )
+    if solution.motion is not None:
+        return _payload_in_motion(solution, robot, frame, hand_id, time)
     fit = solution.fit
     if fit is None:
         raise PayloadError(
@@ -308,4 +320,33 @@ def payload_from_solution(
         time=_utc_now() if time is None else time,
         hand_id=hand_id,
         noise=solution.noise,
+    )
+
+
+def _payload_in_motion(
+    solution: Solution, robot: RobotModel, frame: str, hand_id: str, time: str | None
+) -> Payload:
+    """``payload_from_solution`` of an exploration in motion: the object's and the empty
+    hand's mass, COM and inertia from their motion fits, the bias of the object's motion;
+    no mounting nor tilt fitted."""
+    result, estimate = solution.motion, solution.estimate
+    assert result is not None and estimate is not None
+    hand_mass, hand_com, hand_inertia = result.hand.load()
+    return Payload(
+        mass=estimate.mass,
+        com=estimate.com,
+        cov=estimate.cov,
+        hand_mass=hand_mass,
+        hand_com=hand_com,
+        bias=result.object.bias,
+        gravity=robot.gravity,
+        frame=frame,
+        sensor_frame=robot.sensor_frame,
+        base_frame=robot.base_frame,
+        information=solution.information,
+        time=_utc_now() if time is None else time,
+        hand_id=hand_id,
+        noise=solution.noise,
+        inertia=result.inertia,
+        hand_inertia=hand_inertia,
     )

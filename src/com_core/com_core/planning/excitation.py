@@ -37,6 +37,7 @@ from com_core.robot.model import RobotModel
 __all__ = [
     "HARMONICS",
     "SIGMA",
+    "WAYPOINT_RATE",
     "Excitation",
     "cached_excitation",
     "design_excitation",
@@ -48,6 +49,8 @@ HARMONICS = 3
 SIGMA = np.array([0.1, 0.1, 0.1, 0.005, 0.005, 0.005])
 """N, N m: the noise per sample the design weighs the axes by (the realistic sensor's)."""
 _RATE = 100.0  # Hz the design samples the motion at
+WAYPOINT_RATE = 20.0
+"""Hz: the waypoints (positions, velocities, accelerations) an arm's controller is sent."""
 
 
 @dataclass(frozen=True)
@@ -82,6 +85,16 @@ class Excitation:
             full[:, index] += part
             out.append(full)
         return tuple(out)
+
+    def waypoints(
+        self, joints: Sequence[str], rate: float = WAYPOINT_RATE
+    ) -> tuple[NDArray[np.float64], ...]:
+        """(times s after the start, positions, velocities, accelerations) of ``joints``
+        (names, any order; rad, rad/s, rad/s^2) every 1 / ``rate`` s over one period, the
+        last at its end, at rest at home."""
+        times = np.arange(1, round(rate * self.period) + 1) / rate
+        index = [self.joint_names.index(name) for name in joints]
+        return (times, *(x[:, index] for x in self.at(times)))
 
 
 def excitation_information(robot: RobotModel, excitation: Excitation) -> NDArray[np.float64]:

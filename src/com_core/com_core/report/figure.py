@@ -13,7 +13,9 @@
   reason, method, chi-square, poses, and which topics the bag lacks;
 - bottom left: the sensor's noise, the autocorrelation of the empty hand's windows (all
   static windows when there are none) per axis, each window less its mean, against the
-  AR model the estimator learns from them (``com_core.sensing.noise``).
+  AR model the estimator learns from them (``com_core.sensing.noise``); for a run in
+  motion instead, the measured wrench along the object's motions against the one the
+  fit gives (``motion_solution.fitted_wrenches``).
 
 Any topic may be missing: the report is still written and says what is missing.
 
@@ -37,6 +39,9 @@ from com_core.contract import (
     DIAGNOSTICS_TOPIC,
     DONE,
     ESTIMATE_TOPIC,
+    MOTION_PREFIX,
+    MOTION_TARE,
+    MOTION_VERIFY,
     OBJECT_PREFIX,
     POSE_TOPIC,
     TARE_PREFIX,
@@ -44,7 +49,7 @@ from com_core.contract import (
     WRENCH_TOPIC,
 )
 from com_core.estimation.solution import noise_line, vector_value, verification_lines
-from com_core.report.run import RunData, read_run
+from com_core.report.run import RunData, motion_fitted, read_run
 from com_core.sensing.noise import learn_noise
 
 __all__ = ["write_report"]
@@ -126,11 +131,12 @@ def _scaled(v: float | None, k: float) -> float | None:
 
 
 def _windows(run: RunData) -> list[tuple[float, float, str]]:
-    """(start s, stop s, label) of every static window; a window ends at the next label."""
+    """(start s, stop s, label) of every static window and motion; each ends at the next
+    label."""
     end = run.stamps[-1] if run.stamps.size else (run.labels[-1][0] if run.labels else 0)
     out = []
     for k, (start, label) in enumerate(run.labels):
-        if label.startswith((TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX)):
+        if label.startswith((TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX, MOTION_PREFIX)):
             stop = run.labels[k + 1][0] if k + 1 < len(run.labels) else max(end, start)
             out.append((start * 1e-9, stop * 1e-9, label))
     return out
@@ -180,8 +186,8 @@ def _draw_traces(fig, run: RunData, rect: tuple[float, float, float, float]) -> 
     suspect = run.diagnostic["values"].get("suspect_pose") if run.diagnostic else None
     px_per_s = width * fig.get_figwidth() * fig.dpi / (t1 - t0 + 2 * pad)
     for start, stop, label in windows:
-        tare = label.startswith(TARE_PREFIX)
-        verify = label.startswith(VERIFY_PREFIX)
+        tare = label.startswith(TARE_PREFIX) or label == MOTION_TARE
+        verify = label.startswith(VERIFY_PREFIX) or label == MOTION_VERIFY
         colour = _TARE_COLOUR if tare else _VERIFY_COLOUR if verify else _OBJECT_COLOUR
         for ax in (ax_f, ax_t):
             ax.axvspan(start, stop, color=colour, alpha=0.18, lw=0)
@@ -194,7 +200,7 @@ def _draw_traces(fig, run: RunData, rect: tuple[float, float, float, float]) -> 
             edgecolor="#b71c1c" if bad else "white",
             lw=2.5 if bad else 0.8,
         )
-        pose = label.split("/", 1)[1]
+        pose = "motion" if label.startswith(MOTION_PREFIX) else label.split("/", 1)[1]
         fits = (stop - start) * px_per_s > 7.0 * len(pose) + 6
         ax_strip.text(
             (start + stop) / 2,
@@ -215,7 +221,7 @@ def _draw_traces(fig, run: RunData, rect: tuple[float, float, float, float]) -> 
     ax_strip.set_yticks([])
     ax_strip.tick_params(labelbottom=False, bottom=False)
     ax_strip.set_title(
-        "Wrench on the sensor (ft_sensor frame) and the static windows",
+        "Wrench on the sensor (ft_sensor frame), the static windows and the motions",
         loc="left",
         fontsize=12,
         fontweight="bold",
@@ -321,6 +327,41 @@ def _draw_noise(fig, run: RunData, rect: tuple[float, float, float, float]) -> N
     ax.set_xlim(0, lags[-1])
     ax.grid(True, color="#dddddd", lw=0.6)
     ax.legend(loc="upper right", ncol=6, fontsize=8.5, framealpha=0.85)
+
+
+def _draw_motion_fit(
+    fig,
+    run: RunData,
+    fitted: list[tuple[str, NDArray[np.float64], NDArray[np.float64]]],
+    rect: tuple[float, float, float, float],
+) -> None:
+    """The measured wrench along the object's motions against the one the fit gives
+    (black; ``report.run.motion_fitted``): forces left, torques right, the motions one
+    after the other (s from each one's start)."""
+    left, bottom, width, height = rect
+    t = run.stamps * 1e-9
+    for k, (cols, unit) in enumerate(((slice(0, 3), "force (N)"), (slice(3, 6), "torque (N m)"))):
+        ax = fig.add_axes((left + k * (width / 2 + 0.02), bottom, width / 2 - 0.02, height))
+        offset = 0.0
+        for label, at, wrench in fitted:
+            inside = (t >= at[0]) & (t <= at[-1])
+            x = t[inside] - at[0] + offset
+            for a, colour in enumerate(_AXIS_COLOURS):
+                ax.plot(x, run.wrenches[inside][:, cols][:, a], color=colour, lw=0.6, alpha=0.6)
+                ax.plot(at - at[0] + offset, wrench[:, cols][:, a], color="black", lw=0.8)
+            ax.axvline(offset, color="#999999", lw=0.6)
+            ax.text(offset, 1.0, f" {label}", transform=ax.get_xaxis_transform(),
+                    fontsize=8.5, va="bottom")  # fmt: skip
+            offset += at[-1] - at[0]
+        ax.set_ylabel(unit)
+        ax.set_xlabel("s from each motion's start")
+        ax.grid(True, color="#dddddd", lw=0.6)
+        ax.margins(x=0)
+        if k == 0:
+            ax.set_title(
+                "Along the object's motions: measured (colours: x, y, z) and fitted (black)",
+                loc="left", fontsize=11, fontweight="bold", pad=14,
+            )  # fmt: skip
 
 
 def _right_edge(fig, artist, renderer) -> float:
@@ -662,7 +703,12 @@ def write_report(bag: Path | str, png: Path | str | None = None) -> Path:
     FigureCanvasAgg(fig)  # the Agg backend, for this figure only
     _draw_banner(fig, run)
     _draw_traces(fig, run, (0.055, 0.3, 0.54, 0.56))
-    _draw_noise(fig, run, (0.055, 0.06, 0.54, 0.16))
+    values = run.diagnostic["values"] if run.diagnostic else {}
+    fitted = motion_fitted(bag, values)
+    if fitted:
+        _draw_motion_fit(fig, run, fitted, (0.055, 0.06, 0.54, 0.16))
+    else:
+        _draw_noise(fig, run, (0.055, 0.06, 0.54, 0.16))
     if rows:
         _draw_bars(fig, rows, (0.69, 0.5, 0.295, 0.3))
     else:

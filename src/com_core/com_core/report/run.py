@@ -38,7 +38,7 @@ from com_core.contract import (
     status_of,
 )
 
-__all__ = ["RUN_BAG_TOPICS", "Inertia", "RunData", "read_run"]
+__all__ = ["RUN_BAG_TOPICS", "Inertia", "RunData", "motion_fitted", "read_run"]
 
 RUN_BAG_TOPICS = (
     WRENCH_TOPIC,
@@ -237,3 +237,37 @@ def _choose_truth(
     if moved > TRUTH_MOVE_M:
         note += f"; moved {moved * 1e3:.2f} mm in the grasp"
     return chosen, note
+
+
+def motion_fitted(
+    bag: Path | str, values: dict[str, str]
+) -> list[tuple[str, NDArray[np.float64], NDArray[np.float64]]]:
+    """The wrench the motion fit of a run's status ``values`` (its parameters, bias and
+    delay) gives along the object's motions of ``bag`` (``motion_solution.fitted_wrenches``
+    with the bag's joint states and robot description, the frames of its robot
+    configuration); [] when the run was not in motion or the bag lacks them."""
+    from com_core.bags.reader import BagReading
+    from com_core.estimation.feed import feed_bag
+    from com_core.estimation.motion_solution import fitted_wrenches
+    from com_core.estimation.settings import exploration_from, robot_from
+    from com_core.estimation.solution import vector_value
+    from com_core.robot.config import BAG_ROBOT_FILE, RobotConfigError, read_robot_config
+
+    keys = ("parameters", "hand_parameters", "bias", "delay")
+    if values.get("excitation") != "motion" or not all(k in values for k in keys):
+        return []
+    settings: dict[str, object] = {"information": "kinematics"}
+    try:
+        config = read_robot_config(str(Path(bag) / BAG_ROBOT_FILE))
+        settings |= {"sensor_frame": config.sensor_frame, "base_frame": config.base_frame}
+    except RobotConfigError:
+        pass
+    exploration = exploration_from(settings)
+    reading = BagReading()
+    feed_bag(bag, exploration, reading=reading)
+    robot, _ = robot_from(settings, reading.robot_description)
+    if robot is None:
+        return []
+    load = np.add(vector_value(values, "parameters"), vector_value(values, "hand_parameters"))
+    bias = np.array(vector_value(values, "bias"))
+    return fitted_wrenches(exploration, robot, load, bias, float(values["delay"]))
