@@ -18,10 +18,15 @@ sample's noise; and the kinematics run at the joint states' rate, not the sensor
 faster arm (Franka's 1 kHz) is kept every ``min_spacing`` (4 ms, 250 Hz) only: denser
 states would change W by less than 0.04 mN there and cost the kinematics four times over.
 
-The wrench is static: the inertial wrench of the hand and the payload while the arm
-accelerates is not removed (docs/design.md says how large it is in the exploration's
-moves). A sample costs a few float operations: the estimator node calls this per
-message, inside the 1 ms its latency may add.
+In motion: with a payload whose hand and object inertias are known (an exploration in
+motion), W_k is their whole wrench, W_k = Y(q_k, v_k, a_k) (pi_hand + pi_object) + b
+(``robot.dynamics``: gravity and the inertial wrench), a_k the joint accelerations by
+the backward difference of the velocities of the last two kept states, and a sample
+stamped t takes W at t - ``payload.delay`` (the wrench's stamps lag the joint states').
+Without the inertias the wrench is static: the inertial wrench of the hand and the
+payload while the arm accelerates is not removed (docs/design.md says how large it is in
+the exploration's moves). A sample costs a few float operations: the estimator node
+calls this per message, inside the 1 ms its latency may add.
 """
 
 from __future__ import annotations
@@ -35,6 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from com_core.payload.model import Payload, payload_wrench
+from com_core.robot.dynamics import inertial_parameters, sensor_regressor
 from com_core.robot.model import RobotModel
 
 __all__ = ["MAX_JOINT_STATE_AGE", "RATE_STEP", "Compensator"]
@@ -70,6 +76,7 @@ class Compensator:
         tuple[int, list[float], list[float], NDArray[np.float64], NDArray[np.float64] | None]
     ] = field(default_factory=deque, repr=False)
     _order: tuple[tuple[str, ...], list[int] | None] = field(default=((), None), repr=False)
+    _load: NDArray[np.float64] | None = field(default=None, repr=False)  # pi, in motion
 
     def add_joint_state(
         self,
@@ -103,9 +110,14 @@ class Compensator:
     def _add(self, stamp: int, q: NDArray[np.float64], v: NDArray[np.float64] | None) -> None:
         if self._track and stamp < self._track[-1][0]:  # a restarted clock
             self._track.clear()
-        wrench = self._wrench(q)
+        a = None
+        if v is not None and self._track:
+            before, *_, v_before = self._track[-1]
+            dt = (stamp - before) * 1e-9
+            a = (v - v_before) / dt if v_before is not None and 0 < dt <= self.max_age else None
+        wrench = self._wrench(q, v, a)
         rate = (
-            (self._wrench(q + v * RATE_STEP) - wrench) / RATE_STEP
+            (self._wrench(q + v * RATE_STEP, v, a) - wrench) / RATE_STEP
             if v is not None and np.any(v)
             else np.zeros(6)
         )
@@ -113,8 +125,24 @@ class Compensator:
         if len(self._track) > self.keep:
             self._track.popleft()
 
-    def _wrench(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
-        return payload_wrench(self.payload, self.robot.sensor_rotation_of(q))
+    def _wrench(
+        self,
+        q: NDArray[np.float64],
+        v: NDArray[np.float64] | None,
+        a: NDArray[np.float64] | None,
+    ) -> NDArray[np.float64]:
+        """W at joint positions q, velocities v and accelerations a (None: zero): the
+        payload's static wrench, or with its inertias its whole wrench (see module)."""
+        p = self.payload
+        if not p.in_motion:
+            return payload_wrench(p, self.robot.sensor_rotation_of(q))
+        if self._load is None:
+            self._load = inertial_parameters(p.mass, p.com, p.inertia) + inertial_parameters(
+                p.hand_mass, p.hand_com, p.hand_inertia
+            )
+        still = np.zeros_like(q)
+        Y = sensor_regressor(self.robot, q, still if v is None else v, still if a is None else a)
+        return Y @ self._load + p.bias
 
     def take_over(self, previous: Compensator) -> None:
         """Go on from ``previous`` (another payload, the robot model received again): its
@@ -148,7 +176,7 @@ class Compensator:
     def compensate(self, stamp_ns: int, wrench: Sequence[float]) -> list[float] | None:
         """The contact wrench (6,; N, N m, sensor frame) of a sample, or None (counted in
         ``stale``) when its orientation is not known."""
-        gravity = self.payload_wrench_at(stamp_ns)
+        gravity = self.payload_wrench_at(stamp_ns - round(self.payload.delay * 1e9))
         if gravity is None:
             self.stale += 1
             return None

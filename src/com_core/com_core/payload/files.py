@@ -130,6 +130,7 @@ _FILE_NOTES = {
     "covariance": "covariance of (mass, com_x, com_y, com_z): kg^2, kg m, m^2\n",
     "bias": "the sensor's bias (its zero) at time: N, N m; it drifts\n",
     "inertia": "the object's inertia about its com (an exploration in motion): kg m^2\n",
+    "delay": "s the wrenches are stamped after the joint states of the same instant\n",
     "hand": "the hand: everything beyond the sensor but the object; kg, m, kg m^2\n",
     "sensor_frame": "the URDF's frames: of the sensor, and of the base\n",
     "mount": (
@@ -194,6 +195,7 @@ def _file_fields(payload: Payload) -> dict:
         "sigma_com": p.sigma_com.tolist(),
         "bias": {"force": p.bias[:3].tolist(), "torque": p.bias[3:].tolist()},
         **({"inertia": p.inertia.tolist()} if p.inertia is not None else {}),
+        **({"delay": p.delay} if p.delay else {}),
         "hand": {"mass": p.hand_mass, "com": p.hand_com.tolist()}
         | ({"inertia": p.hand_inertia.tolist()} if p.hand_inertia is not None else {}),
         "sensor_frame": p.sensor_frame,
@@ -291,6 +293,7 @@ def _payload_of(data: Mapping) -> Payload:
         hand_id=_text(data, "hand_id"),
         noise=_noise(data),
         inertia=_matrix(data, "inertia", 3) if "inertia" in data else None,
+        delay=_number(data, "delay") if "delay" in data else 0.0,
         hand_inertia=(
             _matrix(data, "hand.inertia", 3)
             if isinstance(data.get("hand"), Mapping) and "inertia" in data["hand"]

@@ -76,7 +76,10 @@ class Payload:
     hand_id : names the hand the payload was held by; '' unknown.
     noise : the sensor's noise the estimate learnt (``com_core.sensing.noise``); None unknown.
     inertia, hand_inertia : (3, 3), kg m^2, the object's and the hand's inertia about
-        their own COMs (an exploration in motion); None not estimated.
+        their own COMs (an exploration in motion); None not estimated. With both, the
+        compensation removes the inertial wrench in motion too (``compensation``).
+    delay : s, how much later the wrenches are stamped than the joint states of the same
+        instant (an exploration in motion estimates it; 0 unknown).
 
     Keyword arguments only; arrays are kept as read-only copies, and what the compensation
     needs of them (R(mount), R(base_tilt) g, the wrench per unit gravity) is computed
@@ -104,6 +107,7 @@ class Payload:
     noise: NoiseModel | None = None
     inertia: NDArray[np.float64] | None = None
     hand_inertia: NDArray[np.float64] | None = None
+    delay: float = 0.0
     _mount_rotation: NDArray[np.float64] = field(init=False, repr=False)
     _base_gravity: NDArray[np.float64] = field(init=False, repr=False)
     _wrench_map: NDArray[np.float64] = field(init=False, repr=False)
@@ -125,7 +129,7 @@ class Payload:
                 if not np.allclose(value, value.T, rtol=1e-9, atol=1e-15):
                     raise PayloadError(f"must be symmetric, got {value.tolist()}", name)
                 object.__setattr__(self, name, value)
-        for name in ("mass", "hand_mass"):
+        for name in ("mass", "hand_mass", "delay"):
             object.__setattr__(self, name, _finite_number(getattr(self, name), name))
         self._check_values()
         mount = _rotation(self.mount)
@@ -162,6 +166,12 @@ class Payload:
         sensor frame) as a row: f = M g_s, tau = c x g_s = [c]_x g_s, with M the total
         mass (kg) and c the total first moment of mass (kg m)."""
         return np.hstack([self.total_mass * np.eye(3), skew(self.first_moment).T])
+
+    @property
+    def in_motion(self) -> bool:
+        """The inertias of the hand and the object are known: the inertial wrench can be
+        compensated too."""
+        return self.inertia is not None and self.hand_inertia is not None
 
     @property
     def total_mass(self) -> float:
@@ -349,4 +359,5 @@ def _payload_in_motion(
         noise=solution.noise,
         inertia=result.inertia,
         hand_inertia=hand_inertia,
+        delay=result.object.delay,
     )
