@@ -37,6 +37,25 @@ def resting(
     )
 
 
+def excitation_trajectory(
+    excitation: Excitation, names: tuple[str, ...], start_ns: int = 0
+) -> JointTrajectory:
+    """``excitation`` as a trajectory of the joints ``names`` from sim time ``start_ns``
+    (0: when the controller receives it): its waypoints with their velocities and
+    accelerations (``Excitation.waypoints``), the last at its end."""
+    times, q, dq, ddq = excitation.waypoints(names)
+    points = []
+    for t, *row in zip(times, q, dq, ddq, strict=True):
+        secs, nsecs = divmod(round(t * 1e9), 1_000_000_000)
+        points.append(JointTrajectoryPoint(
+            positions=row[0].tolist(), velocities=row[1].tolist(),
+            accelerations=row[2].tolist(), time_from_start=Duration(sec=secs, nanosec=nsecs),
+        ))  # fmt: skip
+    msg = JointTrajectory(joint_names=list(names), points=points)
+    msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(start_ns, 1_000_000_000)
+    return msg
+
+
 class Arm:
     """Moves the arm and the gripper of the robot configuration ``config``; ``motion``
     (the choreography), ``speed`` (rad/s, mean joint speed) and ``settle`` (s to wait
@@ -90,21 +109,12 @@ class Arm:
 
     def follow(self, excitation: Excitation, start_ns: int) -> int:
         """Send ``excitation`` (a periodic motion from home back to home; the arm rests at
-        home) to start at sim time ``start_ns``, as waypoints with their velocities and
-        accelerations (``Excitation.waypoints``); returns the sim time (ns) it ends."""
-        names = self.config.arm_joints
-        times, q, dq, ddq = excitation.waypoints(names)
-        points = []
-        for t, *row in zip(times, q, dq, ddq, strict=True):
-            secs, nsecs = divmod(round(t * 1e9), 1_000_000_000)
-            points.append(JointTrajectoryPoint(
-                positions=row[0].tolist(), velocities=row[1].tolist(),
-                accelerations=row[2].tolist(), time_from_start=Duration(sec=secs, nanosec=nsecs),
-            ))  # fmt: skip
-        msg = JointTrajectory(joint_names=list(names), points=points)
-        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(start_ns, 1_000_000_000)
+        home) to start at sim time ``start_ns`` (``excitation_trajectory``); returns the
+        sim time (ns) it ends."""
+        msg = excitation_trajectory(excitation, self.config.arm_joints, start_ns)
         self._arm_pub.publish(msg)
-        return start_ns + round(times[-1] * 1e9)
+        last = msg.points[-1].time_from_start
+        return start_ns + last.sec * 1_000_000_000 + last.nanosec
 
     def arrive(
         self, goal: list[float], what: str, arrival_ns: int, must_arrive: bool = True

@@ -31,11 +31,13 @@ import numpy as np
 
 from com_core.bags.cdr import decode_wrench
 from com_core.contract import (
+    ARM_COMMAND_TOPIC,
     COMPENSATED_TOPIC,
     DIAGNOSTIC_NAME,
     DIAGNOSTICS_TOPIC,
     ESTIMATE_TOPIC,
     EXPLORE_SERVICE,
+    ROBOT_DESCRIPTION_TOPIC,
     TRUTH_TOPIC,
 )
 from com_core.estimation.fits import INFORMATION
@@ -54,6 +56,7 @@ from wrench_sim.parameters import check_parameter, sensor_profile
 CANCEL_WAIT = 8.0  # s for a cancelled goal's result before the nodes are stopped
 POLL = 0.2  # s between checks that the nodes still run, while waiting on the sequencer
 CANCEL_REQUEST_WAIT = 1.0  # s for the sequencer to take a cancel when another node ended
+THIRD_MOTION_SEED = 7  # the motion the demo runs while holding, after a run in motion
 
 
 class Child(NamedTuple):
@@ -345,6 +348,7 @@ def run_exploration(args: argparse.Namespace, started: float, children: Sequence
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from rclpy.signals import SignalHandlerOptions
+    from std_msgs.msg import String
 
     from com_interfaces.action import Explore
 
@@ -367,15 +371,18 @@ def run_exploration(args: argparse.Namespace, started: float, children: Sequence
         10,
     )
     compensated: list = []
+    urdf: list[str] = []
     if args.hold:
         best_effort = QoSProfile(depth=5000, reliability=ReliabilityPolicy.BEST_EFFORT)
         node.create_subscription(
             WrenchStamped,
             COMPENSATED_TOPIC,
-            lambda raw: compensated.append(decode_wrench(raw)[2]),
+            lambda raw: compensated.append(decode_wrench(raw)),
             best_effort,
             raw=True,
         )
+        node.create_subscription(String, ROBOT_DESCRIPTION_TOPIC, lambda m: urdf.append(m.data),
+                                 latched)  # fmt: skip
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
@@ -428,7 +435,7 @@ def run_exploration(args: argparse.Namespace, started: float, children: Sequence
         ended = exited(children)
         print_summary(result, estimates, truths, statuses, time.monotonic() - started)
         if compensated:
-            w = np.array(compensated)
+            w = np.array([wrench for _, _, wrench in compensated])
             mean, sd = w.mean(axis=0), w.std(axis=0) / np.sqrt(len(w))
             print(
                 f"holding:  {COMPENSATED_TOPIC} over {len(w)} samples: f "
@@ -437,6 +444,9 @@ def run_exploration(args: argparse.Namespace, started: float, children: Sequence
                 f"({', '.join(f'{v * 1e3:+.2f}' for v in mean[3:])}) +- "
                 f"({', '.join(f'{v * 1e3:.2f}' for v in sd[3:])}) mN m (contact: none)"
             )
+            values = {kv.key: kv.value for kv in statuses[-1][1].values} if statuses else {}
+            if values.get("excitation") == "motion" and urdf and not exited(children):
+                in_motion(node, executor, compensated, urdf[-1], args, values)
         if ended:
             print_ended(ended)
             return 1
@@ -445,6 +455,42 @@ def run_exploration(args: argparse.Namespace, started: float, children: Sequence
         executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown()
+
+
+def in_motion(node, executor, compensated: list, urdf: str, args, values: dict) -> None:
+    """Move the wrist along a motion no fit used (a design of its own seed) while holding,
+    and print the compensated wrench's rms over it against the sensor's noise."""
+    from trajectory_msgs.msg import JointTrajectory
+
+    from com_core.planning.excitation import design_excitation
+    from com_core.robot.choreography import Choreography
+    from exploration_sequencer.arm import excitation_trajectory
+
+    config = read_robot_config(args.robot)
+    motion = Choreography.of(config, urdf)
+    home = [motion.home_positions()[name] for name in motion.robot.joint_names]
+    excitation = design_excitation(motion.robot, home, config.arm_joints[-3:], period=3.0,
+                                   iterations=20, seed=THIRD_MOTION_SEED)  # fmt: skip
+    publisher = node.create_publisher(JointTrajectory, ARM_COMMAND_TOPIC, 10)
+    compensated.clear()
+    publisher.publish(excitation_trajectory(excitation, config.arm_joints))
+    deadline = time.monotonic() + 30.0
+    while time.monotonic() < deadline and not (
+        compensated and (compensated[-1][0] - compensated[0][0]) * 1e-9 > excitation.period
+    ):
+        executor.spin_once(timeout_sec=0.05)
+    if not compensated:
+        print(f"in motion: no {COMPENSATED_TOPIC} during the motion")
+        return
+    w = np.array([wrench for _, _, wrench in compensated])
+    rms = np.sqrt(np.mean((w - w.mean(axis=0)) ** 2, axis=0))
+    noise = np.array(vector_value(values, "noise_sigma") or [math.nan] * 6)
+    print(
+        f"in motion: {COMPENSATED_TOPIC} over {len(w)} samples of a {excitation.period:g} s "
+        f"wrist motion no fit used: rms f ({', '.join(f'{v:.3f}' for v in rms[:3])}) N, tau "
+        f"({', '.join(f'{v * 1e3:.2f}' for v in rms[3:])}) mN m (less its mean); "
+        f"({', '.join(f'{v:.2f}' for v in rms / noise)}) x the sensor's noise"
+    )
 
 
 def show_progress(message) -> None:
