@@ -2,7 +2,7 @@
 
     source ./env.sh && python bench/motion.py [--objects 50] [--robots panda,xarm6]
         [--masses 0.05,0.2,0.5,2.0] [--period 3.0] [--joint-rate 100] [--seed 0]
-        [--calibration-accuracy 0.01]
+        [--calibration-accuracy 0.01] [--static]
 
 In process, no ROS: for each arm, mass and object (box, cylinder, mug in turn, COM offset
 drawn from the object's seed) a simulator holds the empty hand, runs the arm's D-optimal
@@ -16,6 +16,14 @@ the hand taken off, the delay estimated and the noise model the profile's. Per c
 median fit time. Goal, for 0.5 kg and more and at most 3 s of motion: COM <= 1 mm and
 mass <= 0.5 % at the 95th percentile, principal moments within 10 %, rms(error / sigma)
 near 1 (the figures and what they say: bench/README.md).
+
+``--static``: the same objects through the same sensor (the same seeds) explored at rest
+as the sequencer's defaults do it, side by side: a tare pass of the empty hand (5 s at
+each of home and the four 30 deg tilts), the grasp, the object pass (0.9 s at each pose,
+0.3 s settling after 1 s moves), solved by the estimator's ``Exploration`` with its
+defaults (information kinematics+mount, the noise learnt, the calibration's accuracy
+told): the 95th percentile of its mass and COM errors, its rms(error / sigma), and the
+object pass's time against the motion's.
 """
 
 from __future__ import annotations
@@ -25,8 +33,12 @@ import time
 
 import numpy as np
 
+from com_core.contract import DONE, OBJECT_PREFIX, TARE_PREFIX
 from com_core.estimation.motion import fit_motion, load_vector
+from com_core.estimation.settings import exploration_from
 from com_core.planning.excitation import design_excitation
+from com_core.planning.planner import Plan
+from com_core.robot.choreography import Choreography
 from com_core.robot.config import read_robot_config
 from com_core.robot.dynamics import inertial_parameters
 from com_core.robot.model import RobotModel
@@ -34,7 +46,7 @@ from com_core.sensing.sensor_profiles import PROFILES
 from wrench_sim.config import SimConfig
 from wrench_sim.physics import ArmWorld
 from wrench_sim.sensor import profile_sensor
-from wrench_sim.studies import grasp, run_excitation
+from wrench_sim.studies import feed, grasp, hold_still, run_excitation
 
 SHAPES = ("box", "cylinder", "mug")
 PROFILE = PROFILES["realistic"]
@@ -74,6 +86,49 @@ def one_object(config, model, excitation, shape, mass, seed, every, profile) -> 
         world.close()
 
 
+STATIC_PLAN = Plan(axes=("y", "x"), dwell=0.9)  # the sequencer's default poses and dwell
+TARE_DWELL, MOVE, SETTLE = 5.0, 1.0, 0.3  # s
+
+
+def static_object(config, shape, mass, seed, every, profile) -> dict:
+    """The same object explored at rest (see module): its errors, error / sigma and the
+    object pass's time (s, sim)."""
+    world = ArmWorld(SimConfig(robot=config, object_shape=shape, object_mass=mass, seed=seed))
+    try:
+        sensor = profile_sensor(profile, seed=seed, serial=seed)
+        poses = Choreography.of(config, world.urdf_text).pose_joints(STATIC_PLAN)
+        settings = {"accuracy": profile.calibration_accuracy}
+        exploration = exploration_from(settings, world.urdf_text)
+
+        def window(label: str, joints, dwell: float) -> None:
+            world.move_arm(joints, MOVE)
+            world.run(SETTLE)
+            feed(exploration, world, label, hold_still(world, sensor, dwell, every))
+
+        for name, joints in poses:
+            window(TARE_PREFIX + name, joints, TARE_DWELL)
+        grasp(world)
+        start = world.time
+        for name, joints in poses:
+            window(OBJECT_PREFIX + name, joints, STATIC_PLAN.dwell)
+        object_time = world.time - start
+        exploration.add_label(round(world.time * 1e9), DONE)
+        solution = exploration.solve()
+        true_mass, true_com = world.object_ground_truth()
+        e = solution.estimate
+        if e is None:
+            return {"mass": np.nan, "com": np.nan, "z": np.full(4, np.nan), "time": object_time}
+        truth = np.concatenate([[true_mass], true_com])
+        return {
+            "mass": abs(e.mass - true_mass) / true_mass,
+            "com": float(np.linalg.norm(e.com - true_com)),
+            "z": (np.concatenate([[e.mass], e.com]) - truth) / np.sqrt(np.diag(e.cov)),
+            "time": object_time,
+        }
+    finally:
+        world.close()
+
+
 def axes_error(moments, axes, true_moments, true_axes) -> float:
     """deg: the largest angle between an estimated principal axis and the true one, over
     the axes whose true moment stands 10 % apart from the others' (nan: none does)."""
@@ -96,6 +151,8 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--calibration-accuracy", type=float,
                         default=PROFILE.calibration_accuracy)  # fmt: skip
+    parser.add_argument("--static", action="store_true",
+                        help="the same objects explored at rest, side by side")  # fmt: skip
     args = parser.parse_args()
     profile = PROFILE.with_overrides(calibration_accuracy=args.calibration_accuracy)
     every = round(1000.0 / args.joint_rate)
@@ -137,6 +194,22 @@ def main() -> None:
                 f"{np.median([r['seconds'] for r in results]):5.2f}"
             )
             print(rows[-1], flush=True)
+            if args.static:
+                static = [
+                    static_object(config, SHAPES[k % 3], mass, k, every, profile) for k in seeds
+                ]
+                zs = np.array([r["z"] for r in static])
+                rows.append(
+                    f"{'static':>12}  "
+                    f"{100 * np.nanpercentile([r['mass'] for r in static], 95):7.3f}% "
+                    f"{1e3 * np.nanpercentile([r['com'] for r in static], 95):10.3f} "
+                    f"{'-':>11} {'-':>8}  "
+                    f"{np.sqrt(np.nanmean(zs[:, 0] ** 2)):5.2f} "
+                    f"{np.sqrt(np.nanmean(zs[:, 1:] ** 2)):5.2f} {'-':>5}  "
+                    f"object pass {np.median([r['time'] for r in static]):.1f} s against the "
+                    f"motion's {args.period:g} s"
+                )
+                print(rows[-1], flush=True)
     print(header)
     print("\n".join(rows))
 

@@ -9,7 +9,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pytest
 
-from com_core.contract import DONE, MOTION_OBJECT, MOTION_TARE, MOTION_VERIFY, MOVING, OK, WARN
+from com_core.contract import DONE, MOTION_OBJECT, MOTION_TARE, MOTION_VERIFY, OK, WARN
 from com_core.estimation.cutting import motion_spans
 from com_core.estimation.exploration import Exploration
 from com_core.estimation.motion import compensated, load_vector, principal_moments
@@ -25,36 +25,10 @@ from com_core.sensing.sensor_profiles import PROFILES
 from wrench_sim.config import SimConfig
 from wrench_sim.physics import TIME_STEP, ArmWorld
 from wrench_sim.sensor import WrenchSensor, profile_sensor
-from wrench_sim.studies import grasp, run_excitation
+from wrench_sim.studies import feed, grasp, hold_still, run_excitation
 
 JOINT_EVERY = 10  # joint states at 100 Hz
 DESIGN = {"period": 3.0, "iterations": 40}
-
-
-def feed(exploration, world, sensor, label: str, seconds: float = 0.0, excitation=None):
-    """Label the next ``seconds`` at rest, or ``excitation``, as ``label``, and feed its
-    wrenches and joint states to ``exploration``; ``moving`` after it."""
-    ns = lambda t: round(t * 1e9)  # noqa: E731
-    exploration.add_label(ns(world.time + 1e-3), label)
-    names = world.config.robot.arm_joints
-    if excitation is None:
-        end = world.time + seconds
-        rows = []
-        while world.time < end:
-            world.step()
-            rows.append((world.time, world.joint_state()[1][: len(names)],
-                         sensor.read(world.wrench, world.time)))  # fmt: skip
-        joint_times = [t for t, _, _ in rows][::JOINT_EVERY]
-        positions = [q for _, q, _ in rows][::JOINT_EVERY]
-        times, wrenches = [t for t, _, _ in rows], [w for _, _, w in rows]
-    else:
-        joint_times, positions, times, wrenches = run_excitation(
-            world, excitation, sensor, JOINT_EVERY
-        )
-    exploration.add_samples([ns(t) for t in times], np.array(wrenches), ["ft_sensor"] * len(times))
-    for t, q in zip(joint_times, positions, strict=True):
-        exploration.add_joint_state(ns(t), names, list(q))
-    exploration.add_label(ns(world.time), MOVING)
 
 
 @dataclass
@@ -83,11 +57,11 @@ def explore_in_motion(calibration_accuracy: float, seed: int) -> Run:
     settings = {"information": "kinematics", "accuracy": calibration_accuracy}
     exploration = exploration_from(settings, world.urdf_text)
     world.move_arm(robot.home_joints, 1.0)
-    feed(exploration, world, sensor, "tare/home", 2.0)
-    feed(exploration, world, sensor, MOTION_TARE, excitation=excitation)
+    feed(exploration, world, "tare/home", hold_still(world, sensor, 2.0, JOINT_EVERY))
+    feed(exploration, world, MOTION_TARE, run_excitation(world, excitation, sensor, JOINT_EVERY))
     grasp(world)
-    feed(exploration, world, sensor, MOTION_OBJECT, excitation=excitation)
-    feed(exploration, world, sensor, MOTION_VERIFY, excitation=other)
+    feed(exploration, world, MOTION_OBJECT, run_excitation(world, excitation, sensor, JOINT_EVERY))
+    feed(exploration, world, MOTION_VERIFY, run_excitation(world, other, sensor, JOINT_EVERY))
     exploration.add_label(round(world.time * 1e9), DONE)
     return Run(world, sensor, model, exploration, exploration.solve())
 

@@ -76,3 +76,36 @@ def test_the_demo_in_motion_gives_the_inertia_within_its_error_bars_and_replays(
     logs = "".join(p.read_text() for p in (tmp_path / "logs").glob("*.log"))
     for text in UNCLEAN_EXIT:
         assert text not in logs, logs
+
+
+def test_a_second_run_in_motion_reuses_the_empty_hands_motion_and_replays(ros_env, tmp_path):
+    """The estimator keeps the empty hand's motion fit beside the tare cache; the next run
+    of the same hand and motion moves the empty hand only at rest, keeps the fit beside
+    its bag, and its estimate (mass, COM, inertia) is within 4 sigma of the truth and
+    replays offline to the node's."""
+
+    def demo(seed: int) -> str:
+        done = subprocess.run(
+            [sys.executable, "-m", "exploration_sequencer.demo", "--excitation", "motion",
+             "--mass", "0.5", "--seed", str(seed), "--bag-dir", str(tmp_path)],
+            env=ros_env, capture_output=True, text=True, timeout=300,
+        )  # fmt: skip
+        assert done.returncode == 0, done.stdout + done.stderr
+        return done.stdout + done.stderr
+
+    first = demo(2)
+    assert "span motion/tare from" in first, first
+    second = demo(3)
+    assert "the empty hand's motion fit reused" in second, second
+    assert "span motion/tare from" not in second, second
+    bag = Path(re.search(r"bag:      (\S+)", second).group(1))
+    assert (bag / "hand_motion.json").is_file()
+    z = numbers(re.search(r"error / sigma \(.*", second).group(0))
+    assert len(z) == 6 and np.all(np.abs(z) < 4.0), second
+    offline = replay_json(bag, ros_env)
+    values = read_run(bag).diagnostic["values"]
+    assert "motion/tare" not in offline["window_samples"], offline
+    sigma = np.sqrt(np.diag(np.reshape(offline["inertia_cov"], (6, 6))))
+    node = np.array([float(v) for v in values["inertia"].split(",")])
+    np.testing.assert_allclose(offline["inertia"], node, rtol=0, atol=sigma.max())
+    assert abs(offline["mass"] - float(values["mass"])) <= offline["sigma_mass"]

@@ -28,6 +28,8 @@ Services
     ~/save_payload (std_srvs/Trigger): write the payload files (``com_core.payload.files``) to
     the directory ``payload_save_dir`` (set it first); the answer names them, or why not.
 The estimation is ``com_core.estimation.exploration``; this node only moves messages in and out.
+After a usable exploration in motion that moved the empty hand, the hand's motion fit is
+written beside ``tare_cache`` (``com_core.estimation.hand_motion``), for the next run.
 The compensation runs here, not in a node of its own: this node holds the fit (bias,
 hand, payload) the moment it is made, and already decodes every wrench.
 """
@@ -84,11 +86,14 @@ from com_core.contract import (
 )
 from com_core.estimation.exploration import Exploration
 from com_core.estimation.fits import WRENCHES
+from com_core.estimation.hand_motion import hand_motion_path, save_hand_motion
 from com_core.estimation.inbox import shorten
+from com_core.estimation.motion_solution import hand_motion_of
 from com_core.estimation.settings import (
     SETTINGS,
     exploration_from,
     robot_from,
+    use_cached_hand_motion,
     use_cached_tares,
 )
 from com_core.estimation.solution import Solution, format_solution
@@ -213,7 +218,12 @@ class EstimatorNode(Node):
         """The current exploration solved up to ``until_ns`` with the parameters in force
         now; a defect is an ERROR solution, with its traceback in the log."""
         try:
-            use_cached_tares(self._exploration, self._param("tare_cache"))
+            cache = self._param("tare_cache")
+            use_cached_tares(self._exploration, cache)
+            if cache:
+                use_cached_hand_motion(
+                    self._exploration, hand_motion_path(cache), self._param("hand_id")
+                )
             return self._exploration.solve(until_ns=until_ns)
         except Exception as exc:  # a defect must not kill the node: report it as ERROR
             self.internal_errors += 1
@@ -222,8 +232,21 @@ class EstimatorNode(Node):
             return Solution(ERROR, why, self._param("method"))
 
     def _solve(self, until_ns: int) -> Solution:
-        """Solve the current exploration and publish it (``_publish``)."""
+        """Solve the current exploration and publish it (``_publish``); the empty hand's
+        motion fit of a usable exploration in motion goes to the cache beside the tare
+        cache (``hand_motion``)."""
         solution = self._solution(until_ns)
+        cache = self._param("tare_cache")
+        entry = hand_motion_of(
+            self._exploration, solution.motion if solution.usable else None,
+            self._exploration.robot, self._param("hand_id"),
+        )  # fmt: skip
+        if cache and entry is not None:
+            try:
+                save_hand_motion(hand_motion_path(cache), entry)
+                self.get_logger().info(f"the empty hand's motion fit saved beside {cache}")
+            except OSError as exc:
+                self.get_logger().error(f"the empty hand's motion fit not saved: {exc}")
         payload = self._payload_of(solution)
         if payload is not None:
             self._payload, self._payload_source = payload, f"estimate of {payload.time}"

@@ -27,7 +27,8 @@ run's cached tare, BAG/tare.json (``--tare``).
 
 The robot model of a kinematic fit is the bag's /robot_description with the sensor and
 base frames of the run's robot configuration, BAG/robot.yaml (``--robot``), unless
-``--sensor-frame`` or ``--base-frame`` set them.
+``--sensor-frame`` or ``--base-frame`` set them. A run in motion that reused the empty
+hand's motion fit of an earlier run has it in BAG/hand_motion.json.
 
 A bag whose MCAP file was cut short (no Footer) is read up to the cut, and one with a
 damaged chunk (a bad sector, a copy gone wrong) is read around it
@@ -65,6 +66,7 @@ from com_core.contract import (
 from com_core.estimation.exploration import Exploration
 from com_core.estimation.feed import feed_bag
 from com_core.estimation.fits import WRENCHES
+from com_core.estimation.hand_motion import HAND_MOTION_FILE, load_hand_motion
 from com_core.estimation.settings import (
     SETTINGS,
     exploration_from,
@@ -263,6 +265,8 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
         exploration.robot, exploration.robot_problem = robot_from(
             settings, reading.robot_description
         )
+    if (cached := load_hand_motion(args.bag / HAND_MOTION_FILE)) is not None:
+        exploration.hand_motion = cached.fit  # the node's, from its cache
     if n_label:
         source = f"pose labels from the bag ({n_label})"
     else:

@@ -1,4 +1,4 @@
-"""exploration_sequencer node: tare, grasp, tilt, release; one recorded bag per run.
+"""exploration_sequencer node: tare, grasp, tilt (or move), release; one recorded bag per run.
 
 Action ``~/explore`` (com_interfaces/action/Explore) runs one exploration with this
 goal's options over the parameters, with feedback (phase, progress as time done over time
@@ -25,6 +25,8 @@ before anything moves, and a tilt the arm cannot reach is lowered to the largest
 (logged as a plan change) or the run is refused. What a run decides (its plan, the noise it
 plans for, the tare's reuse, the grasp's load) is ``com_core.planning.decisions``.
 Every run is recorded to ``<bag_dir>/<run-id>/`` (rosbag2, MCAP) with a PNG report.
+With ``excitation: motion`` the tilts held still are replaced by a designed wrist motion
+(``_explore_in_motion``; docs/design.md, Identification in motion).
 
 Threads: the high-rate subscriptions (recording, joint states, sim clock) live on a
 second node, ``exploration_sequencer_io`` (``io_node``), spun by an EventsExecutor in the
@@ -89,6 +91,13 @@ from com_core.contract import (
 )
 from com_core.estimation.exploration import Exploration
 from com_core.estimation.fits import WRENCHES
+from com_core.estimation.hand_motion import (
+    HAND_MOTION_FILE,
+    HandMotion,
+    hand_motion_path,
+    load_hand_motion,
+    save_hand_motion,
+)
 from com_core.estimation.motion_solution import MOTION
 from com_core.estimation.solution import noise_line, vector_value, verification_lines
 from com_core.estimation.tare_cache import (
@@ -496,7 +505,7 @@ class SequencerNode(Node):
         answer = self._call(self._estimator_params, request, "reading the estimator's settings")
         method, information, estimator_cache = (value.string_value for value in answer.values[:3])
         if self.p("excitation") == MOTION:
-            return self._explore_in_motion(run_id, motion, information)
+            return self._explore_in_motion(run_id, motion, information, estimator_cache)
         drift_rate = tuple(answer.values[3].double_array_value)
         accuracy, full_scale = answer.values[4].double_value, answer.values[5].double_array_value
         calibration = estimator_calibration(accuracy, full_scale)
@@ -581,13 +590,14 @@ class SequencerNode(Node):
     # --- an exploration in motion -------------------------------------------------------
 
     def _explore_in_motion(
-        self, run_id: str, motion: Choreography, information: str
+        self, run_id: str, motion: Choreography, information: str, estimator_cache: str
     ) -> tuple[bool, str]:
         """An exploration in motion (docs/design.md, Identification in motion): the empty
-        hand at rest at home (the sensor's noise and bias) and along the excitation, the
-        grasp, the object along the excitation, then along another motion no fit uses,
-        and the return. RunError before anything moves when the estimator's information
-        has no kinematics."""
+        hand at rest at home (the sensor's noise and bias) and along the excitation (not
+        when the hand's motion fit of an earlier run serves, ``_cached_hand``), the grasp,
+        the object along the excitation, then along another motion no fit uses, and the
+        return. RunError before anything moves when the estimator's information has no
+        kinematics."""
         if information == WRENCHES:
             raise RunError(
                 "excitation 'motion' needs the estimator's information 'kinematics' or "
@@ -597,16 +607,22 @@ class SequencerNode(Node):
         config, period = self.config, self.p("motion_period")
         home, pick = list(config.home_joints), list(config.pick_joints)
         excitation, verification = self._excitations(motion, period)
+        hand = self._cached_hand(motion, excitation, estimator_cache)
         move = motion.motion_time(home, pick, self.arm.speed) + self.arm.settle
-        planned = 6 * move + 3 * (period + EXCITATION_REST) + self.p("bias_dwell") + 2 * 0.6
+        motions = 3 if hand is None else 2
+        planned = 6 * move + motions * (period + EXCITATION_REST) + self.p("bias_dwell") + 1.2
         bag = self._start_bag(run_id, planned)
+        if hand is not None:
+            save_hand_motion(bag / HAND_MOTION_FILE, hand)  # the replay's
         self._to_known_state(home, pick)
         self.arm.gripper(close=False)
-        self._enter("tare", "phase 1/4: the empty hand at rest, then along the excitation")
+        line = "at rest" + (", then along the excitation" if hand is None else "")
+        self._enter("tare", f"phase 1/4: the empty hand {line}")
         tare_home = self._captured_tares([(HOME, home)], self.p("bias_dwell"))[0].get(HOME)
         if tare_home is None:
             raise RunError(f"the empty hand's window at {HOME} was not recorded")
-        self._excite(MOTION_TARE, excitation)
+        if hand is None:
+            self._excite(MOTION_TARE, excitation)
         self._enter("grasp and lift", "phase 2/4: grasp and lift")
         self.arm.move(pick, "the object")
         self.arm.gripper(close=True, wait=0.6)
@@ -624,6 +640,34 @@ class SequencerNode(Node):
         joints = ", ".join(excitation.joints)
         plan_line = f"excitation of {joints}, {period:g} s; object motion {period:.1f} s (sim)"
         return self._finish(run_id, end, plan_line, bag)
+
+    def _cached_hand(
+        self, motion: Choreography, excitation: Excitation, estimator_cache: str
+    ) -> HandMotion | None:
+        """The empty hand's motion fit that the estimator saved beside the tare cache after
+        an earlier run, when it serves this one (``HandMotion.serves``: this hand and
+        robot model, this motion, younger than ``tare_max_age``) and the estimator reads
+        that cache too; else None (the empty hand moves again)."""
+        path = hand_motion_path(self._cache_path())
+        entry = load_hand_motion(path)
+        if entry is None:
+            return None
+        log = self.get_logger()
+        if not estimator_cache or Path(estimator_cache).resolve() != self._cache_path().resolve():
+            log.warning(
+                f"the estimator reads the tare cache {estimator_cache or '(none)'!r}, not "
+                f"{str(self._cache_path())!r}: the empty hand moves again (give both nodes "
+                "one tare_cache)"
+            )
+            return None
+        span = excitation.waypoints(self.config.arm_joints)[0][-1] + EXCITATION_REST
+        why = entry.serves(self.p("hand_id"), motion.robot.urdf_sha256, span,
+                           self.p("tare_max_age"))  # fmt: skip
+        if why:
+            log.info(f"the empty hand's motion fit in {path} not reused: {why}")
+            return None
+        log.info(f"the empty hand's motion fit reused ({entry.age():.0f} s old, {path})")
+        return entry
 
     def _excitations(self, motion: Choreography, period: float) -> tuple[Excitation, Excitation]:
         """(the excitation of the wrist's last three joints, another one for the
@@ -651,7 +695,7 @@ class SequencerNode(Node):
         start = self.io.now_ns() + round(EXCITATION_LEAD * 1e9)
         end = self.arm.follow(excitation, start) + round(EXCITATION_REST * 1e9)
         self._label(start, label)
-        self.get_logger().info(f"motion {label} from t={start * 1e-9:.3f} s")
+        self.get_logger().info(f"span {label} from t={start * 1e-9:.3f} s")
         self.io.sleep_until(end, f"recording {label}")
         self._label(end, MOVING)
         return end

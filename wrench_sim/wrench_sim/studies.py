@@ -6,11 +6,13 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from com_core.contract import MOVING
+from com_core.estimation.inbox import Inbox
 from com_core.planning.excitation import Excitation
 from wrench_sim.physics import ArmWorld
 from wrench_sim.sensor import WrenchSensor
 
-__all__ = ["grasp", "run_excitation"]
+__all__ = ["feed", "grasp", "hold_still", "run_excitation"]
 
 
 def grasp(world: ArmWorld) -> None:
@@ -42,3 +44,37 @@ def run_excitation(
         readings.append(sensor.read(world.wrench, world.time))
     stamps, positions = np.array(stamps), np.array(positions)
     return stamps[::joint_every], positions[::joint_every], stamps, np.array(readings)
+
+
+def hold_still(
+    world: ArmWorld, sensor: WrenchSensor, seconds: float, joint_every: int = 1
+) -> tuple[NDArray[np.float64], ...]:
+    """Hold the arm where it is for ``seconds``: (joint stamps s, arm joint positions
+    rad) every ``joint_every`` steps, (wrench stamps s, readings) every step, as
+    ``run_excitation`` gives them."""
+    robot = world.config.robot
+    stamps, positions, readings = [], [], []
+    end = world.time + seconds
+    while world.time < end:
+        world.step()
+        stamps.append(world.time)
+        positions.append(world.joint_state()[1][: len(robot.arm_joints)])
+        readings.append(sensor.read(world.wrench, world.time))
+    stamps, positions = np.array(stamps), np.array(positions)
+    return stamps[::joint_every], positions[::joint_every], stamps, np.array(readings)
+
+
+def feed(
+    inbox: Inbox, world: ArmWorld, label: str, recorded: tuple[NDArray[np.float64], ...]
+) -> None:
+    """Give ``inbox`` (an exploration's) what ``hold_still`` or ``run_excitation`` just
+    ``recorded``, labelled ``label`` from its first sample and ``moving`` after its last,
+    stamped in ns as the nodes stamp them."""
+    joint_times, positions, times, readings = recorded
+    ns = np.rint(np.asarray(times) * 1e9).astype(np.int64)
+    inbox.add_label(int(ns[0]) - 1, label)
+    inbox.add_samples(ns, readings, ["ft_sensor"] * len(ns))
+    names = world.config.robot.arm_joints
+    for t, q in zip(joint_times, positions, strict=True):
+        inbox.add_joint_state(round(t * 1e9), names, list(q))
+    inbox.add_label(int(ns[-1]) + 1, MOVING)

@@ -52,6 +52,7 @@ from com_core.estimation.known_gravity import (
     kinematic_ml,
     locate_move,
 )
+from com_core.estimation.motion import MotionFit
 from com_core.estimation.stats import chi2_sf
 from com_core.estimation.windows import Window
 from com_core.robot.model import KinematicsError, RobotModel
@@ -113,6 +114,8 @@ class FitSetup:
     calibration : the sensor's stated accuracy and full scales: the fits weigh their
         windows with the calibration's common error too (``com_core.sensing.calibration``);
         None: a perfect calibration.
+    hand_motion : the empty hand's motion fit known from before (``hand_motion``), for an
+        exploration in motion that does not move the empty hand.
     """
 
     method: str = "ml"
@@ -132,6 +135,7 @@ class FitSetup:
     max_drift_f: float = MAX_DRIFT_F
     max_drift_tau: float = MAX_DRIFT_TAU
     calibration: Calibration | None = None
+    hand_motion: MotionFit | None = None
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:

@@ -5,7 +5,8 @@ The labels ``motion/tare``, ``motion/object`` and ``motion/verify`` (``com_core.
 span the three motions; the static windows of the same run (``tare/<pose>``, the empty
 hand at rest) give the sensor's noise model. Each motion is fitted by
 ``motion.fit_motion`` with the joint states of the inbox: the hand first (the whole load
-of the empty hand), then the object with the hand taken off. The object's fit is
+of the empty hand; without ``motion/tare`` the hand's fit of an earlier run,
+``FitSetup.hand_motion``), then the object with the hand taken off. The object's fit is
 consistent with one rigid load when its whitened residual is no larger than
 ``MAX_CHI2_PER_DOF`` times what the noise model expects (a load that moves in the grasp
 leaves a residual the model has no parameter for). The check along the verification
@@ -18,6 +19,7 @@ sensor frame.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,6 +30,7 @@ from com_core.estimation.cutting import motion_spans, noise_model, segments
 from com_core.estimation.errors import EstimationError
 from com_core.estimation.estimators import Consistency, Estimate
 from com_core.estimation.fits import FitSetup
+from com_core.estimation.hand_motion import HandMotion
 from com_core.estimation.inbox import Inbox
 from com_core.estimation.motion import (
     MotionFit,
@@ -48,6 +51,7 @@ __all__ = [
     "MotionCheck",
     "MotionResult",
     "fitted_wrenches",
+    "hand_motion_of",
     "solve_motion",
 ]
 
@@ -250,7 +254,10 @@ def solve_motion(
         raise EstimationError(
             "no noise model: no empty-hand window at rest to learn it from, and none known"
         )
-    hand = _fit(inbox, robot, MOTION_TARE, noise, until_ns, None, setup.calibration)
+    if MOTION_TARE in motion_spans(inbox, until_ns) or setup.hand_motion is None:
+        hand = _fit(inbox, robot, MOTION_TARE, noise, until_ns, None, setup.calibration)
+    else:  # the empty hand's motion of an earlier run (``hand_motion``)
+        hand = setup.hand_motion
     fit = _fit(inbox, robot, MOTION_OBJECT, noise, until_ns, hand, setup.calibration)
     mass, com, inertia = fit.load()
     load_cov = fit.load_cov()
@@ -310,3 +317,16 @@ def fitted_wrenches(
         left = compensated(robot, load, bias, delay, joint_times, positions, at, wrenches[inner])
         out.append((label, at, wrenches[inner] - left))
     return out
+
+
+def hand_motion_of(
+    inbox: Inbox, solution_motion: MotionResult | None, robot: RobotModel | None, hand_id: str
+) -> HandMotion | None:
+    """The ``HandMotion`` to cache from an exploration whose empty hand moved
+    (``motion/tare``) and whose solution in motion is ``solution_motion`` (of a usable
+    solution); None otherwise."""
+    parts = motion_spans(inbox).get(MOTION_TARE)
+    if solution_motion is None or robot is None or not parts:
+        return None
+    span = (parts[-1][1] - parts[0][0]) * 1e-9
+    return HandMotion(hand_id, robot.urdf_sha256, span, time.time(), solution_motion.hand)

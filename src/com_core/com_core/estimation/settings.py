@@ -25,6 +25,7 @@ from com_core.estimation.fits import (
     METHODS,
     WRENCHES,
 )
+from com_core.estimation.hand_motion import load_hand_motion
 from com_core.estimation.inbox import MAX_LABEL_GAP
 from com_core.estimation.known_gravity import BIAS_DRIFT_RATE
 from com_core.estimation.tare_cache import TareCache, load_tares
@@ -41,6 +42,7 @@ __all__ = [
     "exploration_from",
     "load_cached_tares",
     "robot_from",
+    "use_cached_hand_motion",
     "use_cached_tares",
 ]
 
@@ -207,3 +209,16 @@ def use_cached_tares(exploration: Exploration, path: str | Path) -> None:
     cache = load_cached_tares(path) or TareCache("", 0.0, {})
     exploration.tares, exploration.tare_joints = cache.windows, cache.joints
     exploration.tare_times, exploration.noise = cache.times, cache.noise
+
+
+def use_cached_hand_motion(exploration: Exploration, path: str | Path, hand_id: str) -> None:
+    """Give ``exploration`` the empty hand's motion fit in the file ``path``
+    (``hand_motion``) when it is of ``hand_id`` and of its robot model; else none."""
+    entry = load_hand_motion(path)
+    robot = exploration.robot
+    fits = entry is not None and robot is not None
+    exploration.hand_motion = (
+        entry.fit
+        if fits and entry.hand_id == hand_id and entry.urdf_sha256 == robot.urdf_sha256
+        else None
+    )
