@@ -12,7 +12,7 @@ from com_core.planning.excitation import Excitation
 from wrench_sim.physics import ArmWorld
 from wrench_sim.sensor import WrenchSensor
 
-__all__ = ["feed", "grasp", "hold_still", "run_excitation"]
+__all__ = ["feed", "grasp", "hold_still", "record_until", "run_excitation"]
 
 
 def grasp(world: ArmWorld) -> None:
@@ -30,31 +30,29 @@ def grasp(world: ArmWorld) -> None:
 def run_excitation(
     world: ArmWorld, excitation: Excitation, sensor: WrenchSensor, joint_every: int = 1
 ) -> tuple[NDArray[np.float64], ...]:
-    """Run ``excitation`` from home now, and 0.3 s at rest after it: (joint stamps s,
-    arm joint positions rad) every ``joint_every`` steps, and (wrench stamps s, readings
-    N and N m in ``ft_sensor``) of ``sensor`` every step."""
+    """Run ``excitation`` from home now, and 0.3 s at rest after it: ``record_until``
+    its end."""
     robot = world.config.robot
     times, q, dq, ddq = excitation.waypoints(robot.arm_joints)
     end = world.command_arm(robot.arm_joints, times, q, 0.0, dq, ddq)
-    stamps, positions, readings = [], [], []
-    while world.time < end + 0.3:
-        world.step()
-        stamps.append(world.time)
-        positions.append(world.joint_state()[1][: len(robot.arm_joints)])
-        readings.append(sensor.read(world.wrench, world.time))
-    stamps, positions = np.array(stamps), np.array(positions)
-    return stamps[::joint_every], positions[::joint_every], stamps, np.array(readings)
+    return record_until(world, sensor, end + 0.3, joint_every)
 
 
 def hold_still(
     world: ArmWorld, sensor: WrenchSensor, seconds: float, joint_every: int = 1
 ) -> tuple[NDArray[np.float64], ...]:
-    """Hold the arm where it is for ``seconds``: (joint stamps s, arm joint positions
-    rad) every ``joint_every`` steps, (wrench stamps s, readings) every step, as
-    ``run_excitation`` gives them."""
+    """Hold the arm where it is for ``seconds``: ``record_until`` then."""
+    return record_until(world, sensor, world.time + seconds, joint_every)
+
+
+def record_until(
+    world: ArmWorld, sensor: WrenchSensor, end: float, joint_every: int = 1
+) -> tuple[NDArray[np.float64], ...]:
+    """Step the world until sim time ``end`` (s): (joint stamps s, arm joint positions
+    rad) every ``joint_every`` steps, and (wrench stamps s, readings N and N m in
+    ``ft_sensor``) of ``sensor`` every step."""
     robot = world.config.robot
     stamps, positions, readings = [], [], []
-    end = world.time + seconds
     while world.time < end:
         world.step()
         stamps.append(world.time)

@@ -312,25 +312,36 @@ def payload_from_solution(
             "the kinematic fit had no empty-hand window with joint positions, so no model of "
             "the sensor's bias nor of the hand to compensate with"
         )
-    estimate = fit.estimate
     return Payload(
-        mass=estimate.mass,
-        com=estimate.com,
-        cov=estimate.cov,
         hand_mass=fit.hand.mass,
         hand_com=fit.hand.com,
         bias=fit.latest_bias(),
         mount=np.zeros(3) if fit.mount is None else fit.mount,
         base_tilt=np.zeros(3) if fit.base_tilt is None else fit.base_tilt,
-        gravity=robot.gravity,
-        frame=frame,
-        sensor_frame=robot.sensor_frame,
-        base_frame=robot.base_frame,
-        information=solution.information,
-        time=_utc_now() if time is None else time,
-        hand_id=hand_id,
-        noise=solution.noise,
+        **_of_solution(solution, robot, frame, hand_id, time),
     )
+
+
+def _of_solution(
+    solution: Solution, robot: RobotModel, frame: str, hand_id: str, time: str | None
+) -> dict:
+    """What a payload takes of any solution: the object's estimate, the robot's gravity
+    and frames, the information, the time (None: now), the hand, the noise."""
+    estimate = solution.estimate
+    assert estimate is not None
+    return {
+        "mass": estimate.mass,
+        "com": estimate.com,
+        "cov": estimate.cov,
+        "gravity": robot.gravity,
+        "frame": frame,
+        "sensor_frame": robot.sensor_frame,
+        "base_frame": robot.base_frame,
+        "information": solution.information,
+        "time": _utc_now() if time is None else time,
+        "hand_id": hand_id,
+        "noise": solution.noise,
+    }
 
 
 def _payload_in_motion(
@@ -339,24 +350,14 @@ def _payload_in_motion(
     """``payload_from_solution`` of an exploration in motion: the object's and the empty
     hand's mass, COM and inertia from their motion fits, the bias of the object's motion;
     no mounting nor tilt fitted."""
-    result, estimate = solution.motion, solution.estimate
-    assert result is not None and estimate is not None
+    result = solution.motion
+    assert result is not None
     hand_mass, hand_com, hand_inertia = result.hand.load()
     return Payload(
-        mass=estimate.mass,
-        com=estimate.com,
-        cov=estimate.cov,
         hand_mass=hand_mass,
         hand_com=hand_com,
         bias=result.object.bias,
-        gravity=robot.gravity,
-        frame=frame,
-        sensor_frame=robot.sensor_frame,
-        base_frame=robot.base_frame,
-        information=solution.information,
-        time=_utc_now() if time is None else time,
-        hand_id=hand_id,
-        noise=solution.noise,
+        **_of_solution(solution, robot, frame, hand_id, time),
         inertia=result.inertia,
         hand_inertia=hand_inertia,
         delay=result.object.delay,
