@@ -218,7 +218,10 @@ def assert_same_payload(a: Payload, b: Payload) -> None:
     for name in ("com", "cov", "hand_com", "bias", "mount", "base_tilt", "gravity"):
         x, y = getattr(a, name), getattr(b, name)
         assert x.shape == y.shape and x.tobytes() == y.tobytes(), name
-    for name in ("mass", "hand_mass"):
+    for name in ("inertia", "hand_inertia"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert (x is None and y is None) or x.tobytes() == y.tobytes(), name
+    for name in ("mass", "hand_mass", "delay"):
         x, y = getattr(a, name), getattr(b, name)
         assert np.float64(x).tobytes() == np.float64(y).tobytes(), name
     for name in ("frame", "sensor_frame", "base_frame", "information", "time", "hand_id"):
@@ -492,6 +495,33 @@ def test_pinocchio_reads_the_urdf_fragment():
     np.testing.assert_allclose(model.inertias[j2].lever, hand.placement.act(com_in_hand))
     np.testing.assert_array_equal(model.inertias[j2].inertia, np.zeros((3, 3)))
     assert "inertia not estimated" in urdf_snippet(payload)
+
+
+INERTIA = np.array([[3.7e-4, 1e-6, -2e-6], [1e-6, 3.1e-4, 4e-6], [-2e-6, 4e-6, 2.1e-4]])
+
+
+def test_a_payload_in_motion_keeps_its_inertias_and_delay_to_the_bit(tmp_path):
+    """payload.yaml of a payload from an exploration in motion reads back with the same
+    inertias and delay; its URDF fragment gives pinocchio the object's inertia about its
+    COM in the sensor's URDF frame, R(mount) I R(mount)^T (pinocchio holds it in the
+    frame of the joint the hand hangs from)."""
+    payload = make_payload(inertia=INERTIA, hand_inertia=INERTIA * 3, delay=0.0061)
+    path = tmp_path / PAYLOAD_FILE
+    path.write_text(payload_yaml(payload))
+    assert_same_payload(read_payload(path), payload)
+    model = pinocchio.buildModelFromXML(ROBOT_URDF.format(payload=urdf_snippet(payload)))
+    inertia = model.inertias[model.getJointId("j2")].inertia  # in the joint's frame
+    hand = model.frames[model.getFrameId("hand")].placement.rotation
+    expected = hand @ rotation(MOUNT) @ INERTIA @ rotation(MOUNT).T @ hand.T
+    np.testing.assert_allclose(inertia, expected, rtol=1e-12, atol=1e-18)
+
+
+@pytest.mark.parametrize(
+    "inertia", [np.array([[1.0, 2.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]) * 1e-4, np.eye(2)]
+)
+def test_an_inertia_that_is_not_a_symmetric_3x3_is_refused(inertia):
+    with pytest.raises(PayloadError, match="inertia"):
+        make_payload(inertia=inertia)
 
 
 # --- files ----------------------------------------------------------------------------

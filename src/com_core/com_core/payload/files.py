@@ -352,7 +352,10 @@ def _matrix(data: Mapping, name: str, size: int) -> list[list[float]]:
     rows_ok = isinstance(value, list) and len(value) == size
     if not rows_ok or not all(isinstance(r, list) and len(r) == size for r in value):
         raise PayloadError(f"must be {size} lists of {size} numbers, got {value!r}", name)
-    return [_numbers({name: row}, name, size) for row in value]
+    try:
+        return [_numbers({"row": row}, "row", size) for row in value]
+    except PayloadError as error:  # named by the matrix, not its row
+        raise PayloadError(error.problem, name) from None
 
 
 def _text(data: Mapping, name: str) -> str:
