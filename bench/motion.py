@@ -40,7 +40,7 @@ from com_core.planning.excitation import design_excitation
 from com_core.planning.planner import Plan
 from com_core.robot.choreography import Choreography
 from com_core.robot.config import read_robot_config
-from com_core.robot.dynamics import inertial_parameters
+from com_core.robot.dynamics import INERTIA_ELEMENTS, inertial_parameters
 from com_core.robot.model import RobotModel
 from com_core.sensing.sensor_profiles import PROFILES
 from wrench_sim.config import SimConfig
@@ -49,6 +49,7 @@ from wrench_sim.sensor import profile_sensor
 from wrench_sim.studies import feed, grasp, hold_still, run_excitation
 
 SHAPES = ("box", "cylinder", "mug")
+DIAGONAL = [4 + INERTIA_ELEMENTS.index(name) for name in ("ixx", "iyy", "izz")]  # in load_vector
 PROFILE = PROFILES["realistic"]
 
 
@@ -189,7 +190,7 @@ def main() -> None:
                 f"{np.sqrt(np.mean(z[:, 0] ** 2)):5.2f} {np.sqrt(np.mean(z[:, 1:4] ** 2)):5.2f} "
                 f"{np.sqrt(np.mean(z[:, 4:] ** 2)):5.2f}  "
                 f"{100 * bound[0]:5.3f}% {1e3 * bound_com.max():6.3f} "
-                f"{100 * np.median(bound[[4, 6, 9]]):5.1f}% "
+                f"{100 * np.median(bound[DIAGONAL]):5.1f}% "
                 f"{1e3 * np.median([r['delay'] for r in results]):8.2f} "
                 f"{np.median([r['seconds'] for r in results]):5.2f}"
             )

@@ -86,7 +86,7 @@ from com_core.contract import (
 )
 from com_core.estimation.exploration import Exploration
 from com_core.estimation.fits import WRENCHES
-from com_core.estimation.hand_motion import hand_motion_path, save_hand_motion
+from com_core.estimation.hand_motion import hand_motion_path, load_hand_motion, save_hand_motion
 from com_core.estimation.inbox import shorten
 from com_core.estimation.motion_solution import hand_motion_of
 from com_core.estimation.settings import (
@@ -102,6 +102,7 @@ from com_core.payload.compensation import MAX_JOINT_STATE_AGE, Compensator
 from com_core.payload.files import read_payload, write_payload_files
 from com_core.payload.model import Payload, PayloadError, payload_from_solution
 from com_core.robot.config import default_robot_config
+from com_core.robot.dynamics import INERTIA_ELEMENTS, inertia_elements
 from com_core.robot.model import RobotModel
 from com_core.runtime.rosenv import keep_dds_local, start_refusal, stop_on_signals
 
@@ -234,14 +235,16 @@ class EstimatorNode(Node):
     def _solve(self, until_ns: int) -> Solution:
         """Solve the current exploration and publish it (``_publish``); the empty hand's
         motion fit of a usable exploration in motion goes to the cache beside the tare
-        cache (``hand_motion``)."""
+        cache (``hand_motion``), once per motion (a later ~/solve of the same run does
+        not make it younger)."""
         solution = self._solution(until_ns)
         cache = self._param("tare_cache")
         entry = hand_motion_of(
             self._exploration, solution.motion if solution.usable else None,
             self._exploration.robot, self._param("hand_id"),
         )  # fmt: skip
-        if cache and entry is not None:
+        saved = load_hand_motion(hand_motion_path(cache)) if cache and entry else None
+        if cache and entry is not None and (saved is None or saved.stamp_ns != entry.stamp_ns):
             try:
                 save_hand_motion(hand_motion_path(cache), entry)
                 self.get_logger().info(f"the empty hand's motion fit saved beside {cache}")
@@ -592,8 +595,9 @@ class EstimatorNode(Node):
                 float(c) for c in solution.estimate.com
             )
             if solution.motion is not None:  # about the COM, kg m^2
-                i = msg.inertia
-                i.ixx, i.ixy, i.iyy, i.ixz, i.iyz, i.izz = solution.motion.object.load_vector()[4:]
+                elements = inertia_elements(solution.motion.inertia)
+                for name, value in zip(INERTIA_ELEMENTS, elements, strict=True):
+                    setattr(msg.inertia, name, float(value))
             self._estimate_pub.publish(msg)
         values = [KeyValue(key=k, value=v) for k, v in solution.diagnostic_values()]
         values.append(KeyValue(key="samples", value=str(self._exploration.sample_count)))

@@ -41,12 +41,13 @@ from com_core.contract import (
     TRUTH_TOPIC,
 )
 from com_core.estimation.fits import INFORMATION
-from com_core.estimation.motion_solution import EXCITATIONS
+from com_core.estimation.motion_solution import EXCITATIONS, MOTION
 from com_core.estimation.settings import SETTINGS
 from com_core.estimation.solution import noise_line, vector_value, verification_lines
 from com_core.inputs import Input, InputError
 from com_core.payload.files import PAYLOAD_FILE
 from com_core.robot.config import ROBOTS, RobotConfigError, read_robot_config, robot_config_path
+from com_core.robot.dynamics import INERTIA_ELEMENTS, inertia_matrix
 from com_core.runtime.processes import executable, last_error_line, ros_args, stop
 from com_core.runtime.rosenv import keep_dds_local
 from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES
@@ -445,7 +446,7 @@ def run_exploration(args: argparse.Namespace, started: float, children: Sequence
                 f"({', '.join(f'{v * 1e3:.2f}' for v in sd[3:])}) mN m (contact: none)"
             )
             values = {kv.key: kv.value for kv in statuses[-1][1].values} if statuses else {}
-            if values.get("excitation") == "motion" and urdf and not exited(children):
+            if values.get("excitation") == MOTION and urdf and not exited(children):
                 in_motion(node, executor, compensated, urdf[-1], args, values)
         if ended:
             print_ended(ended)
@@ -528,19 +529,16 @@ def print_inertia(values: dict[str, str], truth) -> None:
 
     estimate = np.array(vector_value(values, "inertia"))
     cov = np.array(vector_value(values, "inertia_cov")).reshape(6, 6)
-    held = np.array([truth.ixx, truth.ixy, truth.iyy, truth.ixz, truth.iyz, truth.izz])
+    held = np.array([getattr(truth, name) for name in INERTIA_ELEMENTS])
     z = (estimate - held) / np.sqrt(np.diag(cov))
-
-    def matrix(v: np.ndarray) -> np.ndarray:
-        return np.array([[v[0], v[1], v[3]], [v[1], v[2], v[4]], [v[3], v[4], v[5]]])
-
-    moments, sigma = principal_moments(matrix(estimate), cov)
-    true_moments = np.linalg.eigvalsh(matrix(held))
+    moments, sigma = principal_moments(inertia_matrix(estimate), cov)
+    true_moments = np.linalg.eigvalsh(inertia_matrix(held))
 
     def cm2(v) -> str:
         return "(" + ", ".join(f"{1e4 * x:.2f}" for x in v) + ")"
 
-    print(f"inertia:  Ixx, Ixy, Iyy, Ixz, Iyz, Izz {cm2(estimate)} kg cm^2 about the COM")
+    names = ", ".join(name.capitalize() for name in INERTIA_ELEMENTS)
+    print(f"inertia:  {names} {cm2(estimate)} kg cm^2 about the COM")
     print(f"          truth {cm2(held)}; error / sigma ({', '.join(f'{x:+.1f}' for x in z)})")
     print(f"          principal moments {cm2(moments)} +- {cm2(sigma)}, truth {cm2(true_moments)}")
 

@@ -17,6 +17,7 @@ from geometry_msgs.msg import InertiaStamped
 from com_core.estimation.settings import SETTINGS
 from com_core.estimation.solution import verification_lines
 from com_core.inputs import problems, refusal
+from com_core.robot.dynamics import INERTIA_ELEMENTS
 from com_interfaces.action import Explore
 from exploration_sequencer.parameters import PARAMETERS
 
@@ -57,8 +58,8 @@ def _fill_inertia(msg: InertiaStamped, values: Mapping[str, str]) -> None:
     com = msg.inertia.com
     com.x, com.y, com.z = (float(values[f"com_{a}"]) for a in "xyz")
     if "inertia" in values:
-        i = msg.inertia
-        i.ixx, i.ixy, i.iyy, i.ixz, i.iyz, i.izz = (float(v) for v in values["inertia"].split(","))
+        for name, value in zip(INERTIA_ELEMENTS, values["inertia"].split(","), strict=True):
+            setattr(msg.inertia, name, float(value))
 
 
 def feedback_of(

@@ -646,8 +646,8 @@ class SequencerNode(Node):
     ) -> HandMotion | None:
         """The empty hand's motion fit that the estimator saved beside the tare cache after
         an earlier run, when it serves this one (``HandMotion.serves``: this hand and
-        robot model, this motion, younger than ``tare_max_age``) and the estimator reads
-        that cache too; else None (the empty hand moves again)."""
+        robot model, the path of this run's excitation, younger than ``tare_max_age``)
+        and the estimator reads that cache too; else None (the empty hand moves again)."""
         path = hand_motion_path(self._cache_path())
         entry = load_hand_motion(path)
         if entry is None:
@@ -660,9 +660,8 @@ class SequencerNode(Node):
                 "one tare_cache)"
             )
             return None
-        span = excitation.waypoints(self.config.arm_joints)[0][-1] + EXCITATION_REST
-        why = entry.serves(self.p("hand_id"), motion.robot.urdf_sha256, span,
-                           self.p("tare_max_age"))  # fmt: skip
+        why = entry.serves(self.p("hand_id"), motion.robot.urdf_sha256,
+                           lambda t: excitation.at(t)[0], self.p("tare_max_age"))  # fmt: skip
         if why:
             log.info(f"the empty hand's motion fit in {path} not reused: {why}")
             return None

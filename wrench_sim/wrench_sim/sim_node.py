@@ -79,6 +79,7 @@ from com_core.contract import (
 )
 from com_core.inputs import InputError
 from com_core.robot.config import KEYS, RobotConfig, RobotConfigError
+from com_core.robot.dynamics import INERTIA_ELEMENTS, inertia_elements
 from com_core.runtime.rosenv import keep_dds_local, start_refusal
 from com_core.sensing.sensor_profiles import SensorProfile
 from com_core.sensing.wrench_model import SensorModel, rotation_about
@@ -461,13 +462,9 @@ def _inertia(stamp, mass: float, com: np.ndarray, inertia: np.ndarray) -> Inerti
     msg.header.frame_id = SENSOR_FRAME
     msg.inertia.m = float(mass)
     msg.inertia.com.x, msg.inertia.com.y, msg.inertia.com.z = (float(v) for v in com)
-    i = msg.inertia
-    i.ixx, i.ixy, i.ixz, i.iyy, i.iyz, i.izz = (float(inertia[a, b]) for a, b in _UPPER)
+    for name, value in zip(INERTIA_ELEMENTS, inertia_elements(inertia), strict=True):
+        setattr(msg.inertia, name, float(value))
     return msg
-
-
-_UPPER = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
-"""The six entries of a symmetric 3x3 matrix InertiaStamped carries."""
 
 
 def main(args: list[str] | None = None) -> int:

@@ -31,7 +31,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from com_core.contract import CANCELLED, OBJECT_PREFIX, TARE_PREFIX, VERIFY_PREFIX, done_stamp
+from com_core.contract import (
+    CANCELLED,
+    MOTION_PREFIX,
+    OBJECT_PREFIX,
+    TARE_PREFIX,
+    VERIFY_PREFIX,
+    done_stamp,
+)
 
 __all__ = [
     "IDLE_KEEP",
@@ -207,7 +214,7 @@ class Inbox:
         """Before the first window label, keep only the last ``keep_s`` s (sensor time) of
         samples and joint states: the lead-in a first window may reach back into. A node
         that only compensates (no exploration running) then holds a bounded buffer."""
-        windows = (TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX)
+        windows = (TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX, MOTION_PREFIX)
         opened = any(label.startswith(windows) for _, label in self._labels)
         if opened or self._last_stamp == _NO_STAMP:
             return

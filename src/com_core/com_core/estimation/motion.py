@@ -18,7 +18,7 @@ delays slow signals by T). The fit, step by step:
    not filtered: each raw sample keeps its own noise, which step 3 weighs exactly, and
    nothing has to be aligned with a filter's delay.
 2. **Delay, estimated.** The weighted residual of the linear fit is minimised over the
-   delay: a 1 ms grid over +-``MAX_DELAY``, then a parabola through the three best.
+   delay: a 3 ms grid over +-``MAX_DELAY``, then a parabola through the three best.
 3. **Coloured noise, weighed.** The sensor's noise model (``sensing.noise``: per-axis AR,
    learnt from the tare's windows) whitens the rows: each axis's samples and regressor
    columns go through the model's prediction-error filter and are divided by its
@@ -46,7 +46,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from com_core.estimation.inertial import fit_whitened
-from com_core.robot.dynamics import load_of, sensor_regressor
+from com_core.robot.dynamics import inertia_elements, load_of, sensor_regressor
 from com_core.robot.model import RobotModel
 from com_core.sensing.calibration import Calibration
 from com_core.sensing.noise import NoiseModel
@@ -112,7 +112,7 @@ class MotionFit:
         return load_of(self.pi)
 
     def load_vector(self) -> NDArray[np.float64]:
-        """(10,): mass, COM (3) and the inertia about the COM's Ixx, Ixy, Iyy, Ixz, Iyz, Izz
+        """(10,): mass, COM (3) and the inertia about the COM's six elements
         (``load_vector``), whose covariance ``load_cov`` is."""
         return load_vector(self.pi)
 
@@ -131,25 +131,20 @@ class MotionFit:
 
 def load_vector(pi: NDArray[np.float64]) -> NDArray[np.float64]:
     """(10,) of the parameters ``pi``: mass (kg), COM (m) and the inertia about the COM
-    (kg m^2) as Ixx, Ixy, Iyy, Ixz, Iyz, Izz."""
+    (kg m^2) as its ``INERTIA_ELEMENTS``."""
     mass, com, inertia = load_of(pi)
-    upper = inertia[_UPPER]
-    return np.concatenate([[mass], com, upper])
-
-
-_UPPER = ([0, 0, 1, 0, 1, 2], [0, 1, 1, 2, 2, 2])  # Ixx, Ixy, Iyy, Ixz, Iyz, Izz
+    return np.concatenate([[mass], com, inertia_elements(inertia)])
 
 
 def principal_moments(
     inertia: NDArray[np.float64], cov: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(the principal moments (3,) of ``inertia`` (3, 3), ascending, their sigmas (3,)):
-    kg m^2; ``cov`` (6, 6) is the covariance of the inertia's Ixx, Ixy, Iyy, Ixz, Iyz,
-    Izz, propagated to first order (d lambda_k = v_k^T dI v_k)."""
+    kg m^2; ``cov`` (6, 6) is the covariance of the inertia's ``INERTIA_ELEMENTS``,
+    propagated to first order (d lambda_k = v_k^T dI v_k)."""
     moments, axes = np.linalg.eigh(inertia)
-    rows, columns = _UPPER
-    twice = np.where(np.array(rows) == np.array(columns), 1.0, 2.0)
-    gradient = axes[rows, :] * axes[columns, :] * twice[:, None]  # (6, 3)
+    # d lambda_k / d element: v_a v_b, twice off the diagonal (it stands at (a, b), (b, a))
+    gradient = np.array([inertia_elements(np.outer(v, v) * (2 - np.eye(3))) for v in axes.T]).T
     return moments, np.sqrt(np.einsum("ik,ij,jk->k", gradient, cov, gradient))
 
 

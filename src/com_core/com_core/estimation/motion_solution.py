@@ -26,13 +26,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from com_core.contract import MOTION_OBJECT, MOTION_TARE, MOTION_VERIFY
-from com_core.estimation.cutting import motion_spans, noise_model, segments
+from com_core.estimation.cutting import motion_spans
 from com_core.estimation.errors import EstimationError
 from com_core.estimation.estimators import Consistency, Estimate
 from com_core.estimation.fits import FitSetup
-from com_core.estimation.hand_motion import HandMotion
+from com_core.estimation.hand_motion import PATH_POINTS, HandMotion
 from com_core.estimation.inbox import Inbox
 from com_core.estimation.motion import (
+    WINDOW,
     MotionFit,
     compensated,
     fit_motion,
@@ -59,8 +60,9 @@ STATIC, MOTION = "static", "motion"
 EXCITATIONS = (STATIC, MOTION)
 """How an exploration excites the load: windows at rest, or the wrist's motion."""
 MAX_CHI2_PER_DOF = 1.5
-"""The object's fit is one rigid load while chi^2/dof stays below this (1.0-1.3 measured
-with the realistic sensor, test_sim_dynamics)."""
+"""The object's fit is one rigid load while chi^2/dof stays below this (1.01-1.10 measured
+over 13 sensors with the realistic profile)."""
+_MIN_JOINT_STATES = 10  # a motion's joint states, at the least
 _DRAWS = 2000  # of the fit's and the calibration's errors, for the check's allowance
 _DRAW_SAMPLES = 300  # samples of the motion each draw is evaluated at
 _FORCE, _TORQUE = slice(0, 3), slice(3, 6)
@@ -103,17 +105,21 @@ class MotionCheck:
 @dataclass(frozen=True)
 class MotionResult:
     """The fits of one exploration in motion: the empty ``hand``'s (its whole load) and
-    the ``object``'s (the hand taken off); the object's ``inertia`` (3, 3) about its COM
-    and the covariance ``load_cov`` (10, 10) of (mass, COM, Ixx, Ixy, Iyy, Ixz, Iyz, Izz)."""
+    the ``object``'s (the hand taken off), and the covariance ``load_cov`` (10, 10) of the
+    object's ``MotionFit.load_vector`` (mass, COM, the inertia's ``INERTIA_ELEMENTS``)."""
 
     hand: MotionFit
     object: MotionFit
-    inertia: NDArray[np.float64]
     load_cov: NDArray[np.float64]
 
     @property
+    def inertia(self) -> NDArray[np.float64]:
+        """(3, 3) kg m^2: the object's inertia about its COM, ``ft_sensor``."""
+        return self.object.load()[2]
+
+    @property
     def sigma_inertia(self) -> NDArray[np.float64]:
-        """(6,) kg m^2: Ixx, Ixy, Iyy, Ixz, Iyz, Izz."""
+        """(6,) kg m^2, of the ``INERTIA_ELEMENTS``."""
         return np.sqrt(np.diag(self.load_cov)[4:])
 
     def as_dict(self) -> dict:
@@ -136,14 +142,22 @@ def joint_arrays(
     inbox: Inbox, robot: RobotModel, start_ns: int, stop_ns: int
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(stamps s (n,), positions (n, ``robot.joint_names``)) of the inbox's joint states
-    in [start_ns, stop_ns); EstimationError when they lack a joint of the model."""
-    rows = [(t, joints) for t, joints in inbox.joint_states if start_ns <= t < stop_ns]
+    in [start_ns, stop_ns), in time order, one per stamp; a state without every joint of
+    the model (another publisher's: a gripper's) is left out. EstimationError when fewer
+    than ``_MIN_JOINT_STATES`` are left."""
     names = robot.joint_names
-    try:
-        positions = np.array([[joints[n] for n in names] for _, joints in rows])
-    except KeyError as error:
-        raise EstimationError(f"the joint states lack {error} of the robot model") from error
-    return np.array([t for t, _ in rows], dtype=np.float64) * 1e-9, positions
+    rows = {
+        t: [joints[n] for n in names]
+        for t, joints in inbox.joint_states
+        if start_ns <= t < stop_ns and all(n in joints for n in names)
+    }
+    if len(rows) < _MIN_JOINT_STATES:
+        raise EstimationError(
+            f"{len(rows)} joint states with every joint of the robot model "
+            f"({', '.join(names)}) from {start_ns * 1e-9:.3f} to {stop_ns * 1e-9:.3f} s"
+        )
+    stamps = sorted(rows)
+    return np.array(stamps, dtype=np.float64) * 1e-9, np.array([rows[t] for t in stamps])
 
 
 def _motion_data(
@@ -153,7 +167,7 @@ def _motion_data(
     the wrenches within its span, the joint states a second beyond it either way."""
     parts = motion_spans(inbox, until_ns).get(label)
     if not parts:
-        raise EstimationError(f"no {label!r} span: the motion was not run to its end")
+        raise EstimationError(f"no {label!r} span before the end")
     start, stop = parts[0][0], parts[-1][1]
     stamps, wrenches = inbox.samples()
     inside = (stamps >= start) & (stamps < stop)
@@ -193,14 +207,15 @@ def check_motion(
     What the compensated wrench holds besides the noise is one draw of the fits' errors,
     the same at every sample, which the rms does not average away: the calibration's
     error E read along this motion less what the fits made of it on theirs (their
-    ``calibration_gain``), and the fits' noise (``cov`` less its calibration share).
-    ``predicted`` is the rms over ``_DRAWS`` seeded draws of both and of the noise model's
-    own error (its variance learnt from ``noise.samples`` correlated samples), and the
-    allowance the 1 - ``alpha`` quantile of the ratio over them."""
+    ``calibration_gain``), and the object fit's noise (its bound, widened as the fit
+    widened it; the hand's error, taken off along the same trajectory, the object's fit
+    took up). ``predicted`` is the rms over ``_DRAWS`` seeded draws of both and of the
+    noise model's own error (its variance learnt from ``noise.samples`` correlated
+    samples); the allowance, forces and torques apart, the 1 - ``alpha`` / 2 quantile of
+    the ratio over them (the two tests together at ``alpha``)."""
     joint_times, positions, times, wrenches = data
     hand, fit = result.hand, result.object
-    margin = 0.1 + abs(fit.delay)
-    inner = (times > joint_times[0] + margin) & (times < joint_times[-1] - margin)
+    inner = _covered(joint_times, times, fit.delay)
     times, wrenches = times[inner], wrenches[inner]
     if len(times) < 100:
         raise EstimationError(f"{pose}: {len(times)} samples within the joint states' span")
@@ -211,57 +226,75 @@ def check_motion(
     every = max(len(times) // _DRAW_SAMPLES, 1)
     Y = regressors_along(robot, *joint_motion(joint_times, positions, times[::every] - fit.delay))
     rng = np.random.default_rng(0)
-    shift = rng.multivariate_normal(np.zeros(10), fit.cov - fit.calibration_cov, _DRAWS,
-                                    method="eigh")  # fmt: skip
+    widened = fit.bound * max(1.0, fit.chi2 / fit.dof)
+    shift = rng.multivariate_normal(np.zeros(10), widened, _DRAWS, method="eigh")
     errors = np.einsum("nai,di->dna", Y, shift)
     if calibration is not None:
         J = calibration.stacked_jacobian(wrenches[::every]).reshape(len(Y), 6, 36)
         read = J - np.einsum("nai,ij->naj", Y, hand.calibration_gain + fit.calibration_gain)
-        errors += np.einsum("naj,dj->dna", read, calibration.sigma * rng.standard_normal(
-            (_DRAWS, 36)))  # fmt: skip
+        E = calibration.sigma * rng.standard_normal((_DRAWS, 36))
+        errors += np.einsum("naj,dj->dna", read, E)
     errors -= errors.mean(axis=1, keepdims=True)
-    k = noise.variance_dof_factor
-    spread = np.sqrt(2 * k * (1 / max(noise.samples, 1) + 1 / len(times)))
-    learnt = noise.variance * (1 + spread * rng.standard_normal((_DRAWS, 6)))
-    mean_square = learnt + np.mean(errors**2, axis=1)  # (draws, 6)
+    learnt_from = 1 / noise.samples if noise.samples > 0 else 0.0  # 0: assumed, not learnt
+    spread = np.sqrt(2 * noise.variance_dof_factor * (learnt_from + 1 / len(times)))
+    variance = noise.variance * np.maximum(1 + spread * rng.standard_normal((_DRAWS, 6)), 0.0)
+    mean_square = variance + np.mean(errors**2, axis=1)  # (draws, 6)
     predicted = np.sqrt(np.mean(mean_square, axis=0))
     rms = np.sqrt(np.mean(left**2, axis=0))
 
-    def pooled(x: NDArray[np.float64], k: slice) -> NDArray[np.float64]:
-        return np.sqrt(np.sum(x[..., k], axis=-1) / np.sum(predicted[k] ** 2))
+    def pooled(x: NDArray[np.float64], axes: slice) -> NDArray[np.float64]:
+        return np.sqrt(np.sum(x[..., axes], axis=-1) / np.sum(predicted[axes] ** 2))
 
-    ratio = tuple(float(pooled(rms**2, k)) for k in (_FORCE, _TORQUE))
-    allowed = tuple(
-        float(np.quantile(pooled(mean_square, k), 1 - alpha)) for k in (_FORCE, _TORQUE)
-    )
+    ratio = [float(pooled(rms**2, axes)) for axes in (_FORCE, _TORQUE)]
+    allowed = [float(np.quantile(pooled(mean_square, axes), 1 - alpha / 2))
+               for axes in (_FORCE, _TORQUE)]  # fmt: skip
     return MotionCheck(pose, rms, predicted, (ratio[0], ratio[1]), (allowed[0], allowed[1]),
                        len(times))  # fmt: skip
 
 
+def _covered(
+    joint_times: NDArray[np.float64], times: NDArray[np.float64], delay: float
+) -> NDArray[np.bool_]:
+    """Which wrench ``times`` (s) the joint states cover with the joint motion's window
+    on both sides, ``delay`` s earlier."""
+    margin = WINDOW + abs(delay)
+    return (times > joint_times[0] + margin) & (times < joint_times[-1] - margin)
+
+
 def solve_motion(
-    inbox: Inbox, setup: FitSetup, until_ns: int | None, notes: list[str]
-) -> tuple[Estimate, Consistency, MotionResult, tuple[MotionCheck, ...], NoiseModel]:
-    """(estimate of mass and COM, consistency, the motion fits, the verification, the
-    noise model) of the motions in ``inbox`` (see module). EstimationError with the
-    reason when there is no robot model, no noise model, or a motion is missing or does
-    not excite the load; a verification motion that cannot be checked is noted."""
+    inbox: Inbox,
+    setup: FitSetup,
+    noise: NoiseModel | None,
+    until_ns: int | None,
+    notes: list[str],
+) -> tuple[Estimate, Consistency, MotionResult, tuple[MotionCheck, ...]]:
+    """(estimate of mass and COM, consistency, the motion fits, the verification) of the
+    motions in ``inbox`` with the sensor's ``noise`` model (see module). EstimationError
+    with the reason when there is no robot model, no noise model, or a motion is missing
+    or does not excite the load; a verification motion that cannot be checked is noted
+    in ``notes``."""
     robot = setup.robot
     if robot is None:
         why = setup.robot_problem or "no URDF on /robot_description"
         raise EstimationError(f"an exploration in motion needs the robot model ({why})")
-    noise = noise_model(inbox, setup.noise, until_ns, segments(inbox, until_ns))
     if noise is None:
         raise EstimationError(
             "no noise model: no empty-hand window at rest to learn it from, and none known"
         )
-    if MOTION_TARE in motion_spans(inbox, until_ns) or setup.hand_motion is None:
+    spans = motion_spans(inbox, until_ns)
+    if MOTION_TARE in spans:
         hand = _fit(inbox, robot, MOTION_TARE, noise, until_ns, None, setup.calibration)
-    else:  # the empty hand's motion of an earlier run (``hand_motion``)
+    elif setup.hand_motion is not None:  # the empty hand's motion of an earlier run
         hand = setup.hand_motion
+    else:
+        raise EstimationError(
+            f"no {MOTION_TARE!r} span and no empty hand's motion fit of an earlier run "
+            "(hand_motion.json beside the tare cache): the object's fit needs the hand's"
+        )
     fit = _fit(inbox, robot, MOTION_OBJECT, noise, until_ns, hand, setup.calibration)
-    mass, com, inertia = fit.load()
+    mass, com, _ = fit.load()
     load_cov = fit.load_cov()
-    result = MotionResult(hand, fit, inertia, load_cov)
+    result = MotionResult(hand, fit, load_cov)
     per_dof = fit.chi2 / fit.dof
     consistent = per_dof <= MAX_CHI2_PER_DOF
     consistency = Consistency(
@@ -281,7 +314,7 @@ def solve_motion(
         ("motion",),
     )  # fmt: skip
     checks: tuple[MotionCheck, ...] = ()
-    if motion_spans(inbox, until_ns).get(MOTION_VERIFY):
+    if MOTION_VERIFY in spans:
         try:
             data = _motion_data(inbox, robot, MOTION_VERIFY, until_ns)
             check = check_motion(robot, result, noise, setup.calibration, data, "motion",
@@ -289,7 +322,7 @@ def solve_motion(
             checks = (check,)
         except (EstimationError, ValueError) as exc:
             notes.append(f"verification left out: {exc}")
-    return estimate, consistency, result, checks, noise
+    return estimate, consistency, result, checks
 
 
 def fitted_wrenches(
@@ -305,17 +338,15 @@ def fitted_wrenches(
     whose joint states do not cover it is left out."""
     out = []
     for label in (MOTION_OBJECT, MOTION_VERIFY):
-        if label not in motion_spans(inbox):
+        try:
+            joint_times, positions, times, _ = _motion_data(inbox, robot, label, None)
+            at = times[_covered(joint_times, times, delay)]
+            if len(at) < 2:
+                continue
+            Y = regressors_along(robot, *joint_motion(joint_times, positions, at - delay))
+        except (EstimationError, ValueError):
             continue
-        joint_times, positions, times, wrenches = _motion_data(inbox, robot, label, None)
-        inner = (times > joint_times[0] + 0.1 + abs(delay)) & (
-            times < joint_times[-1] - 0.1 - abs(delay)
-        )
-        if np.count_nonzero(inner) < 2:
-            continue
-        at = times[inner]
-        left = compensated(robot, load, bias, delay, joint_times, positions, at, wrenches[inner])
-        out.append((label, at, wrenches[inner] - left))
+        out.append((label, at, Y @ load + bias))
     return out
 
 
@@ -324,9 +355,15 @@ def hand_motion_of(
 ) -> HandMotion | None:
     """The ``HandMotion`` to cache from an exploration whose empty hand moved
     (``motion/tare``) and whose solution in motion is ``solution_motion`` (of a usable
-    solution); None otherwise."""
+    solution), with ``PATH_POINTS`` of its joint states; None otherwise."""
     parts = motion_spans(inbox).get(MOTION_TARE)
     if solution_motion is None or robot is None or not parts:
         return None
-    span = (parts[-1][1] - parts[0][0]) * 1e-9
-    return HandMotion(hand_id, robot.urdf_sha256, span, time.time(), solution_motion.hand)
+    start, stop = parts[0][0], parts[-1][1]
+    try:
+        times, positions = joint_arrays(inbox, robot, start, stop)
+    except EstimationError:
+        return None
+    kept = np.linspace(0, len(times) - 1, PATH_POINTS).round().astype(int)
+    return HandMotion(hand_id, robot.urdf_sha256, start, times[kept] - start * 1e-9,
+                      positions[kept], time.time(), solution_motion.hand)  # fmt: skip

@@ -255,7 +255,7 @@ def solve(inbox: Inbox, setup: FitSetup, until_ns: int | None = None) -> Solutio
         changed = noise.changed_from(setup.noise)
         notes += [changed] if changed else []
     if motion_spans(inbox, until_ns):
-        return _solved_in_motion(inbox, setup, until_ns, notes, counts)
+        return _solved_in_motion(inbox, setup, until_ns, notes, counts, noise)
     fresh_tares, objects, verifies, refused = reduced_windows(cut, setup.sensor, noise)
     tares = dict(setup.tares) | fresh_tares
     notes += refused
@@ -328,48 +328,59 @@ def _status(
     consistency: Consistency,
     verifications: Sequence[Verification | MotionCheck],
     notes: Sequence[str],
+    fitted_on: str = "its poses",
 ) -> tuple[str, str]:
     """(status, reason) of an estimate with its ``summary``: WARN for an inconsistent fit,
-    a failed verification or dropped input (in that order), else OK."""
+    a failed verification (the estimate does not hold beyond what it was ``fitted_on``)
+    or dropped input (in that order), else OK."""
     failed = [v.summary() for v in verifications if not v.passed]
     if not consistency.consistent:
         return WARN, consistency.message
     if failed:
-        return WARN, "; ".join(failed) + ": the estimate does not hold beyond its poses"
+        return WARN, "; ".join(failed) + f": the estimate does not hold beyond {fitted_on}"
     if notes:
         return WARN, "; ".join(notes)
     return OK, summary
 
 
 def _solved_in_motion(
-    inbox: Inbox, setup: FitSetup, until_ns: int | None, notes: list[str], counts: dict
+    inbox: Inbox,
+    setup: FitSetup,
+    until_ns: int | None,
+    notes: list[str],
+    counts: dict,
+    noise: NoiseModel | None,
 ) -> Solution:
-    """The ``Solution`` of an exploration in motion (``motion_solution.solve_motion``);
-    ``counts`` of its static windows' samples gain the motions'."""
+    """The ``Solution`` of an exploration in motion (``motion_solution.solve_motion``,
+    with the ``noise`` of its static windows); ``counts`` of their samples gain the
+    motions'."""
     stamps = inbox.samples()[0]
     for label, parts in motion_spans(inbox, until_ns).items():
         counts[label] = int(sum(np.count_nonzero((stamps >= a) & (stamps < b)) for a, b in parts))
     try:
-        estimate, consistency, result, checks, noise = solve_motion(inbox, setup, until_ns, notes)
+        estimate, consistency, result, checks = solve_motion(inbox, setup, noise, until_ns, notes)
     except EstimationError as exc:
         reason = str(exc) + ("; " + "; ".join(notes) if notes else "")
         return Solution(ERROR, reason, setup.method, notes=tuple(notes), window_samples=counts,
                         excitation=MOTION)  # fmt: skip
-    status, reason = _status(_motion_summary(estimate, result), consistency, checks, notes)
+    status, reason = _status(_motion_summary(estimate, result), consistency, checks, notes,
+                             "the motion it was fitted on")  # fmt: skip
     return Solution(status, reason, setup.method, estimate, consistency, (), tuple(notes),
                     window_samples=counts, information=KINEMATICS, verifications=checks,
                     noise=noise, excitation=MOTION, motion=result)  # fmt: skip
 
 
 def _motion_summary(e: Estimate, result: MotionResult) -> str:
-    """Mass and COM (``_summary``), the principal moments (kg cm^2) with their sigmas,
-    and the motion's samples."""
+    """Mass and COM, the principal moments (kg cm^2) with their sigmas, and the motion's
+    samples."""
     moments, sigma = principal_moments(result.inertia, result.load_cov[4:, 4:])
+
+    def cm2(values) -> str:
+        return ", ".join(f"{1e4 * v:.2f}" for v in values)
+
     return (
-        _summary(e).rsplit(" from ", 1)[0] + ", "
-        f"principal moments ({', '.join(f'{1e4 * v:.2f}' for v in moments)}) +- "
-        f"({', '.join(f'{1e4 * v:.2f}' for v in sigma)}) kg cm^2 from a motion of "
-        f"{result.object.samples} samples"
+        f"{_mass_and_com(e)}, principal moments ({cm2(moments)}) +- ({cm2(sigma)}) kg cm^2 "
+        f"from a motion of {result.object.samples} samples"
     )
 
 
@@ -526,9 +537,12 @@ def _noise_dict(noise: NoiseModel) -> dict:
 
 
 def _summary(e: Estimate) -> str:
+    return f"{_mass_and_com(e)} from {len(e.poses)} poses"
+
+
+def _mass_and_com(e: Estimate) -> str:
     c, s = e.com * 1e3, e.sigma_com * 1e3
     return (
         f"mass {e.mass * 1e3:.2f} +- {e.sigma_mass * 1e3:.2f} g, COM ({c[0]:.2f}, "
-        f"{c[1]:.2f}, {c[2]:.2f}) +- ({s[0]:.2f}, {s[1]:.2f}, {s[2]:.2f}) mm "
-        f"from {len(e.poses)} poses"
+        f"{c[1]:.2f}, {c[2]:.2f}) +- ({s[0]:.2f}, {s[1]:.2f}, {s[2]:.2f}) mm"
     )

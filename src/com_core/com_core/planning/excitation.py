@@ -185,8 +185,11 @@ def cached_excitation(
     }
     key = hashlib.sha256(json.dumps(request, sort_keys=True).encode()).hexdigest()
     path = Path(path)
-    entries = json.loads(path.read_text())["entries"] if path.exists() else {}
-    if key in entries:
+    try:
+        entries = dict(json.loads(path.read_text())["entries"])
+    except (OSError, ValueError, KeyError, TypeError):  # none yet, or not a cache: designed
+        entries = {}
+    try:
         e = entries[key]["excitation"]
         return Excitation(
             tuple(e["joint_names"]),
@@ -197,6 +200,8 @@ def cached_excitation(
             np.array(e["b"]),
             e["log_det"],
         )
+    except (KeyError, TypeError):  # not designed yet for this request (or not readable)
+        pass
     designed = design_excitation(robot, home, joints, period, max_acceleration, iterations, seed)
     fields = {name: getattr(designed, name) for name in Excitation.__dataclass_fields__}
     stored = {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in fields.items()}

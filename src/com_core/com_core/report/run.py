@@ -248,13 +248,13 @@ def motion_fitted(
     configuration); [] when the run was not in motion or the bag lacks them."""
     from com_core.bags.reader import BagReading
     from com_core.estimation.feed import feed_bag
-    from com_core.estimation.motion_solution import fitted_wrenches
+    from com_core.estimation.motion_solution import MOTION, fitted_wrenches
     from com_core.estimation.settings import exploration_from, robot_from
     from com_core.estimation.solution import vector_value
     from com_core.robot.config import BAG_ROBOT_FILE, RobotConfigError, read_robot_config
 
     keys = ("parameters", "hand_parameters", "bias", "delay")
-    if values.get("excitation") != "motion" or not all(k in values for k in keys):
+    if values.get("excitation") != MOTION or not all(k in values for k in keys):
         return []
     settings: dict[str, object] = {"information": "kinematics"}
     try:

@@ -24,7 +24,34 @@ from numpy.typing import ArrayLike, NDArray
 
 from com_core.robot.model import RobotModel
 
-__all__ = ["inertial_parameters", "load_of", "sensor_regressor"]
+__all__ = [
+    "INERTIA_ELEMENTS",
+    "inertia_elements",
+    "inertia_matrix",
+    "inertial_parameters",
+    "load_of",
+    "sensor_regressor",
+]
+
+INERTIA_ELEMENTS = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+"""A symmetric inertia's six elements in geometry_msgs/Inertia's order: the order of every
+vector of them this project gives (estimates, covariances, the Explore result); pi keeps
+pinocchio's own (module)."""
+_ROWS, _COLUMNS = (0, 0, 0, 1, 1, 2), (0, 1, 2, 1, 2, 2)
+
+
+def inertia_elements(inertia: ArrayLike) -> NDArray[np.float64]:
+    """(6,) ``INERTIA_ELEMENTS`` of the symmetric ``inertia`` (3, 3)."""
+    return np.asarray(inertia, dtype=np.float64)[_ROWS, _COLUMNS]
+
+
+def inertia_matrix(elements: ArrayLike) -> NDArray[np.float64]:
+    """(3, 3) the symmetric inertia of its six ``INERTIA_ELEMENTS``."""
+    e = np.asarray(elements, dtype=np.float64)
+    out = np.zeros((3, 3))
+    out[_ROWS, _COLUMNS] = e
+    out[_COLUMNS, _ROWS] = e
+    return out
 
 
 def sensor_regressor(
