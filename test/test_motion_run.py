@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import os
 import re
 import subprocess
 import sys
@@ -22,7 +23,34 @@ def numbers(text: str) -> list[float]:
     return [float(v) for v in re.findall(r"[-+]?\d+\.\d+", text)]
 
 
-def test_the_demo_in_motion_gives_the_inertia_within_its_error_bars_and_replays(ros_env, tmp_path):
+def demo(env: dict[str, str], bags: Path, seed: int, *flags: str) -> str:
+    """The demo's output of a run in motion with a 0.5 kg object, its bags in ``bags``."""
+    done = subprocess.run(
+        [sys.executable, "-m", "exploration_sequencer.demo", "--excitation", "motion",
+         "--mass", "0.5", "--seed", str(seed), "--bag-dir", str(bags), *flags],
+        env=env, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stdout + done.stderr
+    return done.stdout + done.stderr
+
+
+@pytest.fixture(scope="module")
+def first_run(tmp_path_factory) -> tuple[Path, str]:
+    """(the bag directory, the output) of a first run, ending holding the object."""
+    from conftest import release_domain_id, ros_domain_id
+
+    bags = tmp_path_factory.mktemp("bags")
+    domain = ros_domain_id()
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", ROS_DOMAIN_ID=str(domain))
+    try:
+        yield bags, demo(env, bags, 1, "--hold")
+    finally:
+        release_domain_id(domain)
+
+
+def test_the_demo_in_motion_gives_the_inertia_within_its_error_bars_and_replays(
+    ros_env, first_run
+):
     """Mass, COM and the six elements of the inertia about the COM each within 4 of their
     sigmas of the ground truth; the check along the motion no fit used passes; the
     payload files carry the inertia; held, along a third motion, the compensated stream's
@@ -30,13 +58,7 @@ def test_the_demo_in_motion_gives_the_inertia_within_its_error_bars_and_replays(
     scale: 1.0-1.95 measured in process, test_core_motion_solution); the bag replays
     offline to the node's estimate (to the last bit when the node heard every sample the
     bag holds, else within what the samples it missed carry)."""
-    demo = subprocess.run(
-        [sys.executable, "-m", "exploration_sequencer.demo", "--excitation", "motion",
-         "--mass", "0.5", "--seed", "1", "--hold", "--bag-dir", str(tmp_path)],
-        env=ros_env, capture_output=True, text=True, timeout=300,
-    )  # fmt: skip
-    out = demo.stdout + demo.stderr
-    assert demo.returncode == 0, out
+    bags, out = first_run
     assert "phase 3/4: the object along the excitation" in out, out
     estimate = numbers(re.search(r"estimate: mass .*", out).group(0))
     truth = numbers(re.search(r"truth:    mass .*", out).group(0))
@@ -73,29 +95,19 @@ def test_the_demo_in_motion_gives_the_inertia_within_its_error_bars_and_replays(
     for key, sigma in sigmas.items():
         theirs = np.array([float(v) for v in values[key].split(",")])
         np.testing.assert_allclose(offline[key], theirs, rtol=0, atol=tolerance * sigma.max())
-    logs = "".join(p.read_text() for p in (tmp_path / "logs").glob("*.log"))
+    logs = "".join(p.read_text() for p in (bags / "logs").glob("*.log"))
     for text in UNCLEAN_EXIT:
         assert text not in logs, logs
 
 
-def test_a_second_run_in_motion_reuses_the_empty_hands_motion_and_replays(ros_env, tmp_path):
+def test_a_second_run_in_motion_reuses_the_empty_hands_motion_and_replays(ros_env, first_run):
     """The estimator keeps the empty hand's motion fit beside the tare cache; the next run
     of the same hand and motion moves the empty hand only at rest, keeps the fit beside
     its bag, and its estimate (mass, COM, inertia) is within 4 sigma of the truth and
     replays offline to the node's."""
-
-    def demo(seed: int) -> str:
-        done = subprocess.run(
-            [sys.executable, "-m", "exploration_sequencer.demo", "--excitation", "motion",
-             "--mass", "0.5", "--seed", str(seed), "--bag-dir", str(tmp_path)],
-            env=ros_env, capture_output=True, text=True, timeout=300,
-        )  # fmt: skip
-        assert done.returncode == 0, done.stdout + done.stderr
-        return done.stdout + done.stderr
-
-    first = demo(2)
+    bags, first = first_run
     assert "span motion/tare from" in first, first
-    second = demo(3)
+    second = demo(ros_env, bags, 3)
     assert "the empty hand's motion fit reused" in second, second
     assert "span motion/tare from" not in second, second
     bag = Path(re.search(r"bag:      (\S+)", second).group(1))
