@@ -35,7 +35,6 @@ from com_core.estimation.inbox import Inbox
 from com_core.estimation.motion import (
     WINDOW,
     MotionFit,
-    compensated,
     fit_motion,
     joint_motion,
     regressors_along,
@@ -219,12 +218,11 @@ def check_motion(
     times, wrenches = times[inner], wrenches[inner]
     if len(times) < 100:
         raise EstimationError(f"{pose}: {len(times)} samples within the joint states' span")
-    load = hand.pi + fit.pi
-    left = compensated(robot, load, np.zeros(6), fit.delay, joint_times, positions, times,
-                       wrenches)  # fmt: skip
+    along = regressors_along(robot, *joint_motion(joint_times, positions, times - fit.delay))
+    left = wrenches - along @ (hand.pi + fit.pi)
     left -= left.mean(axis=0)
     every = max(len(times) // _DRAW_SAMPLES, 1)
-    Y = regressors_along(robot, *joint_motion(joint_times, positions, times[::every] - fit.delay))
+    Y = along[::every]
     rng = np.random.default_rng(0)
     widened = fit.bound * max(1.0, fit.chi2 / fit.dof)
     shift = rng.multivariate_normal(np.zeros(10), widened, _DRAWS, method="eigh")
