@@ -55,12 +55,10 @@ from com_core.bags.reader import INCOMPLETE_TEXT, BagReading
 from com_core.contract import (
     ERROR,
     INTERNAL_ERROR,
-    OBJECT_PREFIX,
     OK,
     POSE_TOPIC,
-    TARE_PREFIX,
-    VERIFY_PREFIX,
     WARN,
+    WINDOW_PREFIXES,
     WRENCH_TOPIC,
 )
 from com_core.estimation.exploration import Exploration
@@ -327,11 +325,7 @@ def cut_short_reasons(exploration: Exploration, n_label: int, reading: BagReadin
 
 def last_window(exploration: Exploration) -> str:
     """The last window label that arrived, or what was there instead."""
-    windows = [
-        label
-        for _, label in exploration.labels
-        if label.startswith((TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX))
-    ]
+    windows = [label for _, label in exploration.labels if label.startswith(WINDOW_PREFIXES)]
     return windows[-1] if windows else "no window label (before the first window)"
 
 

@@ -84,6 +84,7 @@ from com_core.contract import (
     OK,
     POSE_TOPIC,
     ROBOT_DESCRIPTION_TOPIC,
+    STATIC_PREFIXES,
     TARE_PREFIX,
     VERIFY_PREFIX,
     WRENCH_TOPIC,
@@ -610,7 +611,8 @@ class SequencerNode(Node):
         hand = self._cached_hand(motion, excitation, estimator_cache)
         move = motion.motion_time(home, pick, self.arm.speed) + self.arm.settle
         motions = 3 if hand is None else 2
-        planned = 6 * move + motions * (period + EXCITATION_REST) + self.p("bias_dwell") + 1.2
+        planned = (6 * move + motions * (period + EXCITATION_REST) + self.p("bias_dwell")
+                   + 1.2)  # fmt: skip
         bag = self._start_bag(run_id, planned)
         if hand is not None:
             save_hand_motion(bag / HAND_MOTION_FILE, hand)  # the replay's
@@ -875,7 +877,7 @@ class SequencerNode(Node):
                 f"{LABEL_ACK_TIMEOUT:g} s: a reader that falls this far behind may miss it"
             )
         self._labels.append((stamp_ns, label))
-        if label.startswith((TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX)):
+        if label.startswith(STATIC_PREFIXES):
             self.get_logger().info(f"window {label} from t={stamp_ns * 1e-9:.3f} s")
 
     def _handshake(self) -> None:

@@ -52,12 +52,14 @@ __all__ = [
     "POSE_TOPIC",
     "ROBOT_DESCRIPTION_TOPIC",
     "SIM_PARAMETERS_SERVICE",
+    "STATIC_PREFIXES",
     "TARE_PREFIX",
     "TOPIC_TYPES",
     "TRUTH_MOVE_M",
     "TRUTH_TOPIC",
     "VERIFY_PREFIX",
     "WARN",
+    "WINDOW_PREFIXES",
     "WRENCH_TOPIC",
     "done_stamp",
     "heard_stamps",
@@ -158,6 +160,10 @@ MOTION_OBJECT = MOTION_PREFIX + "object"
 MOTION_VERIFY = MOTION_PREFIX + "verify"
 """Another motion with the object, that no fit uses: the compensated wrench is checked
 along it."""
+STATIC_PREFIXES = (TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX)
+"""The labels that open a static window."""
+WINDOW_PREFIXES = (*STATIC_PREFIXES, MOTION_PREFIX)
+"""The labels that open a static window or a motion's span."""
 MOVING = "moving"
 """Ends a window; the arm moves (also the handshake label)."""
 DONE = "done"
@@ -182,7 +188,7 @@ def done_stamp(labels: Sequence[tuple[int, str]]) -> int | None:
     """
     seen_window = False
     for stamp, label in labels:
-        if label.startswith((TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX, MOTION_PREFIX)):
+        if label.startswith(WINDOW_PREFIXES):
             seen_window = True
         elif label == DONE and seen_window:
             return stamp

@@ -17,7 +17,12 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from com_core.contract import MOTION_PREFIX, OBJECT_PREFIX, TARE_PREFIX, VERIFY_PREFIX
+from com_core.contract import (
+    MOTION_PREFIX,
+    OBJECT_PREFIX,
+    STATIC_PREFIXES,
+    TARE_PREFIX,
+)
 from com_core.estimation.errors import WindowError
 from com_core.estimation.inbox import Inbox, shorten
 from com_core.estimation.windows import Window, reduce_window
@@ -50,7 +55,7 @@ Segments = list[tuple[str, NDArray[np.float64]]]
 def spans(
     inbox: Inbox,
     until_ns: int | None = None,
-    prefixes: tuple[str, ...] = (TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX),
+    prefixes: tuple[str, ...] = STATIC_PREFIXES,
 ) -> dict[str, list[tuple[int, int]]]:
     """[start, stop) stamps (ns) of every window whose label starts with one of
     ``prefixes`` (the static windows: tare, object and verify), per label.

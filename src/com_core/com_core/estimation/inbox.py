@@ -33,10 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from com_core.contract import (
     CANCELLED,
-    MOTION_PREFIX,
-    OBJECT_PREFIX,
-    TARE_PREFIX,
-    VERIFY_PREFIX,
+    WINDOW_PREFIXES,
     done_stamp,
 )
 
@@ -214,8 +211,7 @@ class Inbox:
         """Before the first window label, keep only the last ``keep_s`` s (sensor time) of
         samples and joint states: the lead-in a first window may reach back into. A node
         that only compensates (no exploration running) then holds a bounded buffer."""
-        windows = (TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX, MOTION_PREFIX)
-        opened = any(label.startswith(windows) for _, label in self._labels)
+        opened = any(label.startswith(WINDOW_PREFIXES) for _, label in self._labels)
         if opened or self._last_stamp == _NO_STAMP:
             return
         cut = self._last_stamp - round(keep_s * 1e9)

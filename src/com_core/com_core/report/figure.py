@@ -44,8 +44,10 @@ from com_core.contract import (
     MOTION_VERIFY,
     OBJECT_PREFIX,
     POSE_TOPIC,
+    STATIC_PREFIXES,
     TARE_PREFIX,
     VERIFY_PREFIX,
+    WINDOW_PREFIXES,
     WRENCH_TOPIC,
 )
 from com_core.estimation.solution import noise_line, vector_value, verification_lines
@@ -136,7 +138,7 @@ def _windows(run: RunData) -> list[tuple[float, float, str]]:
     end = run.stamps[-1] if run.stamps.size else (run.labels[-1][0] if run.labels else 0)
     out = []
     for k, (start, label) in enumerate(run.labels):
-        if label.startswith((TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX, MOTION_PREFIX)):
+        if label.startswith(WINDOW_PREFIXES):
             stop = run.labels[k + 1][0] if k + 1 < len(run.labels) else max(end, start)
             out.append((start * 1e-9, stop * 1e-9, label))
     return out
@@ -274,7 +276,7 @@ _NOISE_LAGS = 60  # samples shown in the autocorrelation
 def _noise_segments(run: RunData) -> list[NDArray[np.float64]]:
     """The second halves (settled) of the empty hand's windows, else of every static
     window: (n, 6) each, N and N m."""
-    windows = _windows(run)
+    windows = [w for w in _windows(run) if w[2].startswith(STATIC_PREFIXES)]
     tares = [w for w in windows if w[2].startswith(TARE_PREFIX)] or windows
     t = run.stamps * 1e-9
     out = []
