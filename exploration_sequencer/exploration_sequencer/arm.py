@@ -18,6 +18,7 @@ from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from com_core.contract import ARM_COMMAND_TOPIC, HAND_COMMAND_TOPIC
+from com_core.planning.decisions import GRIPPER_TIME
 from com_core.planning.excitation import Excitation
 from com_core.robot.choreography import Choreography
 from com_core.robot.config import RobotConfig
@@ -168,5 +169,5 @@ class Arm:
         """Carry what the hand holds home, down to the stand, open, and back home."""
         self.move(home, "home")
         self.move(pick, "the stand", must_arrive=False)  # a shifted object may hit it
-        self.gripper(close=False, wait=0.6)
+        self.gripper(close=False, wait=GRIPPER_TIME)
         self.move(home, "home")

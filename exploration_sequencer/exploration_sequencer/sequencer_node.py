@@ -112,6 +112,7 @@ from com_core.inputs import problems, unwritable
 from com_core.planning.decisions import (
     BIAS_AFTER_SUFFIX,
     BIAS_WINDOW_SUFFIX,
+    GRIPPER_TIME,
     PlanInfeasible,
     Poses,
     RunSettings,
@@ -527,7 +528,7 @@ class SequencerNode(Node):
         self._enter("grasp and lift", "phase 2/4: grasp and lift")
         self.arm.move(home, "home")
         self.arm.move(pick, "the object")
-        self.arm.gripper(close=True, wait=0.6)
+        self.arm.gripper(close=True, wait=GRIPPER_TIME)
         self._check_grasp(home, tare_home, pick)
         self._enter("object pass", "phase 3/4: object pass")
         start = self.io.now_ns()
@@ -612,7 +613,7 @@ class SequencerNode(Node):
         move = motion.motion_time(home, pick, self.arm.speed) + self.arm.settle
         motions = 3 if hand is None else 2
         planned = (6 * move + motions * (period + EXCITATION_REST) + self.p("bias_dwell")
-                   + 1.2)  # fmt: skip
+                   + 2 * GRIPPER_TIME)  # fmt: skip
         bag = self._start_bag(run_id, planned)
         if hand is not None:
             save_hand_motion(bag / HAND_MOTION_FILE, hand)  # the replay's
@@ -627,7 +628,7 @@ class SequencerNode(Node):
             self._excite(MOTION_TARE, excitation)
         self._enter("grasp and lift", "phase 2/4: grasp and lift")
         self.arm.move(pick, "the object")
-        self.arm.gripper(close=True, wait=0.6)
+        self.arm.gripper(close=True, wait=GRIPPER_TIME)
         self._check_grasp(home, tare_home, pick)
         self._enter("object motion", "phase 3/4: the object along the excitation")
         end = self._excite(MOTION_OBJECT, excitation)
