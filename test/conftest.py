@@ -36,9 +36,11 @@ import pytest
 from com_core.contract import INTERNAL_ERROR
 from com_core.robot.config import read_robot_config, urdf_file
 from com_core.runtime.processes import STOP_SEQUENCE, executable, ros_args, stop
+from com_core.runtime.rosenv import keep_dds_local
 
 # Nothing in the test process may talk DDS beyond this machine.
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+keep_dds_local()
 
 WORKSPACE = Path(__file__).resolve().parents[1]
 PANDA = read_robot_config("panda")

@@ -6,8 +6,13 @@ import os
 import re
 import signal
 import threading
+from pathlib import Path
 
-__all__ = ["keep_dds_local", "start_refusal", "stop_on_signals"]
+__all__ = ["FASTDDS_PROFILES", "keep_dds_local", "start_refusal", "stop_on_signals"]
+
+FASTDDS_PROFILES = Path(__file__).with_name("fastdds_profiles.xml")
+"""The Fast DDS profiles this project's processes load: a service waits up to 2 s, not
+100 ms, for a new client's response reader before it answers (the file says why)."""
 
 
 def keep_dds_local(own_domain: bool = False) -> None:
@@ -17,9 +22,11 @@ def keep_dds_local(own_domain: bool = False) -> None:
     machines sets ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET explicitly; nothing multicasts
     off the machine by accident. ``own_domain`` (benchmarks and tools that start their
     own nodes) also picks a ROS_DOMAIN_ID from the process id when none is set, so
-    parallel runs do not cross-talk.
+    parallel runs do not cross-talk. Fast DDS loads ``FASTDDS_PROFILES`` unless the user
+    names a profiles file of their own.
     """
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(FASTDDS_PROFILES))
     if own_domain:
         os.environ.setdefault("ROS_DOMAIN_ID", str(os.getpid() % 100 + 1))
 
