@@ -177,6 +177,7 @@ DEMO_FLAGS = {
     "--max-tilt": SEQUENCER["max_tilt"],
     "--dwell": SEQUENCER["dwell"],
     "--target-sigma": SEQUENCER["target_com_sigma"],
+    "--motion-period": SEQUENCER["motion_period"],
     "--timeout": demo.TIMEOUT,
 }
 TEXT_FLAGS = {

@@ -125,6 +125,12 @@ def build_parser() -> argparse.ArgumentParser:
         "'motion' (a designed wrist motion: mass, COM and inertia)",
     )
     p.add_argument(
+        "--motion-period",
+        type=float,
+        help="s; with --excitation motion: each motion's period (default: the sequencer's, "
+        f"{SEQUENCER['motion_period'].default:g} s)",
+    )
+    p.add_argument(
         "--hold",
         action="store_true",
         help="end holding the object (the sequencer's release:=false) and show 1 s of the "
@@ -216,6 +222,7 @@ def node_parameters(
     } | {k: v for k, v in noise.items() if v > 0}  # none: it plans for its own until a tare
     for key, value in (
         ("excitation", args.excitation),
+        ("motion_period", args.motion_period),
         ("tilt", args.tilt),
         ("max_tilt", args.max_tilt),
         ("dwell", args.dwell),
@@ -239,6 +246,7 @@ FLAGS = {
     "dwell": "--dwell",
     "target_com_sigma": "--target-sigma",
     "excitation": "--excitation",
+    "motion_period": "--motion-period",
     "tilt_axes": "--axes",
     "bag_dir": "--bag-dir",
 }
@@ -470,7 +478,8 @@ def in_motion(node, executor, compensated: list, urdf: str, args, values: dict) 
     config = read_robot_config(args.robot)
     motion = Choreography.of(config, urdf)
     home = [motion.home_positions()[name] for name in motion.robot.joint_names]
-    excitation = design_excitation(motion.robot, home, config.arm_joints[-3:], period=3.0,
+    period = args.motion_period or SEQUENCER["motion_period"].default  # the run's
+    excitation = design_excitation(motion.robot, home, config.arm_joints[-3:], period=period,
                                    iterations=20, seed=THIRD_MOTION_SEED)  # fmt: skip
     publisher = node.create_publisher(JointTrajectory, ARM_COMMAND_TOPIC, 10)
     compensated.clear()
