@@ -395,8 +395,9 @@ def sequencer_node() -> list[str]:
         + ". A run that dies leaves a bag that opens up to ~0.1 s before the end "
         "([bag_writer.md](bag_writer.md)). Beside it: `tare.json` (the tare entry a run "
         "reused), `robot.yaml` (its robot configuration), `report.png` (the wrench traces "
-        "with the windows, and the estimate against the ground truth with 1- and 3-sigma "
-        "bars) and, for an estimate that became the payload, the payload files.",
+        "with the windows and motions, and the estimate against the ground truth with 1- "
+        "and 3-sigma bars; for a run in motion also the inertia, and the wrench fitted along "
+        "the motions) and, for an estimate that became the payload, the payload files.",
         "",
         "### Services",
         "",

@@ -282,3 +282,25 @@ def test_the_numbers_show_the_verification_wrapped_to_the_table():
     assert lines[0].startswith("verification 'diagonal': f (0.003, 0.001, -0.007)")
     assert "2.68 and 1.53 sigma (4.03 allowed)" in " ".join(lines)
     assert all(len(line) <= 64 for line in lines)
+
+
+def test_a_run_in_motion_shows_its_inertia_against_the_truth_held():
+    """The inertia's six elements of the estimator's status (kg m^2, shown in kg cm^2),
+    each against the truth's element of the same name, with its sigma; none for a run
+    without them (static)."""
+    from com_core.report.figure import _inertia_rows
+    from com_core.report.run import Inertia, RunData
+
+    values = {
+        "inertia": "2e-4,1e-6,-2e-6,3e-4,4e-6,3.5e-4",
+        "sigma_inertia": "1e-5,2e-5,3e-5,4e-5,5e-5,6e-5",
+    }
+    held = np.array([2.1e-4, 0.0, 0.0, 3.1e-4, 0.0, 3.4e-4])
+    truth = Inertia(0, 0, 0.5, np.zeros(3), held)
+    run = RunData("motion", diagnostic={"level": 0, "message": "", "values": values}, truth=truth)
+    rows = _inertia_rows(run)
+    assert [row.name for row in rows] == ["Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz"]
+    np.testing.assert_allclose([r.error for r in rows], [-0.1, 0.01, -0.02, -0.1, 0.04, 0.1])
+    np.testing.assert_allclose([r.sigma for r in rows], [0.1, 0.2, 0.3, 0.4, 0.5, 0.6])
+    static = RunData("static", diagnostic={"level": 0, "message": "", "values": {"mass": "0.5"}})
+    assert _inertia_rows(static) == []

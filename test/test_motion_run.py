@@ -82,7 +82,11 @@ def test_the_demo_in_motion_gives_the_inertia_within_its_error_bars_and_replays(
     )
     assert 'ixx="0"' not in (bag / "payload.urdf").read_text()
 
-    values = read_run(bag).diagnostic["values"]
+    run = read_run(bag)  # what the report shows: the truth's inertia as the demo printed it
+    printed = numbers(re.search(r"truth \(.*?\)", out).group(0))
+    np.testing.assert_allclose(1e4 * run.truth.inertia, printed, atol=0.0051)
+    assert (bag / "report.png").is_file()
+    values = run.diagnostic["values"]
     offline = replay_json(bag, ros_env)
     assert offline["excitation"] == "motion" and offline["status"] == "OK", offline
     node = {k.split(" ", 1)[1]: int(v) for k, v in values.items() if k.startswith("samples ")}

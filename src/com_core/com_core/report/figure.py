@@ -8,9 +8,10 @@
   marked (label semantics as in ``com_core.contract``);
 - right: the estimate against the ground truth, estimate minus truth (0 = truth) for
   the mass (g) and each COM axis (mm, ``ft_sensor``) with 1-sigma (thick) and 3-sigma
-  (thin) error bars; without ground truth the estimate itself with its error bars; with
-  no estimate (ERROR) the reason, large; under it a table of every number, the status,
-  reason, method, chi-square, poses, and which topics the bag lacks;
+  (thin) error bars; without ground truth the estimate itself with its error bars; for a
+  run in motion, under them, the inertia's six elements about the COM (kg cm^2) the
+  same way; with no estimate (ERROR) the reason, large; under it a table of every
+  number, the status, reason, method, chi-square, poses, and which topics the bag lacks;
 - bottom left: the sensor's noise, the autocorrelation of the empty hand's windows (all
   static windows when there are none) per axis, each window less its mean, against the
   AR model the estimator learns from them (``com_core.sensing.noise``); for a run in
@@ -52,6 +53,7 @@ from com_core.contract import (
 )
 from com_core.estimation.solution import noise_line, vector_value, verification_lines
 from com_core.report.run import RunData, motion_fitted, read_run
+from com_core.robot.dynamics import INERTIA_ELEMENTS
 from com_core.sensing.noise import learn_noise
 
 __all__ = ["write_report"]
@@ -126,6 +128,21 @@ def _rows(run: RunData) -> list[_Row]:
             )
         )
     return rows
+
+
+def _inertia_rows(run: RunData) -> list[_Row]:
+    """A run in motion's six inertia elements about the COM (kg cm^2, ``ft_sensor``) with
+    sigma, and truth when known; [] for a run without them."""
+    values = run.diagnostic["values"] if run.diagnostic else {}
+    estimate = vector_value(values, "inertia") or []
+    sigma = vector_value(values, "sigma_inertia") or []
+    if not len(estimate) == len(sigma) == len(INERTIA_ELEMENTS):
+        return []
+    truth = [None] * len(estimate) if run.truth is None else (1e4 * run.truth.inertia).tolist()
+    return [
+        _Row(f"I{name[1:]}", "kg cm2", 1e4 * e, 1e4 * s, t)
+        for name, e, s, t in zip(INERTIA_ELEMENTS, estimate, sigma, truth, strict=True)
+    ]
 
 
 def _scaled(v: float | None, k: float) -> float | None:
@@ -376,6 +393,35 @@ def _bottom_edge(fig, artist, renderer) -> float:
     return fig.transFigure.inverted().transform(artist.get_window_extent(renderer).p0)[1]
 
 
+def _error_bar(ax, x: float, y: float, sigma: float | None, colour: str) -> None:
+    """A point at (``x``, ``y``) with its 1-sigma (thick) and 3-sigma (thin) bars."""
+    if sigma is not None:
+        ax.errorbar(x, y, yerr=3 * sigma, fmt="none", ecolor=colour, elinewidth=1.2,
+                    capsize=12, capthick=1.2, alpha=0.6)  # fmt: skip
+        ax.errorbar(x, y, yerr=sigma, fmt="none", ecolor=colour, elinewidth=9, capsize=0,
+                    alpha=0.85)  # fmt: skip
+    ax.plot(x, y, "o", color="black", ms=6, zorder=5)
+
+
+def _draw_inertia(fig, rows: list[_Row], rect: tuple[float, float, float, float]) -> None:
+    """The inertia's six elements (kg cm^2) on one scale, as ``_draw_bars`` draws a row:
+    estimate minus truth (or the estimate) with 1- and 3-sigma bars, in ``rect``."""
+    from matplotlib.ticker import MaxNLocator
+
+    with_truth = rows[0].truth is not None
+    ax = fig.add_axes(rect)
+    for k, row in enumerate(rows):
+        _error_bar(ax, k, row.error if with_truth else row.estimate, row.sigma, "#7b1fa2")
+    if with_truth:
+        ax.axhline(0.0, color="#2e7d32", lw=1.5, zorder=1)
+    ax.set_xlim(-0.6, len(rows) - 0.4)
+    ax.set_xticks(range(len(rows)), [row.name for row in rows], fontsize=10)
+    ax.yaxis.set_major_locator(MaxNLocator(4))
+    ax.grid(True, axis="y", color="#dddddd", lw=0.6)
+    what = "estimate - truth" if with_truth else "estimate"
+    ax.set_title(f"inertia about the COM, {what} (kg cm$^2$, ft_sensor)", fontsize=10)
+
+
 def _draw_bars(fig, rows: list[_Row], rect: tuple[float, float, float, float]) -> None:
     """Mass and COM panels: error (or value) with 1-sigma and 3-sigma bars, in ``rect``."""
     from matplotlib.ticker import MaxNLocator
@@ -417,29 +463,7 @@ def _draw_bars(fig, rows: list[_Row], rect: tuple[float, float, float, float]) -
         x += w + (gaps[k] if k < 3 else 0.0)
         colour = "#555555" if k == 0 else _AXIS_COLOURS[k - 1]
         y = row.error if with_truth else row.estimate
-        if row.sigma is not None:
-            ax.errorbar(
-                0,
-                y,
-                yerr=3 * row.sigma,
-                fmt="none",
-                ecolor=colour,
-                elinewidth=1.2,
-                capsize=12,
-                capthick=1.2,
-                alpha=0.6,
-            )
-            ax.errorbar(
-                0,
-                y,
-                yerr=row.sigma,
-                fmt="none",
-                ecolor=colour,
-                elinewidth=9,
-                capsize=0,
-                alpha=0.85,
-            )
-        ax.plot(0, y, "o", color="black", ms=6, zorder=5)
+        _error_bar(ax, 0, y, row.sigma, colour)
         if with_truth:
             ax.axhline(0.0, color="#2e7d32", lw=1.5, zorder=1)
         ax.set_xlim(-1, 1)
@@ -541,7 +565,7 @@ def _summary_lines(run: RunData, rows: list[_Row]) -> list[str]:
     lines.append(f"wrenches   {n_wrench} messages over {span:.1f} s")
     if samples:
         lines.append(f"           {samples} samples used by the estimator")
-    lines.append(f"labels     {len(run.labels)}, static windows {len(_windows(run))}")
+    lines.append(f"labels     {len(run.labels)}, windows and motions {len(_windows(run))}")
     lines.append("")
     lines += textwrap.wrap(f"truth      {run.truth_note}", 64, subsequent_indent=" " * 11)
     if run.truth is not None and not rows:
@@ -711,7 +735,11 @@ def write_report(bag: Path | str, png: Path | str | None = None) -> Path:
         _draw_motion_fit(fig, run, fitted, (0.055, 0.06, 0.54, 0.16))
     else:
         _draw_noise(fig, run, (0.055, 0.06, 0.54, 0.16))
-    if rows:
+    inertia = _inertia_rows(run)
+    if rows and inertia:
+        _draw_bars(fig, rows, (0.69, 0.645, 0.295, 0.155))
+        _draw_inertia(fig, inertia, (0.69, 0.485, 0.295, 0.09))
+    elif rows:
         _draw_bars(fig, rows, (0.69, 0.5, 0.295, 0.3))
     else:
         _draw_no_estimate(fig, run, (0.655, 0.5, 0.335, 0.36))

@@ -37,6 +37,7 @@ from com_core.contract import (
     done_stamp,
     status_of,
 )
+from com_core.robot.dynamics import INERTIA_ELEMENTS
 
 __all__ = ["RUN_BAG_TOPICS", "Inertia", "RunData", "motion_fitted", "read_run"]
 
@@ -55,7 +56,8 @@ _BATCH = 16384
 
 @dataclass(frozen=True)
 class Inertia:
-    """One geometry_msgs/InertiaStamped: mass (kg) and COM (shape (3,), m, ``ft_sensor``).
+    """One geometry_msgs/InertiaStamped: mass (kg), COM (shape (3,), m, ``ft_sensor``) and
+    the inertia about the COM (shape (6,), kg m^2, its ``robot.dynamics.INERTIA_ELEMENTS``).
 
     ``stamp_ns`` is the header stamp (sim time), ``log_ns`` the bag's log time.
     """
@@ -64,6 +66,7 @@ class Inertia:
     log_ns: int
     mass: float
     com: NDArray[np.float64]
+    inertia: NDArray[np.float64] = field(default_factory=lambda: np.zeros(6))
 
 
 @dataclass
@@ -152,7 +155,8 @@ def read_run(bag: Path | str) -> RunData:
         msg = typestore.deserialize_cdr(raw, "geometry_msgs/msg/InertiaStamped")
         c = msg.inertia.com
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-        return Inertia(stamp, log_ns, float(msg.inertia.m), np.array([c.x, c.y, c.z]))
+        elements = np.array([getattr(msg.inertia, name) for name in INERTIA_ELEMENTS])
+        return Inertia(stamp, log_ns, float(msg.inertia.m), np.array([c.x, c.y, c.z]), elements)
 
     try:
         for topic, msgtype, log_ns, raw in read_raw(bag, RUN_BAG_TOPICS):
