@@ -4,66 +4,25 @@ simulator in process through the realistic sensor (no ROS)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from com_core.contract import DONE, MOTION_OBJECT, MOTION_TARE, MOTION_VERIFY, OK, WARN
+from com_core.contract import MOTION_VERIFY, OK, WARN
 from com_core.estimation.cutting import motion_spans
-from com_core.estimation.exploration import Exploration
 from com_core.estimation.motion import compensated, load_vector, principal_moments
 from com_core.estimation.motion_solution import joint_arrays
 from com_core.estimation.settings import exploration_from
-from com_core.estimation.solution import Solution
 from com_core.payload.compensation import Compensator
 from com_core.payload.model import payload_from_solution
 from com_core.planning.excitation import design_excitation
 from com_core.robot.dynamics import inertial_parameters
-from com_core.robot.model import RobotModel
 from com_core.sensing.sensor_profiles import PROFILES
-from wrench_sim.config import SimConfig
-from wrench_sim.physics import TIME_STEP, ArmWorld
-from wrench_sim.sensor import WrenchSensor, profile_sensor
-from wrench_sim.studies import feed, grasp, hold_still, run_excitation
+from wrench_sim.physics import TIME_STEP
+from wrench_sim.studies import explore_in_motion
 
-JOINT_EVERY = 10  # joint states at 100 Hz
-DESIGN = {"period": 3.0, "iterations": 40}
-
-
-@dataclass
-class Run:
-    """One run in process: the world still holding the object, its sensor and robot
-    model, the exploration fed and its solution."""
-
-    world: ArmWorld
-    sensor: WrenchSensor
-    model: RobotModel
-    exploration: Exploration
-    solution: Solution
-
-
-def explore_in_motion(calibration_accuracy: float, seed: int) -> Run:
-    """The empty hand at rest and in motion, the grasp, the object's motion and another
-    motion, through the realistic sensor with ``calibration_accuracy``; solved from its
-    labels. The caller closes ``Run.world``."""
-    profile = PROFILES["realistic"].with_overrides(calibration_accuracy=calibration_accuracy)
-    sensor = profile_sensor(profile, seed=seed, serial=seed)
-    world = ArmWorld(SimConfig(object_mass=0.5, seed=3))
-    robot = world.config.robot
-    model = RobotModel(world.urdf_text, robot.sensor_frame)
-    excitation = design_excitation(model, robot.home_joints, robot.arm_joints[-3:], **DESIGN)
-    other = design_excitation(model, robot.home_joints, robot.arm_joints[-3:], seed=5, **DESIGN)
-    settings = {"information": "kinematics", "accuracy": calibration_accuracy}
-    exploration = exploration_from(settings, world.urdf_text)
-    world.move_arm(robot.home_joints, 1.0)
-    feed(exploration, world, "tare/home", hold_still(world, sensor, 2.0, JOINT_EVERY))
-    feed(exploration, world, MOTION_TARE, run_excitation(world, excitation, sensor, JOINT_EVERY))
-    grasp(world)
-    feed(exploration, world, MOTION_OBJECT, run_excitation(world, excitation, sensor, JOINT_EVERY))
-    feed(exploration, world, MOTION_VERIFY, run_excitation(world, other, sensor, JOINT_EVERY))
-    exploration.add_label(round(world.time * 1e9), DONE)
-    return Run(world, sensor, model, exploration, exploration.solve())
+JOINT_EVERY = 10  # joint states at 100 Hz: explore_in_motion's
 
 
 @pytest.fixture(scope="module")

@@ -3,16 +3,32 @@ through a sensor, as offline studies (``bench/motion.py``) and tests run them.""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import NDArray
 
-from com_core.contract import MOVING
+from com_core.contract import DONE, MOTION_OBJECT, MOTION_TARE, MOTION_VERIFY, MOVING
+from com_core.estimation.exploration import Exploration
 from com_core.estimation.inbox import Inbox
-from com_core.planning.excitation import Excitation
+from com_core.estimation.settings import exploration_from
+from com_core.estimation.solution import Solution
+from com_core.planning.excitation import Excitation, design_excitation
+from com_core.robot.model import RobotModel
+from com_core.sensing.sensor_profiles import PROFILES
+from wrench_sim.config import SimConfig
 from wrench_sim.physics import ArmWorld
-from wrench_sim.sensor import WrenchSensor
+from wrench_sim.sensor import WrenchSensor, profile_sensor
 
-__all__ = ["feed", "grasp", "hold_still", "record_until", "run_excitation"]
+__all__ = [
+    "MotionRun",
+    "explore_in_motion",
+    "feed",
+    "grasp",
+    "hold_still",
+    "record_until",
+    "run_excitation",
+]
 
 
 def grasp(world: ArmWorld) -> None:
@@ -76,3 +92,41 @@ def feed(
     for t, q in zip(joint_times, positions, strict=True):
         inbox.add_joint_state(round(t * 1e9), names, list(q))
     inbox.add_label(int(ns[-1]) + 1, MOVING)
+
+
+@dataclass
+class MotionRun:
+    """One exploration in motion in process: the world still holding the object, its
+    sensor and robot model, the exploration fed and its solution."""
+
+    world: ArmWorld
+    sensor: WrenchSensor
+    model: RobotModel
+    exploration: Exploration
+    solution: Solution
+
+
+def explore_in_motion(calibration_accuracy: float, seed: int, joint_every: int = 10) -> MotionRun:
+    """As the sequencer runs ``excitation: motion`` on the Panda with a 0.5 kg box: the
+    empty hand at rest and along the D-optimal 3 s excitation, the grasp, the object along
+    it and along another design; through the realistic sensor of serial ``seed`` with
+    ``calibration_accuracy``, joint states every ``joint_every`` steps (10: 100 Hz);
+    solved from its labels (``Exploration.solve``). The caller closes ``MotionRun.world``."""
+    profile = PROFILES["realistic"].with_overrides(calibration_accuracy=calibration_accuracy)
+    sensor = profile_sensor(profile, seed=seed, serial=seed)
+    world = ArmWorld(SimConfig(object_mass=0.5, seed=3))
+    robot = world.config.robot
+    model = RobotModel(world.urdf_text, robot.sensor_frame)
+    wrist = robot.arm_joints[-3:]
+    excitation = design_excitation(model, robot.home_joints, wrist, period=3.0, iterations=40)
+    other = design_excitation(model, robot.home_joints, wrist, period=3.0, iterations=40, seed=5)
+    settings = {"information": "kinematics", "accuracy": calibration_accuracy}
+    exploration = exploration_from(settings, world.urdf_text)
+    world.move_arm(robot.home_joints, 1.0)
+    feed(exploration, world, "tare/home", hold_still(world, sensor, 2.0, joint_every))
+    feed(exploration, world, MOTION_TARE, run_excitation(world, excitation, sensor, joint_every))
+    grasp(world)
+    feed(exploration, world, MOTION_OBJECT, run_excitation(world, excitation, sensor, joint_every))
+    feed(exploration, world, MOTION_VERIFY, run_excitation(world, other, sensor, joint_every))
+    exploration.add_label(round(world.time * 1e9), DONE)
+    return MotionRun(world, sensor, model, exploration, exploration.solve())

@@ -59,8 +59,8 @@ STATIC, MOTION = "static", "motion"
 EXCITATIONS = (STATIC, MOTION)
 """How an exploration excites the load: windows at rest, or the wrist's motion."""
 MAX_CHI2_PER_DOF = 1.5
-"""The object's fit is one rigid load while chi^2/dof stays below this (1.01-1.10 measured
-over 13 sensors with the realistic profile)."""
+"""The object's fit is one rigid load while chi^2/dof stays below this (0.99-1.10 measured
+over 73 sensors with the realistic profile)."""
 _MIN_JOINT_STATES = 10  # a motion's joint states, at the least
 _DRAWS = 2000  # of the fit's and the calibration's errors, for the check's allowance
 _DRAW_SAMPLES = 300  # samples of the motion each draw is evaluated at
