@@ -304,3 +304,13 @@ def test_a_run_in_motion_shows_its_inertia_against_the_truth_held():
     np.testing.assert_allclose([r.sigma for r in rows], [0.1, 0.2, 0.3, 0.4, 0.5, 0.6])
     static = RunData("static", diagnostic={"level": 0, "message": "", "values": {"mass": "0.5"}})
     assert _inertia_rows(static) == []
+
+
+def test_the_fits_quality_is_its_p_value_at_rest_and_its_chi2_per_dof_in_motion():
+    from com_core.report.figure import _fit_quality
+
+    at_rest = {"chi2": "32.81", "dof": "41", "p_value": "0.815"}
+    assert _fit_quality(at_rest) == "32.81 / 41,  p = 0.815"
+    in_motion = {"chi2": "21577.18", "dof": "19774", "p_value": "nan", "excitation": "motion"}
+    assert _fit_quality(in_motion) == "1.091 (one rigid load up to 1.5)"
+    assert _fit_quality({"mass": "0.5"}) is None

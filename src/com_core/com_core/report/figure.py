@@ -51,6 +51,7 @@ from com_core.contract import (
     WINDOW_PREFIXES,
     WRENCH_TOPIC,
 )
+from com_core.estimation.motion_solution import MAX_CHI2_PER_DOF, MOTION
 from com_core.estimation.solution import noise_line, vector_value, verification_lines
 from com_core.report.run import RunData, motion_fitted, read_run
 from com_core.robot.dynamics import INERTIA_ELEMENTS
@@ -545,11 +546,8 @@ def _summary_lines(run: RunData, rows: list[_Row]) -> list[str]:
                 f"{_fmt(r.truth, '.3f'):>10}{_fmt(r.error, '+.3f'):>9}{_fmt(ratio, '+.2f'):>7}"
             )
         lines.append("")
-    if "dof" in values:
-        lines.append(
-            f"chi2/dof   {_fmt(_value(values, 'chi2'), '.2f')} / {values['dof']}"
-            f",  p = {_fmt(_value(values, 'p_value'), '.3g')}"
-        )
+    if quality := _fit_quality(values):
+        lines.append(f"chi2/dof   {quality}")
     lines += _kinematic_lines(values)
     suspect = values.get("suspect_pose")
     if suspect not in (None, "", "None"):
@@ -583,6 +581,18 @@ def _summary_lines(run: RunData, rows: list[_Row]) -> list[str]:
     if run.estimate is None and rows:
         lines.append(f"estimate   from {DIAGNOSTICS_TOPIC} ({ESTIMATE_TOPIC} missing)")
     return lines
+
+
+def _fit_quality(values: dict) -> str | None:
+    """The fit's chi^2 over its degrees of freedom and its test, after "chi2/dof": at rest
+    the chi-square's p-value; in motion chi^2/dof against its limit (no p-value:
+    ``motion_solution.MAX_CHI2_PER_DOF``); None without them."""
+    chi2, dof = _value(values, "chi2"), _value(values, "dof")
+    if chi2 is None or not dof:
+        return None
+    if values.get("excitation") == MOTION:
+        return f"{chi2 / dof:.3f} (one rigid load up to {MAX_CHI2_PER_DOF:g})"
+    return f"{chi2:.2f} / {dof:.0f},  p = {_fmt(_value(values, 'p_value'), '.3g')}"
 
 
 def _kinematic_lines(values: dict) -> list[str]:
@@ -674,10 +684,7 @@ def _draw_banner(fig, run: RunData) -> None:
         f"method {values['method']}" if "method" in values else None,
         f"information {values['information']}" if "information" in values else None,
         f"{len(poses)} poses" if poses else None,
-        f"chi2/dof {_fmt(_value(values, 'chi2'), '.2f')} / {values['dof']}"
-        if "dof" in values
-        else None,
-        f"p = {_fmt(_value(values, 'p_value'), '.3g')}" if "p_value" in values else None,
+        f"chi2/dof {quality}" if (quality := _fit_quality(values)) else None,
     ]
     line = fig.text(
         _right_edge(fig, badge, renderer) + 0.02,
