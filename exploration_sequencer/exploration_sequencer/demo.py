@@ -507,7 +507,9 @@ def show_progress(message) -> None:
     """One line per feedback that says something new: phase, percentage, time left and,
     once object windows closed, the live COM sigma."""
     f = message.feedback
-    line = f"progress: {f.progress:4.0%} {f.phase}, {f.time_remaining:.0f} s (sim) left"
+    line = f"progress: {f.progress:4.0%} {f.phase}"
+    if f.progress > 0:  # a plan to count from
+        line += f", {f.time_remaining:.0f} s (sim) left"
     if all(math.isfinite(s) for s in f.sigma_com):
         line += f"; COM sigma so far ({', '.join(f'{s * 1e3:.2f}' for s in f.sigma_com)}) mm"
     if line != getattr(show_progress, "last", ""):
