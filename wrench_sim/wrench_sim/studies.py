@@ -1,5 +1,6 @@
 """The simulator driven from a script, without ROS: the grasp and an excitation read
-through a sensor, as offline studies (``bench/motion.py``) and tests run them."""
+through a sensor, and a whole exploration in motion, as offline studies
+(``bench/motion.py``, ``bench/motion_check.py``) and tests run them."""
 
 from __future__ import annotations
 
