@@ -133,18 +133,10 @@ class WrenchSensor:
             normal, signal = self._coloured, self._signal
         else:
             self._coloured = self._signal = None
-        if self.drift is not None:
-            signal = signal + _uncalibrated(model, self.drift.at(t))
-        reading = model.apply(signal, normal)
+        drift = None if self.drift is None else self.drift.at(t)
+        reading = model.apply(signal, normal, drift)
         self.saturated = bool(model.saturated(reading).any())
         return reading
-
-
-def _uncalibrated(model: SensorModel, bias: NDArray[np.float64]) -> NDArray[np.float64]:
-    """A bias added before ``apply``'s calibration, so that it reaches the reading as is."""
-    if model.calibration is None:
-        return bias
-    return np.linalg.solve(model.calibration, bias)
 
 
 def profile_calibration(profile: SensorProfile, serial: int) -> NDArray[np.float64] | None:

@@ -35,6 +35,9 @@ class Vibration:
             if not 0.0 <= zeta < 1.0:
                 raise ValueError(f"vibration damping {zeta} must be in [0, 1)")
         self.modes = [(2.0 * math.pi * hz, zeta) for hz, zeta in modes]
+        # w^2 and 2 zeta w, a column each for the (modes, 3) state
+        self._stiffness = np.array([w * w for w, _ in self.modes]).reshape(-1, 1)
+        self._damping = np.array([2.0 * zeta * w for w, zeta in self.modes]).reshape(-1, 1)
         self.dt = dt
         self.gain = gain
         self._x = np.zeros((len(modes), 3))
@@ -56,10 +59,7 @@ class Vibration:
             for k, (w, _) in enumerate(self.modes):
                 self._v[k] += amplitude / w * self._direction
             self._peak = 0.0
-        out = np.zeros(3)
-        for k, (w, zeta) in enumerate(self.modes):
-            accel = -2.0 * zeta * w * self._v[k] - w * w * self._x[k]
-            self._v[k] += accel * self.dt
-            self._x[k] += self._v[k] * self.dt
-            out += accel
-        return out
+        accel = -self._damping * self._v - self._stiffness * self._x  # (modes, 3)
+        self._v += accel * self.dt
+        self._x += self._v * self.dt
+        return accel.sum(axis=0)

@@ -216,9 +216,12 @@ class SensorModel:
                 normals[t] = self.phi * normals[t - 1] + scale * normals[t]
         return self.apply(w, normals)
 
-    def apply(self, wrench: ArrayLike, normals: ArrayLike) -> NDArray[np.float64]:
+    def apply(
+        self, wrench: ArrayLike, normals: ArrayLike, drift: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
         """``measure`` with the unit noise given (same shape as ``wrench``; already
-        coloured by ``phi`` for a correlated sensor).
+        coloured by ``phi`` for a correlated sensor), and ``drift`` (6,), N and N m, a bias
+        beyond ``bias`` (a warm-up, a random walk) added as it is.
 
         For callers that draw their noise in blocks (one sample at a time at 1 kHz).
         """
@@ -226,6 +229,8 @@ class SensorModel:
         if self.calibration is not None:
             w = w @ self.calibration.T
         reading = w + self.bias + normals * self.sigma
+        if drift is not None:
+            reading = reading + drift
         if self._quantised:
             q = np.where(self.resolution > 0, self.resolution, 1.0)
             reading = np.where(self.resolution > 0, np.round(reading / q) * q, reading)
