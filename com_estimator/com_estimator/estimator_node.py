@@ -232,24 +232,33 @@ class EstimatorNode(Node):
             self.get_logger().error(f"solve failed: {why}\n{traceback.format_exc()}")
             return Solution(ERROR, why, self._param("method"))
 
+    def _keep_hand_motion(self, solution: Solution, cache: str) -> None:
+        """Save the empty hand's motion fit of ``solution`` (usable, in motion, the empty
+        hand moved) beside the tare cache ``cache``, unless it holds that motion's already."""
+        entry = hand_motion_of(
+            self._exploration, solution.motion if solution.usable else None,
+            self._exploration.robot, self._param("hand_id"),
+        )  # fmt: skip
+        if entry is None:
+            return
+        path = hand_motion_path(cache)
+        saved = load_hand_motion(path)
+        if saved is not None and saved.stamp_ns == entry.stamp_ns:
+            return
+        try:
+            save_hand_motion(path, entry)
+            self.get_logger().info(f"the empty hand's motion fit saved beside {cache}")
+        except OSError as exc:
+            self.get_logger().error(f"the empty hand's motion fit not saved: {exc}")
+
     def _solve(self, until_ns: int) -> Solution:
         """Solve the current exploration and publish it (``_publish``); the empty hand's
         motion fit of a usable exploration in motion goes to the cache beside the tare
         cache (``hand_motion``), once per motion (a later ~/solve of the same run does
         not make it younger)."""
         solution = self._solution(until_ns)
-        cache = self._param("tare_cache")
-        entry = hand_motion_of(
-            self._exploration, solution.motion if solution.usable else None,
-            self._exploration.robot, self._param("hand_id"),
-        )  # fmt: skip
-        saved = load_hand_motion(hand_motion_path(cache)) if cache and entry else None
-        if cache and entry is not None and (saved is None or saved.stamp_ns != entry.stamp_ns):
-            try:
-                save_hand_motion(hand_motion_path(cache), entry)
-                self.get_logger().info(f"the empty hand's motion fit saved beside {cache}")
-            except OSError as exc:
-                self.get_logger().error(f"the empty hand's motion fit not saved: {exc}")
+        if cache := self._param("tare_cache"):
+            self._keep_hand_motion(solution, cache)
         payload = self._payload_of(solution)
         if payload is not None:
             self._payload, self._payload_source = payload, f"estimate of {payload.time}"

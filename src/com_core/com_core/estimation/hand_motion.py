@@ -61,6 +61,16 @@ class HandMotion:
         """s since it was saved."""
         return time.time() - self.saved
 
+    def other_hand(self, hand_id: str, urdf_sha256: str) -> str:
+        """'' when it is of the hand ``hand_id`` on the robot model of URDF
+        ``urdf_sha256``; else which differs."""
+        if self.hand_id != hand_id:
+            return f"it is of another hand ({self.hand_id!r}, this run's {hand_id!r})"
+        if self.urdf_sha256 != urdf_sha256:
+            return (f"it is of another robot model ({self.urdf_sha256[:12]!r}, this run's "
+                    f"{urdf_sha256[:12]!r})")  # fmt: skip
+        return ""
+
     def serves(
         self,
         hand_id: str,
@@ -71,12 +81,8 @@ class HandMotion:
         """'' when it serves a run of ``hand_id`` on that model whose motion is commanded
         to ``path(t)`` (rad, s from its start; ``joint_names``' positions), within
         ``PATH_TOLERANCE`` of the kept path, no older than ``max_age`` s; else why not."""
-        for what, ours, theirs in (
-            ("hand", self.hand_id, hand_id),
-            ("robot model", self.urdf_sha256[:12], urdf_sha256[:12]),
-        ):
-            if ours != theirs:
-                return f"it is of another {what} ({ours!r}, this run's {theirs!r})"
+        if other := self.other_hand(hand_id, urdf_sha256):
+            return other
         apart = float(np.max(np.abs(path(self.times) - self.positions)))
         if not apart <= PATH_TOLERANCE:
             return f"it is of another motion ({apart:.3f} rad apart)"

@@ -214,11 +214,8 @@ def use_cached_tares(exploration: Exploration, path: str | Path) -> None:
 def use_cached_hand_motion(exploration: Exploration, path: str | Path, hand_id: str) -> None:
     """Give ``exploration`` the empty hand's motion fit in the file ``path``
     (``hand_motion``) when it is of ``hand_id`` and of its robot model; else none."""
-    entry = load_hand_motion(path)
-    robot = exploration.robot
+    entry, robot = load_hand_motion(path), exploration.robot
     fits = entry is not None and robot is not None
     exploration.hand_motion = (
-        entry.fit
-        if fits and entry.hand_id == hand_id and entry.urdf_sha256 == robot.urdf_sha256
-        else None
+        entry.fit if fits and not entry.other_hand(hand_id, robot.urdf_sha256) else None
     )
