@@ -416,7 +416,9 @@ def sequencer_node() -> list[str]:
         "`python -m exploration_sequencer.demo` (`make demo ARGS=...`) starts the three "
         "nodes as processes, calls `~/explore`, prints the progress and a summary (estimate, "
         "sigma, truth, error, time, bag and report paths) and stops the nodes, the sequencer "
-        "first: Ctrl-C cancels the run cleanly; `--help` lists its options.",
+        "first: Ctrl-C, SIGTERM and SIGHUP cancel the run cleanly; a node whose demo died "
+        "(SIGKILL) stops on its own, as on Ctrl-C, the sequencer before the others "
+        "(`com_core.runtime.lifeline`); `--help` lists its options.",
         "",
     ]
 

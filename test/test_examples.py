@@ -7,6 +7,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 from conftest import WORKSPACE
 
 EXAMPLES = WORKSPACE / "examples"
@@ -60,3 +61,18 @@ def test_compensate_leaves_the_push_alone():
     for f, tau in contacts:
         np.testing.assert_allclose([float(v) for v in f.split()], [2.0, 0.0, 0.0], atol=1e-6)
         np.testing.assert_allclose([float(v) for v in tau.split()], 0.0, atol=1e-6)
+
+
+@pytest.mark.system
+def test_the_action_client_without_the_nodes_says_what_it_waits_for_and_gives_up(ros_env):
+    done = subprocess.run(
+        [sys.executable, str(EXAMPLES / "explore_action.py"), "--wait", "1"],
+        env=ros_env,  # a domain of its own: no sequencer on it
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 1, done.stdout + done.stderr
+    action = "the action server /exploration_sequencer/explore"
+    assert done.stdout == f"waiting up to 1 s for {action}\n", done.stdout
+    assert done.stderr.startswith("no action server /exploration_sequencer/explore after 1 s: ")

@@ -104,6 +104,7 @@ from com_core.payload.model import Payload, PayloadError, payload_from_solution
 from com_core.robot.config import default_robot_config
 from com_core.robot.dynamics import INERTIA_ELEMENTS, inertia_elements
 from com_core.robot.model import RobotModel
+from com_core.runtime.lifeline import stop_with_parent
 from com_core.runtime.rosenv import keep_dds_local, start_refusal, stop_on_signals
 
 MAX_MESSAGE_LENGTH = 1000  # characters of a diagnostic message
@@ -638,6 +639,7 @@ def main(args: list[str] | None = None) -> int:
         return 1
     executor = EventsExecutor()
     executor.add_node(node)
+    stop_with_parent(node.get_logger().warning)  # SIGINT once the demo that started it ended
     try:
         while rclpy.ok() and not stopping.is_set():
             executor.spin_once(timeout_sec=0.1)

@@ -8,8 +8,13 @@ starts the three with the robot's configuration (``--params-file``; ``com_core``
 /exploration_sequencer/explore, prints the sequencer's progress and a final summary
 (estimate, sigma, truth, error, time, bag and report paths), and stops the nodes with
 SIGINT, the sequencer first: Ctrl-C cancels a running exploration (the object put back,
-the arm home, the bag closed with a ``cancelled`` label) before the simulator stops. Each
-node's output goes to <bag-dir>/logs/<package>.log (the sequencer's to the terminal as well).
+the arm home, the bag closed with a ``cancelled`` label) before the simulator stops;
+SIGTERM and SIGHUP (a ``timeout``, a closed terminal) do the same, and the demo exits
+with 128 + the signal's number. A demo that dies without that (SIGKILL) leaves no node
+running either: each node watches a lifeline from the demo (``com_core.runtime.lifeline``)
+and stops as on Ctrl-C once the demo is gone, the simulator and the estimator only once
+the sequencer is gone too. Each node's output goes to <bag-dir>/logs/<package>.log (the
+sequencer's to the terminal as well).
 A node that ends on its own (a parameter it refuses, a crash) ends the wait at once: the
 summary names it, with its exit code and its last error line, and the demo exits with 1.
 """
@@ -25,7 +30,7 @@ import threading
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import IO, NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -48,6 +53,7 @@ from com_core.inputs import Input, InputError
 from com_core.payload.files import PAYLOAD_FILE
 from com_core.robot.config import ROBOTS, RobotConfigError, read_robot_config, robot_config_path
 from com_core.robot.dynamics import INERTIA_ELEMENTS, inertia_matrix
+from com_core.runtime.lifeline import Lifeline
 from com_core.runtime.processes import executable, last_error_line, ros_args, stop
 from com_core.runtime.rosenv import keep_dds_local
 from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES
@@ -57,13 +63,15 @@ from wrench_sim.parameters import check_parameter, sensor_profile
 CANCEL_WAIT = 8.0  # s for a cancelled goal's result before the nodes are stopped
 POLL = 0.2  # s between checks that the nodes still run, while waiting on the sequencer
 CANCEL_REQUEST_WAIT = 1.0  # s for the sequencer to take a cancel when another node ended
+ECHO_POLL = 0.05  # s between looks at the sequencer's log for lines to echo
 THIRD_MOTION_SEED = 7  # the motion the demo runs while holding, after a run in motion
+STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
+"""Signals that end the demo as Ctrl-C does: the run cancelled, then the nodes stopped."""
 
 
 class Child(NamedTuple):
     """A node process the demo started: its package, the file that holds its output, and
-    the thread that copies its output there and to the terminal (None: the process
-    writes the file itself)."""
+    the thread that echoes that output to the terminal (None: not echoed)."""
 
     package: str
     process: subprocess.Popen
@@ -142,8 +150,20 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def interrupt(signum: int, _frame: object) -> None:
+    """Raise KeyboardInterrupt, as Ctrl-C does, naming the signal ``signum``."""
+    raise KeyboardInterrupt(signal.Signals(signum).name)
+
+
+def interrupted_by(error: KeyboardInterrupt) -> signal.Signals:
+    """The signal that raised ``error``: the one ``interrupt`` named, else SIGINT."""
+    return signal.Signals.__members__.get(str(error.args[0]) if error.args else "", signal.SIGINT)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    for sig in STOP_SIGNALS:
+        signal.signal(sig, interrupt)
     try:
         robot = read_robot_config(args.robot)
     except RobotConfigError as error:
@@ -165,24 +185,31 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     started = time.monotonic()
     children: list[Child] = []
+    # the simulator and the estimator stop once the demo and the sequencer are gone
+    first, last = Lifeline(), Lifeline()
     try:
-        for package, name, params, echo in (
-            ("wrench_sim", "sim_node", sim_params, False),
-            ("com_estimator", "estimator_node", estimator_params, False),
-            ("exploration_sequencer", "sequencer_node", sequencer_params, True),
-        ):
+        for package, name, params, echo, lifeline in (
+            ("wrench_sim", "sim_node", sim_params, False, first.popen_kwargs()),
+            ("com_estimator", "estimator_node", estimator_params, False, first.popen_kwargs()),
+            ("exploration_sequencer", "sequencer_node", sequencer_params, True,
+             last.popen_kwargs(holding=first)),
+        ):  # fmt: skip
             command = [str(executable(package, name)), *ros_args(params, params_file=params_file)]
-            children.append(start_child(package, command, logs / f"{package}.log", echo))
+            log = logs / f"{package}.log"
+            children.append(start_child(package, command, log, echo, lifeline))
             print(f"started {package}/{name} (log: {children[-1].log})", flush=True)
         return run_exploration(args, started, children)
-    except KeyboardInterrupt:  # the sequencer, stopped first, cancels the run cleanly
-        print("\ndemo: interrupted: cancelling the run, then stopping the nodes", flush=True)
-        return 130
+    except KeyboardInterrupt as error:  # the sequencer, stopped first, cancels the run cleanly
+        sig = interrupted_by(error)
+        print(f"\ndemo: {sig.name}: cancelling the run, then stopping the nodes", flush=True)
+        return 128 + sig
     finally:
         for child in reversed(children):
             stop(child.process)
             if child.copier is not None:  # the rest of its output, up to its end
                 child.copier.join(timeout=2.0)
+        first.close()
+        last.close()
 
 
 def node_parameters(
@@ -284,40 +311,46 @@ def flag_refusals(
     return [line for line in out.values() if line]
 
 
-def start_child(package: str, command: list[str], log: Path, echo: bool) -> Child:
+def start_child(
+    package: str, command: list[str], log: Path, echo: bool, popen: dict[str, Any] | None = None
+) -> Child:
     """``command`` as a process in a session of its own (Ctrl-C is the demo's: it stops
     the nodes in order), its stdout and stderr to ``log`` and, with ``echo``, to the
-    terminal too (copied line by line by a thread)."""
-    out = open(log, "w")  # noqa: SIM115 - the process's, or the copier's, which closes it
+    terminal too (``echo_log``, in a thread); ``popen``: more ``subprocess.Popen``
+    arguments (a lifeline's ``popen_kwargs``). The process writes its log itself: the log
+    is whole even when the demo dies first."""
+    with open(log, "w") as out:
+        process = subprocess.Popen(
+            command, stdout=out, stderr=subprocess.STDOUT, start_new_session=True,
+            **(popen or {}),
+        )  # fmt: skip
     if not echo:
-        with out:
-            process = subprocess.Popen(
-                command, stdout=out, stderr=subprocess.STDOUT, start_new_session=True
-            )
         return Child(package, process, log)
-    process = subprocess.Popen(
-        command,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-        errors="replace",
-        bufsize=1,
-        start_new_session=True,
-    )
-    copier = threading.Thread(target=copy_output, args=(process.stdout, out), daemon=True)
+    copier = threading.Thread(target=echo_log, args=(log, process), daemon=True)
     copier.start()
     return Child(package, process, log, copier)
 
 
-def copy_output(source: IO[str], out: IO[str]) -> None:
-    """Each line of ``source`` (a process's output) to the terminal and to ``out`` as it
-    comes, until the process closes it; then closes both."""
-    with source, out:
-        for line in source:
-            sys.stdout.write(line)
-            sys.stdout.flush()
-            out.write(line)
-            out.flush()
+def echo_log(log: Path, process: subprocess.Popen) -> None:
+    """Each line ``process`` writes to ``log``, to the terminal as it comes (checked every
+    ECHO_POLL s), up to its last once the process has ended. A terminal that is gone
+    (closed: SIGHUP) ends the echo; the log goes on."""
+    pending = ""
+    with open(log, errors="replace") as source:
+        while True:
+            ended = process.poll() is not None
+            pending += source.read()
+            *lines, pending = pending.split("\n")
+            if ended and pending:
+                lines, pending = [*lines, pending], ""
+            try:
+                sys.stdout.writelines(line + "\n" for line in lines)
+                sys.stdout.flush()
+            except OSError:
+                return
+            if ended:
+                return
+            time.sleep(ECHO_POLL)
 
 
 def exited(children: Sequence[Child]) -> list[Child]:
@@ -417,14 +450,15 @@ def run_exploration(args: argparse.Namespace, started: float, children: Sequence
         future = goal.get_result_async()
         try:
             ended = wait_for(executor, future, children, args.timeout)
-        except KeyboardInterrupt:
-            print("\ndemo: interrupted: cancelling the run", flush=True)
+        except KeyboardInterrupt as error:
+            sig = interrupted_by(error)
             goal.cancel_goal_async()
+            print(f"\ndemo: {sig.name}: cancelling the run", flush=True)
             if ended := wait_for(executor, future, children, CANCEL_WAIT):
                 print_ended(ended)
             elif future.done():
                 print(f"explore: {future.result().result.message}", flush=True)
-            return 130
+            return 128 + sig
         if ended:
             summarise_ended(ended, started)
             cancel(executor, sent, children)

@@ -143,6 +143,7 @@ from com_core.robot.config import (
     default_robot_config,
     write_robot_config,
 )
+from com_core.runtime.lifeline import stop_with_parent
 from com_core.runtime.rosenv import keep_dds_local, start_refusal, stop_on_signals
 from com_core.sensing.calibration import Calibration
 from com_core.sensing.noise import NoiseModel
@@ -1018,6 +1019,7 @@ def main(args: list[str] | None = None) -> int:
     executor.add_node(node)
     worker = threading.Thread(target=_spin_until_shutdown, args=(executor,), daemon=True)
     worker.start()
+    stop_with_parent(node.get_logger().warning)  # SIGINT once the demo that started it ended
     try:
         while rclpy.ok() and not stopping.is_set():
             io_executor.spin_once(timeout_sec=0.1)

@@ -45,6 +45,7 @@ The world's events (grasp, release, pushes, grasp shifts) are logged as INFO; a 
 
 from __future__ import annotations
 
+import signal
 import time
 
 import numpy as np
@@ -80,6 +81,7 @@ from com_core.contract import (
 from com_core.inputs import InputError
 from com_core.robot.config import KEYS, RobotConfig, RobotConfigError
 from com_core.robot.dynamics import INERTIA_ELEMENTS, inertia_elements
+from com_core.runtime.lifeline import stop_with_parent
 from com_core.runtime.rosenv import keep_dds_local, start_refusal
 from com_core.sensing.sensor_profiles import SensorProfile
 from com_core.sensing.wrench_model import SensorModel, rotation_about
@@ -471,7 +473,9 @@ def main(args: list[str] | None = None) -> int:
     """Console script ``sim_node``."""
     keep_dds_local()
     # SIGINT raises KeyboardInterrupt in the physics loop, which then tears down in order
-    # (rclpy's own handler would shut the context down under the running loop).
+    # (rclpy's own handler would shut the context down under the running loop); also in a
+    # process started with SIGINT ignored (a background job of a script).
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = SimNode()
@@ -480,6 +484,7 @@ def main(args: list[str] | None = None) -> int:
         rclpy.try_shutdown()
         return 1
     try:
+        stop_with_parent(node.get_logger().warning)  # SIGINT once the demo that started it ended
         node.run()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -1,5 +1,6 @@
 """Processes and the DDS environment every process of this project starts with."""
 
+from com_core.runtime.lifeline import LIFELINE_ENV, Lifeline, stop_with_parent
 from com_core.runtime.processes import (
     STOP_SEQUENCE,
     executable,
@@ -15,7 +16,9 @@ from com_core.runtime.rosenv import (
 )
 
 __all__ = [
+    "LIFELINE_ENV",
     "STOP_SEQUENCE",
+    "Lifeline",
     "executable",
     "keep_dds_local",
     "last_error_line",
@@ -24,4 +27,5 @@ __all__ = [
     "start_refusal",
     "stop",
     "stop_on_signals",
+    "stop_with_parent",
 ]
