@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from conftest import PANDA as PANDA_CONFIG
 from conftest import WORKSPACE, choreography
 from fuzz_inputs import boundary_values, values_of
 
@@ -29,10 +30,10 @@ from com_core.planning.decisions import (
     PlanInfeasible,
     RunSettings,
     plan_within_reach,
-    planned_run_time,
     planning_noise,
     predicted_run,
 )
+from com_core.planning.run_time import static_run_phases, time_left
 from com_core.sensing.sensor_profiles import PROFILES
 
 rclpy = pytest.importorskip("rclpy")  # the nodes' tables import their messages
@@ -83,10 +84,14 @@ def plan_or_refusal(settings: RunSettings) -> str:
     except PlanInfeasible as refusal:
         return str(refusal)
     assert np.all(np.isfinite(prediction.sigma_com)) and prediction.sigma_mass > 0
-    total = planned_run_time(
-        planned.plan, tare_pass=True, bias_dwell=settings.bias_dwell, grasp_check_dwell=0.2,
-        verify_dwell=2.0, bracket=True, release=True,
+    plan, config = planned.plan, PANDA_CONFIG
+    phases = static_run_phases(
+        plan, PANDA.pose_joints(plan.tare_plan()), planned.poses, motion=PANDA,
+        speed=settings.speed, home=config.home_joints, pick=config.pick_joints,
+        verify=PANDA.verify_joints()[0], tare_check=False, bias_dwell=settings.bias_dwell,
+        grasp_check_dwell=0.2, verify_dwell=2.0, bracket=True, release=True,
     )  # fmt: skip
+    total = time_left(phases, -1, 0.0, 1.0)
     assert math.isfinite(total) and total > 0
     return ""
 

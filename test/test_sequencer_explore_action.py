@@ -41,16 +41,18 @@ def test_each_bad_option_is_named_with_its_value():
     assert "information='guess' refused: must be one of" in text
 
 
-def test_progress_is_time_done_over_time_planned_and_never_done_before_the_end():
+def test_progress_is_time_done_over_time_done_and_left_and_never_done_before_the_end():
     live = {"mass": "0.1", "com_x": "0.01", "com_y": "0.0", "com_z": "0.1", "sigma_mass": "1e-3"}
     live |= {f"sigma_com_{a}": "5e-4" for a in "xyz"}
-    early = feedback_of("tare", 5.0, 40.0, {})
+    early = feedback_of("tare", 5.0, 35.0, {})
     assert early.progress == 0.125 and early.time_remaining == 35.0
     assert math.isnan(early.sigma_mass) and early.estimate.inertia.m == 0.0
-    late = feedback_of("return", 50.0, 40.0, live)
-    assert late.progress == np.float32(0.99) and late.time_remaining == 0.0
+    late = feedback_of("return", 50.0, 0.1, live)
+    assert late.progress == np.float32(0.99) and late.time_remaining == np.float32(0.1)
     assert late.estimate.inertia.m == 0.1 and late.estimate.inertia.com.z == 0.1
     np.testing.assert_array_equal(late.sigma_com, [5e-4] * 3)
+    unplanned = feedback_of("starting", 0.0, math.inf, {})
+    assert unplanned.progress == 0.0 and unplanned.time_remaining == 0.0
 
 
 def test_the_result_carries_the_estimate_and_its_covariance_unless_cancelled():

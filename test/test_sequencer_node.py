@@ -718,22 +718,39 @@ def test_the_three_nodes_with_their_defaults_give_an_estimate(start_node, client
 
 
 class ActionUser:
-    """Sends Explore goals and keeps their feedback, as a ROS user's node does."""
+    """Sends Explore goals and keeps their feedback, as a ROS user's node does, each with
+    when it came: (wall s, sim s, feedback) in ``timed``."""
 
     def __init__(self, node) -> None:
         from rclpy.action import ActionClient
+        from rosgraph_msgs.msg import Clock
 
         from com_interfaces.action import Explore
 
         self.node, self.Explore = node, Explore
         self.client = ActionClient(node, Explore, EXPLORE_SERVICE)
         self.feedback: list = []
+        self.timed: list[tuple[float, float, object]] = []
+        self.sim = 0.0  # s, the latest /clock
+        node.create_subscription(Clock, "/clock", self._clock, 10)
+
+    def _clock(self, msg) -> None:
+        self.sim = msg.clock.sec + msg.clock.nanosec * 1e-9
+
+    def _keep(self, message) -> None:
+        self.feedback.append(message)
+        self.timed.append((time.monotonic(), self.sim, message.feedback))
+
+    def now(self) -> tuple[float, float]:
+        """(wall s, sim s) now, as this client knows the sim's clock."""
+        return time.monotonic(), self.sim
 
     def send(self, **options):
         """The accepted goal's handle."""
         assert self.client.wait_for_server(timeout_sec=30.0), "no ~/explore action"
+        assert spin_until(self.node, lambda: self.sim > 0, 10.0), "no /clock"
         future = self.client.send_goal_async(
-            self.Explore.Goal(**options), feedback_callback=lambda m: self.feedback.append(m)
+            self.Explore.Goal(**options), feedback_callback=self._keep
         )
         assert spin_until(self.node, future.done, 10.0) and future.result().accepted
         return future.result()
@@ -744,15 +761,56 @@ class ActionUser:
         return future.result().result
 
 
+OWN_PHASES = ("tare", "grasp and lift", "object pass", "verification", "return")
+"""The phases of a static run before its last, the estimate and report (the node's own
+computing: the estimator's answer, the payload files, the report)."""
+
+
+def progress_truth(
+    timed: list[tuple[float, float, object]],
+    sent: tuple[float, float],
+    answered: tuple[float, float],
+) -> tuple[float, float, dict[str, float], dict[str, float]]:
+    """How far a run's feedback ``timed`` (wall s, sim s, feedback) from the goal's
+    acceptance ``sent`` to its result ``answered`` (wall s, sim s) told the truth: (the
+    share of the wall time at 99 % or more, the largest difference between the progress
+    and the share of wall time elapsed, and per phase at its first feedback the relative
+    error of the time left against what was left: of the run's own phases, up to the
+    estimate and report's first feedback; and of the whole run, up to the result)."""
+    wall = answered[0] - sent[0]
+    ends = [w for w, _, _ in timed[1:]] + [answered[0]]
+    at_99 = sum(end - w for (w, _, f), end in zip(timed, ends, strict=True) if f.progress >= 0.99)
+    strays = max(abs(f.progress - (w - sent[0]) / wall) for w, _, f in timed)
+    first = {}
+    for _, sim, f in timed:
+        first.setdefault(f.phase, (sim, f.time_remaining))
+    estimate_sim, estimate_left = first["estimate and report"]
+    own = {
+        phase: (left - estimate_left) / (estimate_sim - sim) - 1
+        for phase, (sim, left) in first.items()
+        if phase in OWN_PHASES
+    }
+    whole = {
+        phase: left / (answered[1] - sim) - 1
+        for phase, (sim, left) in first.items()
+        if phase in OWN_PHASES
+    }
+    return at_99 / wall, strays, own, whole
+
+
 def test_the_explore_action_gives_progress_the_live_sigma_and_the_estimate(
     start_node, client, tmp_path
 ):
     """A goal's options over the parameters; feedback as the run goes (phase, progress
     from the plan, the estimate's sigma once object windows close); one goal at a time;
-    the result holds the estimate, its covariance, the verification and the bag."""
+    the result holds the estimate, its covariance, the verification and the bag. The
+    progress tells the truth: at 99 % for at most 3 % of the wall time, never more than
+    0.15 from the share of wall time elapsed, and the time left at each phase's start
+    within 10 % of what the run's phases had left."""
     start_system(start_node, tmp_path, {"object": "cylinder", "seed": 12})
     user = ActionUser(client.node)
     handle = user.send(dwell=0.6)
+    sent = user.now()
     spin_until(client.node, lambda: len(user.feedback) > 2, 30.0)
     refused = user.result(user.send(tilt=0.4))  # while the first runs
     assert refused.status == "ERROR" and "still running" in refused.message, refused.message
@@ -760,6 +818,7 @@ def test_the_explore_action_gives_progress_the_live_sigma_and_the_estimate(
     assert bad.status == "ERROR" and "tilt=3.0 refused" in bad.message
     assert "dwell=-1.0 refused" in bad.message
     result = user.result(handle)
+    answered = user.now()
     assert result.status == "OK", result.message
     log = next(tmp_path.glob("sequencer_node-*.log")).read_text()
     assert "dwell 0.6 s; predicted" in log  # the goal's dwell, not the parameter's 0.9
@@ -784,6 +843,13 @@ def test_the_explore_action_gives_progress_the_live_sigma_and_the_estimate(
     progress = [f.progress for f in feedback]
     assert progress[0] < 0.3 and max(progress) > 0.7 and all(0 <= p < 1 for p in progress)
     assert all(b >= a - 1e-6 for a, b in pairwise(progress))
+    # progress that tells the truth: every phase planned, none left at "99 %, 0 s left"
+    at_99, strays, own, whole = progress_truth(user.timed, sent, answered)
+    told = f"at 99 %: {at_99:.1%} of the wall time; strays {strays:.3f}; time left off by "
+    told += ", ".join(f"{p} {own[p]:+.1%} ({whole[p]:+.1%} of the whole run)" for p in own)
+    assert set(own) == set(OWN_PHASES) and "estimate and report" in phases, told
+    assert at_99 <= 0.03 and strays <= 0.15, told
+    assert all(abs(error) <= 0.10 for error in own.values()), told
     live = [f for f in feedback if np.isfinite(f.sigma_com).all()]
     assert live, "no live sigma in the feedback"
     assert min(f.sigma_com.max() for f in live) < 2 * sigma[1:].max()  # toward the result

@@ -63,14 +63,17 @@ def _fill_inertia(msg: InertiaStamped, values: Mapping[str, str]) -> None:
 
 
 def feedback_of(
-    phase: str, elapsed: float, planned: float, live: Mapping[str, str]
+    phase: str, elapsed: float, left: float, live: Mapping[str, str]
 ) -> Explore.Feedback:
-    """The feedback of a run ``elapsed`` s (sim) into the ``planned`` s, with the
-    estimator's live status ``live`` (the estimate so far; {} before one)."""
+    """The feedback of a run ``elapsed`` s (sim) in with ``left`` s (sim) left of its plan
+    (inf: no plan yet): its progress is the time done over the time done and left, at most
+    0.99 until the result; with the estimator's live status ``live`` (the estimate so far;
+    {} before one)."""
     feedback = Explore.Feedback(phase=phase)
-    if elapsed > 0 and math.isfinite(planned):
-        feedback.progress = min(elapsed / planned, 0.99)
-        feedback.time_remaining = max(planned - elapsed, 0.0)
+    if elapsed > 0 and math.isfinite(left):
+        left = max(left, 0.0)
+        feedback.progress = min(elapsed / (elapsed + left), 0.99)
+        feedback.time_remaining = left
     if "mass" in live:
         _fill_inertia(feedback.estimate, live)
     feedback.sigma_mass = float(live.get("sigma_mass", "nan"))

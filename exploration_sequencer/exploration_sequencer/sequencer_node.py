@@ -124,7 +124,6 @@ from com_core.planning.decisions import (
     may_hold_object,
     newest_hand_model,
     plan_within_reach,
-    planned_run_time,
     planning_noise,
     predicted_run,
     tare_cache_path,
@@ -134,6 +133,20 @@ from com_core.planning.decisions import (
 from com_core.planning.excitation import Excitation, cached_excitation
 from com_core.planning.planner import HOME, Plan
 from com_core.planning.prediction import Prediction
+from com_core.planning.run_time import (
+    ESTIMATE,
+    GRASP,
+    OBJECT_MOTION,
+    OBJECT_PASS,
+    RETURN,
+    TARE,
+    VERIFICATION,
+    WALL,
+    PhaseTime,
+    motion_run_phases,
+    static_run_phases,
+    time_left,
+)
 from com_core.robot.choreography import VERIFY_POSE, Choreography
 from com_core.robot.config import (
     BAG_ROBOT_FILE,
@@ -215,6 +228,12 @@ class SequencerNode(Node):
         self._goal = None  # the running goal's handle
         self._phase = ""
         self._start_ns, self._planned_s = 0, math.inf  # the run's start (sim ns), plan (s)
+        self._phases: tuple[PhaseTime, ...] = ()  # the run's phases as planned
+        self._current, self._phase_ns = -1, 0  # the phase under way (index), its start (sim ns)
+        self._clock_mark = (0.0, 0)  # (wall s, sim ns) when the run first read the clock
+        self._rate = 1.0  # sim s per wall s, as measured when the phases were planned
+        self._wall_seen: dict[str, float] = dict(WALL)  # s (wall) of own work per phase
+        self._progress = 0.0  # the run's progress as last published
         ActionServer(
             self,
             Explore,
@@ -423,21 +442,71 @@ class SequencerNode(Node):
         with self._cancel_lock:
             if goal.is_cancel_requested and self._phase != "cancelling":
                 self.io.cancel.set()
-        elapsed = (self.io.now_ns() - self._start_ns) * 1e-9 if self._start_ns else 0.0
-        feedback = feedback_of(self._phase or "starting", elapsed, self._planned_s, self.io.live)
+        now = self.io.now_ns()
+        elapsed = (now - self._start_ns) * 1e-9 if self._start_ns else 0.0
+        feedback = feedback_of(self._phase or "starting", elapsed, self._left(now), self.io.live)
+        if elapsed > 0:  # never back, though a tare check that fails plans a tare pass
+            feedback.progress = self._progress = max(feedback.progress, self._progress)
         goal.publish_feedback(feedback)
 
-    def _run_time(self, plan: Plan, tare_pass: bool, bracket: bool) -> float:
-        """s (sim) the run is planned to take (``planned_run_time``)."""
-        return planned_run_time(
+    def _left(self, now_ns: int) -> float:
+        """s (sim) the run has left at ``now_ns`` (sim): ``time_left`` of its phases from
+        the current one's start, at the sim's rate measured when they were planned
+        (before the run has phases, what ``_start_bag`` planned)."""
+        if not self._phases:
+            return self._planned_s - (now_ns - self._start_ns) * 1e-9
+        in_phase = (now_ns - self._phase_ns) * 1e-9 if self._current >= 0 else 0.0
+        return time_left(self._phases, self._current, in_phase, self._rate)
+
+    def _plan_phases(self, phases: tuple[PhaseTime, ...]) -> float:
+        """Count the run's progress on ``phases`` from now, none of them under way yet;
+        returns the s (sim) they take at the sim's rate measured so far."""
+        self._phases, self._current = phases, -1
+        self._rate = self._measured_rate()
+        return time_left(phases, -1, 0.0, self._rate)
+
+    def _measured_rate(self) -> float:
+        """sim s per wall s since the run first read the clock; 1 within its first 0.5 s
+        (wall) or when the sim's clock went back."""
+        wall, sim = self._clock_mark
+        spent = time.monotonic() - wall
+        rate = (self.io.now_ns() - sim) * 1e-9 / spent if sim and spent >= 0.5 else 1.0
+        return rate if rate > 0 else 1.0
+
+    def _static_phases(
+        self, plan: Plan, motion: Choreography, bracket: bool, tare_check: bool
+    ) -> tuple[PhaseTime, ...]:
+        """The phases of a static run of ``plan`` on ``motion`` (``static_run_phases``)
+        with this run's parameters and the wall time of own work as last measured;
+        ``bracket``: kinematic information; ``tare_check``: a cached tare is checked."""
+        config, verify_dwell = self.config, self.p("verify_dwell")
+        verify = motion.verify_joints()[0] if bracket and verify_dwell > 0 else None
+        return static_run_phases(
             plan,
-            tare_pass=tare_pass,
+            motion.pose_joints(plan.tare_plan()),
+            motion.pose_joints(plan),
+            motion=motion,
+            speed=self.arm.speed,
+            home=config.home_joints,
+            pick=config.pick_joints,
+            verify=verify,
+            tare_check=tare_check,
             bias_dwell=self.p("bias_dwell"),
             grasp_check_dwell=self.p("grasp_check_dwell"),
-            verify_dwell=self.p("verify_dwell"),
+            verify_dwell=verify_dwell,
             bracket=bracket,
             release=self.p("release"),
+            wall=self._wall_seen,
         )
+
+    def _phase_ended(self, now_ns: int) -> None:
+        """The phase under way ended at ``now_ns`` (sim): the time it took beyond its sim
+        plan, in wall s at the sim's rate, is the wall time of own work planned for it
+        from the next run on."""
+        if 0 <= self._current < len(self._phases):
+            phase = self._phases[self._current]
+            over = (now_ns - self._phase_ns) * 1e-9 - phase.sim
+            self._wall_seen[phase.phase] = max(over, 0.0) / self._measured_rate()
 
     def _set_estimator(self, name: str, value: object) -> None:
         """Set the estimator's parameter ``name`` for this run (restored after it)."""
@@ -466,7 +535,12 @@ class SequencerNode(Node):
         self._restore.clear()
 
     def _enter(self, phase: str, line: str) -> None:
-        """Log the phase's line; the feedback names it."""
+        """Log the phase's line; the feedback names it, and counts the time left from its
+        start: its plan and every later phase's."""
+        names, now = [p.phase for p in self._phases], self.io.now_ns()
+        if phase in names[self._current + 1 :]:
+            self._phase_ended(now)
+            self._phase_ns, self._current = now, names.index(phase, self._current + 1)
         self._phase = phase
         self.get_logger().info(line)
 
@@ -482,6 +556,8 @@ class SequencerNode(Node):
         self.io.sim_timeout = self.p("sim_timeout")
         self.arm.speed, self.arm.settle = self.p("speed"), self.p("settle")
         self.io.wait(lambda: self.io.joints, "waiting for the joint states", wall_timeout=None)
+        self._clock_mark = (time.monotonic(), self.io.now_ns())  # the sim's rate from here
+        self._phases, self._current, self._progress = (), -1, 0.0
         config, motion = self.config, self._choreography()
         self.arm.motion = motion
         missing = [name for name in config.arm_joints if name not in self.io.joints]
@@ -522,16 +598,17 @@ class SequencerNode(Node):
             f"run {run_id}: {config.robot}, poses {[n for n, _ in poses]}, "
             f"tilt {plan.tilt:.3f} rad, dwell {plan.dwell:g} s; predicted {prediction}"
         )
-        bag = self._start_bag(run_id, self._run_time(plan, True, information != WRENCHES))
+        phases = self._static_phases(plan, motion, information != WRENCHES, False)
+        bag = self._start_bag(run_id, self._plan_phases(phases))
         self._to_known_state(home, pick)
         self.arm.gripper(close=False)
         tare_home = self._tare(plan, motion, bag, estimator_cache, information != WRENCHES)
-        self._enter("grasp and lift", "phase 2/4: grasp and lift")
+        self._enter(GRASP, "phase 2/4: grasp and lift")
         self.arm.move(home, "home")
         self.arm.move(pick, "the object")
         self.arm.gripper(close=True, wait=GRIPPER_TIME)
         self._check_grasp(home, tare_home, pick)
-        self._enter("object pass", "phase 3/4: object pass")
+        self._enter(OBJECT_PASS, "phase 3/4: object pass")
         start = self.io.now_ns()
         self._pass(OBJECT_PREFIX, poses, plan.dwell)
         end = self._labels[-1][0]  # the last window's end: the same windows if "moving" is lost
@@ -542,11 +619,11 @@ class SequencerNode(Node):
             if verify is None:
                 log.warning(f"no verification: its pose is out of reach ({reason})")
             else:
-                self._enter("verification", "verification pose: a tilt no fit uses")
+                self._enter(VERIFICATION, "verification pose: a tilt no fit uses")
                 self._pass(VERIFY_PREFIX, [(VERIFY_POSE, verify)], self.p("verify_dwell"))
                 end = self._labels[-1][0]
         release = self.p("release")
-        self._enter("return", f"phase 4/4: return{' and release' if release else ', holding'}")
+        self._enter(RETURN, f"phase 4/4: return{' and release' if release else ', holding'}")
         if bracket and release:  # the bias's drift (kinematic information): done after it
             self.arm.put_back(home, pick)
             after = f"{poses[0][0]}{BIAS_AFTER_SUFFIX}"
@@ -559,7 +636,15 @@ class SequencerNode(Node):
         elif not bracket:
             self.arm.put_back(home, pick)
         plan_line = f"predicted {prediction}; object pass {object_time:.1f} s (sim)"
-        return self._finish(run_id, end, plan_line, bag)
+        return self._estimate(run_id, end, plan_line, bag)
+
+    def _estimate(self, run_id: str, end: int, plan_line: str, bag: Path) -> tuple[bool, str]:
+        """``_finish`` as the run's last phase, the time it took kept for the next run's
+        plan; returns (success, summary)."""
+        self._enter(ESTIMATE, "the estimate: the estimator's answer, the payload, the report")
+        outcome = self._finish(run_id, end, plan_line, bag)
+        self._phase_ended(self.io.now_ns())
+        return outcome
 
     def _start_bag(self, run_id: str, planned_s: float) -> Path:
         """Start recording the run to <bag_dir>/<run_id> (with the robot configuration the
@@ -611,39 +696,50 @@ class SequencerNode(Node):
         home, pick = list(config.home_joints), list(config.pick_joints)
         excitation, verification = self._excitations(motion, period)
         hand = self._cached_hand(motion, excitation, estimator_cache)
-        move = motion.motion_time(home, pick, self.arm.speed) + self.arm.settle
-        motions = 3 if hand is None else 2
-        planned = (6 * move + motions * (period + EXCITATION_REST) + self.p("bias_dwell")
-                   + 2 * GRIPPER_TIME)  # fmt: skip
-        bag = self._start_bag(run_id, planned)
+        phases = motion_run_phases(
+            motion=motion,
+            speed=self.arm.speed,
+            settle=self.arm.settle,
+            home=home,
+            pick=pick,
+            period=period,
+            lead=EXCITATION_LEAD,
+            rest=EXCITATION_REST,
+            hand_moves=hand is None,
+            bias_dwell=self.p("bias_dwell"),
+            grasp_check_dwell=self.p("grasp_check_dwell"),
+            release=self.p("release"),
+            wall=self._wall_seen,
+        )
+        bag = self._start_bag(run_id, self._plan_phases(phases))
         if hand is not None:
             save_hand_motion(bag / HAND_MOTION_FILE, hand)  # the replay's
         self._to_known_state(home, pick)
         self.arm.gripper(close=False)
         line = "at rest" + (", then along the excitation" if hand is None else "")
-        self._enter("tare", f"phase 1/4: the empty hand {line}")
+        self._enter(TARE, f"phase 1/4: the empty hand {line}")
         tare_home = self._captured_tares([(HOME, home)], self.p("bias_dwell"))[0].get(HOME)
         if tare_home is None:
             raise RunError(f"the empty hand's window at {HOME} was not recorded")
         if hand is None:
             self._excite(MOTION_TARE, excitation)
-        self._enter("grasp and lift", "phase 2/4: grasp and lift")
+        self._enter(GRASP, "phase 2/4: grasp and lift")
         self.arm.move(pick, "the object")
         self.arm.gripper(close=True, wait=GRIPPER_TIME)
         self._check_grasp(home, tare_home, pick)
-        self._enter("object motion", "phase 3/4: the object along the excitation")
+        self._enter(OBJECT_MOTION, "phase 3/4: the object along the excitation")
         end = self._excite(MOTION_OBJECT, excitation)
-        self._enter("verification", "verification: the object along a motion no fit uses")
+        self._enter(VERIFICATION, "verification: the object along a motion no fit uses")
         end = self._excite(MOTION_VERIFY, verification)
         release = self.p("release")
-        self._enter("return", f"phase 4/4: return{' and release' if release else ', holding'}")
+        self._enter(RETURN, f"phase 4/4: return{' and release' if release else ', holding'}")
         self._label(end, DONE)
         self._label(max(end, self.io.now_ns()), MOVING)  # the latched label is no "done"
         if release:
             self.arm.put_back(home, pick)
         joints = ", ".join(excitation.joints)
         plan_line = f"excitation of {joints}, {period:g} s; object motion {period:.1f} s (sim)"
-        return self._finish(run_id, end, plan_line, bag)
+        return self._estimate(run_id, end, plan_line, bag)
 
     def _cached_hand(
         self, motion: Choreography, excitation: Excitation, estimator_cache: str
@@ -739,7 +835,8 @@ class SequencerNode(Node):
             )
         if decision.check and cache is not None:
             what = "this run's bias" if hand_model else "drift check of the cached tare"
-            self._enter("tare", f"phase 1/4: {what} ({cache.age():.0f} s old), empty hand at home")
+            self._plan_phases(self._static_phases(plan, motion, hand_model, True))
+            self._enter(TARE, f"phase 1/4: {what} ({cache.age():.0f} s old), empty hand at home")
             self.arm.move(home, "home")
             check = f"{home_name}{BIAS_WINDOW_SUFFIX}"  # matches no object window
             fresh = self._captured_tares([(check, home)], self.p("bias_dwell"))[0].get(check)
@@ -748,10 +845,10 @@ class SequencerNode(Node):
                 use_tares(path, cache)
                 use_tares(bag / BAG_TARE_FILE, cache)
                 log.info(f"tare: reusing the cache ({reuse.verdict})")
-                self._planned_s = self._run_time(plan, False, hand_model)
                 return reuse.home
             log.warning(f"tare not reusable ({reuse.verdict}): new tare pass")
-        self._enter("tare", "phase 1/4: tare pass with the empty hand")
+            self._plan_phases(self._static_phases(plan, motion, hand_model, False))
+        self._enter(TARE, "phase 1/4: tare pass with the empty hand")
         windows, noise = self._captured_tares(tare_poses, plan.tare_dwell or plan.dwell)
         if home_name not in windows:
             raise RunError(f"the tare window at {home_name} was not recorded")

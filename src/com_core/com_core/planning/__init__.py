@@ -24,7 +24,6 @@ from com_core.planning.decisions import (
     newest_hand_model,
     plan_for_target,
     plan_within_reach,
-    planned_run_time,
     planning_noise,
     reachable_tilt,
     requested_plan,
@@ -53,6 +52,12 @@ from com_core.planning.prediction import (
     plan_observations,
     predict,
 )
+from com_core.planning.run_time import (
+    PhaseTime,
+    motion_run_phases,
+    static_run_phases,
+    time_left,
+)
 from com_core.planning.search import (
     within_max_tilt,
 )
@@ -68,6 +73,7 @@ __all__ = [
     "SIGMA",
     "Advice",
     "Excitation",
+    "PhaseTime",
     "Plan",
     "PlanInfeasible",
     "PlannedRun",
@@ -85,18 +91,20 @@ __all__ = [
     "grasp_holds",
     "held_mass",
     "may_hold_object",
+    "motion_run_phases",
     "newest_hand_model",
     "plan_for_target",
     "plan_observations",
     "plan_within_reach",
-    "planned_run_time",
     "planning_noise",
     "predict",
     "reachable_tilt",
     "requested_plan",
+    "static_run_phases",
     "tare_cache_path",
     "tare_decision",
     "tare_reuse",
+    "time_left",
     "timed_plan",
     "within_max_tilt",
 ]

@@ -61,7 +61,6 @@ __all__ = [
     "newest_hand_model",
     "plan_for_target",
     "plan_within_reach",
-    "planned_run_time",
     "planning_noise",
     "predicted_run",
     "reachable_tilt",
@@ -490,28 +489,3 @@ def grasp_holds(mass: float, min_load: float) -> bool:
     """The grasp holds the object: ``mass`` (kg, ``held_mass``) is not below
     ``min_load`` kg."""
     return mass >= min_load  # NaN: not held
-
-
-def planned_run_time(
-    plan: Plan,
-    *,
-    tare_pass: bool,
-    bias_dwell: float,
-    grasp_check_dwell: float,
-    verify_dwell: float,
-    bracket: bool,
-    release: bool,
-) -> float:
-    """s (sim) a run of ``plan`` is planned to take, the measure of its progress: the
-    tare (a pass of every pose at the tare dwell, else one ``bias_dwell`` window at home),
-    the grasp (home, the object, the fingers, lift and weigh), the object pass, with
-    kinematic information (``bracket``) the verification window, and the return (the
-    object back on its stand, then the empty hand's window; or home, holding). Each move
-    takes the plan's ``move_time`` and ``settle``."""
-    move = plan.move_time + plan.settle
-    tare = plan.tare_plan().duration() if tare_pass else move + bias_dwell
-    grasp = 3 * move + GRIPPER_TIME + grasp_check_dwell
-    verify = 2 * move + verify_dwell if bracket and verify_dwell > 0 else 0.0
-    back = 2 * move + GRIPPER_TIME if release else move
-    after = move + bias_dwell if bracket and release else 0.0
-    return tare + grasp + plan.duration() + verify + back + after
