@@ -106,6 +106,7 @@ from com_core.robot.dynamics import INERTIA_ELEMENTS, inertia_elements
 from com_core.robot.model import RobotModel
 from com_core.runtime.lifeline import stop_with_parent
 from com_core.runtime.rosenv import keep_dds_local, start_refusal, stop_on_signals
+from com_estimator.stream_qos import subscribe_adapted
 
 MAX_MESSAGE_LENGTH = 1000  # characters of a diagnostic message
 LIVE_KEYS = frozenset(
@@ -152,23 +153,17 @@ class EstimatorNode(Node):
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self._estimate_pub = self.create_publisher(InertiaStamped, ESTIMATE_TOPIC, latched)
         self._diag_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10)
-        wrench_qos = QoSProfile(depth=5000, reliability=ReliabilityPolicy.BEST_EFFORT)
         self._compensated_pub = self.create_publisher(
             WrenchStamped,
             COMPENSATED_TOPIC,
             QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT),
         )
-        self.create_subscription(
-            WrenchStamped, WRENCH_TOPIC, self.wrench_callback, wrench_qos, raw=True
-        )
+        # reliable when the sensor's publishers are (stream_qos): none lost while starved
+        subscribe_adapted(self, WrenchStamped, WRENCH_TOPIC, self.wrench_callback, raw=True)
         pose_qos = QoSProfile(depth=100, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.create_subscription(Header, POSE_TOPIC, self.pose_callback, pose_qos, raw=True)
-        # best effort (any publisher); 2 s at 100 Hz sim and a real-time factor of 5, so a
-        # live solve (~0.2 s) never costs a window its joint states
-        joint_qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT)
-        self.create_subscription(
-            JointState, JOINT_STATES_TOPIC, self.joint_state_callback, joint_qos
-        )
+        # as the wrenches: a window's mean joint state is the bag's, so the replay's
+        subscribe_adapted(self, JointState, JOINT_STATES_TOPIC, self.joint_state_callback)
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         self.create_subscription(
             String, ROBOT_DESCRIPTION_TOPIC, self.robot_description_callback, latched

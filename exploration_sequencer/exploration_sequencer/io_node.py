@@ -1,6 +1,7 @@
-"""The sequencer's I/O node: joint states, the estimator's statuses, the sim clock and the
-run recorder, on a node of their own (``exploration_sequencer_io``) spun apart from the
-service node, so a running exploration never stalls them; and the waits of a run.
+"""The sequencer's I/O node: joint states, the estimator's statuses and the sim clock, on a
+node of their own (``exploration_sequencer_io``) spun apart from the service node, so a
+running exploration never stalls them; the run recorder (a process of its own,
+``recorder_process``); and the waits of a run.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from com_core.contract import (
     LIVE_STATUS_NAME,
     heard_stamps,
 )
-from exploration_sequencer.recorder import Recorder
+from exploration_sequencer.recorder_process import RecorderProcess
 
 _NEVER = -(2**62)
 
@@ -63,7 +64,7 @@ class IoNode(Node):
         self.live: dict[str, str] = {}
         self.create_subscription(JointState, JOINT_STATES_TOPIC, self.joint_state_callback, 100)
         self.create_subscription(DiagnosticArray, DIAGNOSTICS_TOPIC, self.diagnostics_callback, 10)
-        self.recorder = Recorder(self)
+        self.recorder = RecorderProcess()
 
     def joint_state_callback(self, msg: JointState) -> None:
         velocities = msg.velocity if len(msg.velocity) == len(msg.name) else [0.0] * len(msg.name)

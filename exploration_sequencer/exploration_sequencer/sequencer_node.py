@@ -28,10 +28,11 @@ Every run is recorded to ``<bag_dir>/<run-id>/`` (rosbag2, MCAP) with a PNG repo
 With ``excitation: motion`` the tilts held still are replaced by a designed wrist motion
 (``_explore_in_motion``; docs/design.md, Identification in motion).
 
-Threads: the high-rate subscriptions (recording, joint states, sim clock) live on a
-second node, ``exploration_sequencer_io`` (``io_node``), spun by an EventsExecutor in the
-main thread; this node is spun by a MultiThreadedExecutor in another thread, so a running
-exploration (which blocks its service callback) never stalls the recording. The arm's
+Threads: the high-rate subscriptions (joint states, sim clock) live on a second node,
+``exploration_sequencer_io`` (``io_node``), spun by an EventsExecutor in the main thread;
+this node is spun by a MultiThreadedExecutor in another thread, so a running exploration
+(which blocks its service callback) never stalls them. The recorder runs in a process of
+its own (``recorder_process``), so nothing this process computes delays it. The arm's
 motion is ``arm``; the estimation is the estimator's (and ``com_core``'s).
 """
 
@@ -934,11 +935,12 @@ class SequencerNode(Node):
     def _wrenches_during(self, act: Callable[[], int], what: str) -> tuple[list[bytes], int]:
         """(the raw wrenches the recorder saw while ``act`` ran, and up to the sim time
         it returns; that time, ns): the stream is awaited until it reaches it."""
-        kept = self.io.recorder.capture(WRENCH_TOPIC)
+        recorder = self.io.recorder
+        recorder.capture(WRENCH_TOPIC)
         try:
             end = act()
             self.io.wait(
-                lambda: bool(kept) and decode_wrench_batch(kept[-1:])[0][0] >= end,
+                lambda: recorder.latest_ns >= end,
                 f"waiting for the wrenches of {what}",
                 wall_timeout=10.0,
             )
@@ -1133,8 +1135,7 @@ def main(args: list[str] | None = None) -> int:
         worker.join(timeout=5.0)
         if node._lock.acquire(timeout=10.0):
             node._lock.release()
-        if io.recorder.recording:
-            io.recorder.stop()
+        io.recorder.close()  # a recording still open is closed first
         executor.shutdown()
         io_executor.shutdown()
         node.destroy_node()

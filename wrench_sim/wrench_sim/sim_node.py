@@ -96,6 +96,7 @@ from wrench_sim.sensor import WrenchSensor, profile_calibration, profile_drift, 
 
 _SPIN_EVERY = 50  # steps between spin_once calls (50 ms of sim time; one costs ~0.2 ms)
 _REPORT_EVERY = 50  # steps between checks of events, saturation and ground truth
+STREAM_HISTORY = 10_000  # messages: 2 s (wall) of a 1 kHz stream at 5x real time
 _LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
@@ -146,10 +147,15 @@ class SimNode(Node):
         self._clock_every = round(1000.0 / parameter("clock_rate").value)
         self._pace_origin: tuple[float, float] | None = None
 
-        self.clock_publisher = self.create_publisher(Clock, CLOCK_TOPIC, 10)
-        self.wrench_publisher = self.create_publisher(WrenchStamped, WRENCH_TOPIC, 1000)
-        self.applied_publisher = self.create_publisher(WrenchStamped, APPLIED_WRENCH_TOPIC, 1000)
-        self.joint_state_publisher = self.create_publisher(JointState, JOINT_STATES_TOPIC, 100)
+        # reliable, keep last STREAM_HISTORY: what a subscriber starved for 2 s (wall) at
+        # the fastest sim needs repaired (com_estimator.stream_qos)
+        stream = STREAM_HISTORY
+        self.clock_publisher = self.create_publisher(Clock, CLOCK_TOPIC, stream // 4)
+        self.wrench_publisher = self.create_publisher(WrenchStamped, WRENCH_TOPIC, stream)
+        self.applied_publisher = self.create_publisher(WrenchStamped, APPLIED_WRENCH_TOPIC, stream)
+        self.joint_state_publisher = self.create_publisher(
+            JointState, JOINT_STATES_TOPIC, stream // 5
+        )
         self.truth_publisher = self.create_publisher(InertiaStamped, TRUTH_TOPIC, _LATCHED)
         self.hand_truth_publisher = self.create_publisher(
             InertiaStamped, HAND_TRUTH_TOPIC, _LATCHED

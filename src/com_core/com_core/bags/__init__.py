@@ -14,9 +14,11 @@ from com_core.bags.cdr import (
 )
 from com_core.bags.reader import (
     INCOMPLETE_TEXT,
+    RECORDER_LOST_KEY,
     BagReading,
     read_metadata,
     read_raw,
+    recorder_lost,
 )
 from com_core.bags.writer import (
     BagWriteError,
@@ -25,6 +27,7 @@ from com_core.bags.writer import (
 
 __all__ = [
     "INCOMPLETE_TEXT",
+    "RECORDER_LOST_KEY",
     "BagReading",
     "BagWriteError",
     "CrashSafeBagWriter",
@@ -36,5 +39,6 @@ __all__ = [
     "encode_wrench_stamped",
     "read_metadata",
     "read_raw",
+    "recorder_lost",
     "with_wrench",
 ]

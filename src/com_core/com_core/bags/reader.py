@@ -16,6 +16,7 @@ says what was read, how, and what was cut or damaged.
 
 from __future__ import annotations
 
+import json
 import struct
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
@@ -24,14 +25,29 @@ from typing import Any
 
 __all__ = [
     "INCOMPLETE_TEXT",
+    "RECORDER_LOST_KEY",
     "BagReading",
     "read_metadata",
     "read_raw",
+    "recorder_lost",
+    "recorder_lost_text",
 ]
 
 
 RawMessage = tuple[str, str, int, bytes]
 """(topic, msgtype, log time ns, CDR bytes)."""
+
+RECORDER_LOST_KEY = "recorder_lost_messages"
+"""metadata.yaml's ``custom_data`` key: a JSON object of messages lost per topic."""
+
+
+def recorder_lost_text(lost: dict[str, int]) -> str:
+    """One line on the messages a recorder lost ('' when none)."""
+    if not lost:
+        return ""
+    parts = ", ".join(f"{n} of {topic}" for topic, n in lost.items())
+    return f"the recorder lost {parts} before they reached it (metadata.yaml)"
+
 
 INCOMPLETE_TEXT = (
     "metadata.yaml says the recording is incomplete (custom_data.complete: false): "
@@ -64,6 +80,8 @@ class BagReading:
         message index survived.
     file_bytes : size of the MCAP files read, bytes.
     robot_description : the last URDF on /robot_description ('' if none was read).
+    recorder_lost : messages of requested topics the recorder counted lost before they
+        reached it (``recorder_lost``), per topic; {} when none or not said.
     """
 
     read: dict[str, int] = field(default_factory=dict)
@@ -76,6 +94,7 @@ class BagReading:
     lost: dict[str, int] = field(default_factory=dict)
     file_bytes: int = 0
     robot_description: str = ""
+    recorder_lost: dict[str, int] = field(default_factory=dict)
 
     def counts_text(self) -> str:
         """'/ft_sensor/wrench: 7681 of 15982 listed in metadata.yaml (48.1 %); ...'."""
@@ -119,6 +138,8 @@ class BagReading:
             out.append(self.damaged_text())
         if self.complete is False:
             out.append(INCOMPLETE_TEXT)
+        if self.recorder_lost:
+            out.append(recorder_lost_text(self.recorder_lost))
         return out
 
     def as_dict(self) -> dict[str, Any]:
@@ -133,7 +154,20 @@ class BagReading:
             "damaged": list(self.damaged),
             "lost": dict(self.lost),
             "file_bytes": self.file_bytes,
+            "recorder_lost": dict(self.recorder_lost),
         }
+
+
+def _bag_information(bag: Path | str) -> dict[str, Any]:
+    """metadata.yaml's ``rosbag2_bagfile_information`` ({} when missing or unreadable)."""
+    from ruamel.yaml import YAML, YAMLError
+
+    path = Path(bag) / "metadata.yaml"
+    try:
+        info = YAML(typ="safe").load(path.read_text("utf8"))["rosbag2_bagfile_information"]
+    except (OSError, YAMLError, KeyError, TypeError):
+        return {}
+    return info if isinstance(info, dict) else {}
 
 
 def read_metadata(bag: Path | str) -> tuple[dict[str, int], bool | None, list[str]]:
@@ -142,15 +176,7 @@ def read_metadata(bag: Path | str) -> tuple[dict[str, int], bool | None, list[st
     ``complete`` is ``custom_data.complete`` (None when absent); the files are the
     relative paths it names. A missing or unreadable metadata.yaml gives ({}, None, []).
     """
-    from ruamel.yaml import YAML, YAMLError
-
-    path = Path(bag) / "metadata.yaml"
-    try:
-        info = YAML(typ="safe").load(path.read_text("utf8"))["rosbag2_bagfile_information"]
-    except (OSError, YAMLError, KeyError, TypeError):
-        return {}, None, []
-    if not isinstance(info, dict):
-        return {}, None, []
+    info = _bag_information(bag)
     counts: dict[str, int] = {}
     for entry in info.get("topics_with_message_count") or []:
         try:
@@ -162,6 +188,19 @@ def read_metadata(bag: Path | str) -> tuple[dict[str, int], bool | None, list[st
     complete = {"true": True, "false": False}.get(flag)
     files = [str(f) for f in info.get("relative_file_paths") or []]
     return counts, complete, files
+
+
+def recorder_lost(bag: Path | str) -> dict[str, int]:
+    """Messages per topic that the recorder was told it lost (DDS's message-lost
+    events), from metadata.yaml's ``custom_data`` (``RECORDER_LOST_KEY``); {} when the
+    bag does not say."""
+    custom = _bag_information(bag).get("custom_data") or {}
+    text = custom.get(RECORDER_LOST_KEY, "") if isinstance(custom, dict) else ""
+    try:
+        lost = json.loads(text) if text else {}
+        return {str(topic): int(n) for topic, n in lost.items() if int(n) > 0}
+    except (ValueError, TypeError, AttributeError):
+        return {}
 
 
 def read_raw(
@@ -180,6 +219,7 @@ def read_raw(
     reading = BagReading() if reading is None else reading
     counts, reading.complete, files = read_metadata(bag)
     reading.listed = {t: n for t, n in counts.items() if t in wanted}
+    reading.recorder_lost = {t: n for t, n in recorder_lost(bag).items() if t in wanted}
     try:
         reader = Reader(bag)
         reader.open()

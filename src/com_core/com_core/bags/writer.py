@@ -160,6 +160,9 @@ class CrashSafeBagWriter:
         self._data_crc = 0  # CRC32 of the bytes before the PAD
         self._metadata_wall = 0.0
         self.flushed = 0
+        self.custom_data: dict[str, str] = {}
+        """Entries metadata.yaml's ``custom_data`` carries beside ``writer`` and
+        ``complete`` (rosbag2's map of strings), e.g. the recorder's lost messages."""
 
     # --- context manager ----------------------------------------------------------
 
@@ -500,7 +503,11 @@ class CrashSafeBagWriter:
                 "compression_format": "",
                 "compression_mode": "",
                 "files": [{"path": self._mcap_name, **span()}],
-                "custom_data": {"writer": LIBRARY, "complete": str(complete).lower()},
+                "custom_data": {
+                    **self.custom_data,
+                    "writer": LIBRARY,
+                    "complete": str(complete).lower(),
+                },
                 "ros_distro": ROS_DISTRO,
             }
         }
