@@ -3,6 +3,7 @@ failed runs and bags missing topics."""
 
 from __future__ import annotations
 
+import json
 import struct
 import subprocess
 import sys
@@ -14,6 +15,7 @@ import pytest
 from rosbags.typesys import Stores, get_typestore
 
 from com_core.bags.cdr import encode_header, encode_wrench_stamped
+from com_core.bags.reader import RECORDER_LOST_KEY
 from com_core.bags.writer import CrashSafeBagWriter
 from com_core.contract import (
     DIAGNOSTIC_NAME,
@@ -30,8 +32,9 @@ from com_core.contract import (
     WARN,
     WRENCH_TOPIC,
 )
+from com_core.estimation.cutting import window_sample_counts
 from com_core.estimation.exploration import Exploration
-from com_core.estimation.solution import Solution
+from com_core.estimation.solution import Solution, missing_samples
 from com_core.paper.synthetic import Load, exploration_stream
 from com_core.planning.planner import Plan
 from com_core.report.figure import write_report
@@ -97,6 +100,7 @@ def write_run(
     drop_tare: bool = False,
     skip: tuple[str, ...] = (),
     shift_sigma: float = 0.0,
+    lose: int = 0,
 ) -> tuple[Solution, float]:
     """A run bag as the sequencer records it; returns the estimator's solution and done (s).
 
@@ -104,7 +108,9 @@ def write_run(
     (the first object window), and not held again after ``done`` (the release).
     ``drop_tare`` relabels the tare windows ``moving`` (an ERROR run: no tare);
     ``shift_sigma`` (m) moves the object in the grasp at each tilt, and the truth is then
-    republished (held) at the last object window with the COM moved by 2 mm.
+    republished (held) at the last object window with the COM moved by 2 mm. ``lose``
+    wrenches of the first object window the estimator used are not in the bag, and its
+    metadata.yaml says the recorder lost them.
     """
     stream = exploration_stream(
         Plan(dwell=dwell, gravity_home=(0, 0, -1)),
@@ -155,10 +161,13 @@ def write_run(
     diag = _diagnostics(done, solution, exploration.sample_count)
     messages += [(done + 2 + k, DIAGNOSTICS_TOPIC, "diagnostic_msgs/msg/DiagnosticArray", raw)
                  for k, raw in enumerate(diag)]  # fmt: skip
+    lost = set(range(grasp + 10**8, grasp + 10**8 + lose * 10**6))  # 1 kHz stamps
     with CrashSafeBagWriter(path) as bag:
         for stamp, topic, msgtype, raw in sorted(messages, key=lambda m: m[0]):
-            if topic not in skip:
+            if topic not in skip and not (topic == WRENCH_TOPIC and stamp in lost):
                 bag.write(topic, msgtype, stamp, raw)
+        if lose:
+            bag.custom_data[RECORDER_LOST_KEY] = json.dumps({WRENCH_TOPIC: lose})
     return solution, done * 1e-9
 
 
@@ -314,3 +323,23 @@ def test_the_fits_quality_is_its_p_value_at_rest_and_its_chi2_per_dof_in_motion(
     in_motion = {"chi2": "21577.18", "dof": "19774", "p_value": "nan", "excitation": "motion"}
     assert _fit_quality(in_motion) == "1.091 (one rigid load up to 1.5)"
     assert _fit_quality({"mass": "0.5"}) is None
+
+
+def test_a_bag_that_lacks_samples_the_estimator_used_says_which_window(tmp_path):
+    """The bag's samples per window against the estimator's counts in its status: whole,
+    nothing; 7 wrenches lost in the first object window, that window with both counts and
+    the recorder's own count, in the report's problems too."""
+    whole, lacking = tmp_path / "whole", tmp_path / "lacking"
+    solution, _ = write_run(whole)
+    run = read_run(whole)
+    held = window_sample_counts(run.stamps, run.labels, run.done_ns)
+    assert held == solution.window_samples  # the estimator's own cut, sample for sample
+    assert run.incomplete == []
+    write_run(lacking, lose=7)
+    first = next(label for label in solution.window_samples if label.startswith("object/"))
+    used = solution.window_samples[first]
+    assert read_run(lacking).incomplete == [
+        f"the recorder lost 7 of {WRENCH_TOPIC} before they reached it (metadata.yaml)",
+        f"the bag holds {used - 7} of the {used} samples the estimator used in {first}",
+    ]
+    assert missing_samples({first: used}, {first: used + 1}) == []  # more is not less

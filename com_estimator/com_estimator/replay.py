@@ -71,7 +71,12 @@ from com_core.estimation.settings import (
     robot_from,
     use_cached_tares,
 )
-from com_core.estimation.solution import Solution, format_solution
+from com_core.estimation.solution import (
+    Solution,
+    format_solution,
+    missing_samples,
+    window_counts,
+)
 from com_core.estimation.static_windows import find_static_windows, split_load_levels
 from com_core.estimation.tare_cache import BAG_TARE_FILE
 from com_core.inputs import refusal, unwritable
@@ -275,7 +280,9 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
         exploration.untared = levels.untared
         source = f"no pose labels in the bag: {levels.describe()}"
     reasons = cut_short_reasons(exploration, n_label, reading)
-    solution = with_warnings(exploration.solve(), reasons)
+    solution = exploration.solve()
+    used = window_counts(reading.estimator_values)  # the node's, from its status in the bag
+    solution = with_warnings(solution, reasons + missing_samples(used, solution.window_samples))
     if args.json:
         extra = {
             "path": str(args.bag),

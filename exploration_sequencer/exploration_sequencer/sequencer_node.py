@@ -148,6 +148,7 @@ from com_core.planning.run_time import (
     static_run_phases,
     time_left,
 )
+from com_core.report import RunData, read_run, write_report
 from com_core.robot.choreography import VERIFY_POSE, Choreography
 from com_core.robot.config import (
     BAG_ROBOT_FILE,
@@ -669,11 +670,14 @@ class SequencerNode(Node):
         ):
             self._save_payload(bag)  # this run's estimate is the estimator's payload now
         counts = self._stop_recording()
-        summary = _summary(status, plan_line, bag)
+        run = self._read_run(bag)
+        summary = _summary(status, plan_line, bag, run.incomplete if run else [])
         self.get_logger().info(
             f"run {run_id}: {summary} ({sum(counts.values())} messages recorded)"
         )
-        self._write_report(bag)
+        if run is not None and run.incomplete:
+            self.get_logger().warning(f"the bag is incomplete: {'; '.join(run.incomplete)}")
+        self._write_report(bag, run)
         return status is not None and status_of(status.level) == OK, summary
 
     # --- an exploration in motion -------------------------------------------------------
@@ -1066,19 +1070,26 @@ class SequencerNode(Node):
             return self.io.recorder.stop()
         return {}
 
-    def _write_report(self, bag: Path) -> None:
+    def _read_run(self, bag: Path) -> RunData | None:
+        """The closed bag read back (the report's ``read_run``: what it lacks of the run
+        among the rest), or None when it cannot be read (logged)."""
         try:
-            from com_core.report.figure import write_report
+            return read_run(bag)
+        except Exception as exc:  # a bag that cannot be read back must never fail a run
+            self.get_logger().error(f"bag {bag} not read back: {exc!r}")
+            return None
 
-            self.get_logger().info(f"report: {write_report(bag)}")
+    def _write_report(self, bag: Path, run: RunData | None) -> None:
+        try:
+            self.get_logger().info(f"report: {write_report(bag, run=run)}")
         except Exception as exc:  # a report must never fail a run
             self.get_logger().error(f"report not written: {exc!r}")
 
 
-def _summary(status, plan_line: str, bag: Path) -> str:
+def _summary(status, plan_line: str, bag: Path, incomplete: list[str]) -> str:
     """One line: the estimator's status and message, for a kinematic fit the COM sigma
     the wrenches alone give on the same windows and the verification, the ``plan_line``
-    (the prediction and the pass), the bag."""
+    (the prediction and the pass), the bag and what it lacks (``RunData.incomplete``)."""
     if status is None:
         head = "[ERROR] the estimator did not answer"
     else:
@@ -1088,7 +1099,8 @@ def _summary(status, plan_line: str, bag: Path) -> str:
             head += f" (wrenches alone: COM +- ({', '.join(f'{v:.2f}' for v in alone)}) mm)"
         head += "".join(f"; {line}" for line in verification_lines(values))
         head += f"; {noise}" if (noise := noise_line(values)) else ""
-    return f"{head}; {plan_line}; bag {bag}"
+    lacks = "".join(f" (incomplete: {line})" for line in incomplete)
+    return f"{head}; {plan_line}; bag {bag}{lacks}"
 
 
 def _spin_until_shutdown(executor: MultiThreadedExecutor) -> None:

@@ -80,6 +80,8 @@ class BagReading:
         message index survived.
     file_bytes : size of the MCAP files read, bytes.
     robot_description : the last URDF on /robot_description ('' if none was read).
+    estimator_values : the values of the estimator's last exploration status on
+        /diagnostics ({} if none was read): its window counts, to hold the bag's against.
     recorder_lost : messages of requested topics the recorder counted lost before they
         reached it (``recorder_lost``), per topic; {} when none or not said.
     """
@@ -94,6 +96,7 @@ class BagReading:
     lost: dict[str, int] = field(default_factory=dict)
     file_bytes: int = 0
     robot_description: str = ""
+    estimator_values: dict[str, str] = field(default_factory=dict)
     recorder_lost: dict[str, int] = field(default_factory=dict)
 
     def counts_text(self) -> str:

@@ -34,12 +34,14 @@ __all__ = [
     "JOINT_MOTION",
     "JOINT_STATE_GAP",
     "Segments",
+    "label_spans",
     "motion_spans",
     "noise_model",
     "reduced_windows",
     "segments",
     "spans",
     "window_rotation",
+    "window_sample_counts",
     "window_time",
 ]
 
@@ -63,8 +65,16 @@ def spans(
     Windows run from a label's stamp to the next label's; ``until_ns`` ends the last
     one (default: the ``done`` label, else after the last sample).
     """
-    labels = sorted(inbox.labels, key=lambda sl: sl[0])  # stable: ties keep arrival order
     end = inbox.done_stamp() if until_ns is None else until_ns
+    return label_spans(inbox.labels, end, prefixes)
+
+
+def label_spans(
+    labels: list[tuple[int, str]], end: int | None, prefixes: tuple[str, ...] = STATIC_PREFIXES
+) -> dict[str, list[tuple[int, int]]]:
+    """``spans`` of (stamp ns, label) in arrival order, the last ending at ``end`` (None:
+    after the last sample)."""
+    labels = sorted(labels, key=lambda sl: sl[0])  # stable: ties keep arrival order
     if end is not None:
         labels = [(s, lbl) for s, lbl in labels if s <= end]
     if not labels:
@@ -75,6 +85,19 @@ def spans(
         if label.startswith(prefixes):
             out.setdefault(label, []).append((start, stop))
     return out
+
+
+def window_sample_counts(
+    stamps: NDArray[np.int64], labels: list[tuple[int, str]], end: int | None
+) -> dict[str, int]:
+    """The samples stamped (``stamps``, ns) in each window and motion span of ``labels``
+    (the ones ``Solution.window_samples`` counts), by label: a bag's, to hold against the
+    estimator's."""
+    parts = label_spans(labels, end, (*STATIC_PREFIXES, MOTION_PREFIX))
+    return {
+        label: int(sum(np.count_nonzero((stamps >= a) & (stamps < b)) for a, b in spans))
+        for label, spans in parts.items()
+    }
 
 
 def motion_spans(inbox: Inbox, until_ns: int | None = None) -> dict[str, list[tuple[int, int]]]:

@@ -8,6 +8,8 @@ from pathlib import Path
 from com_core.bags.cdr import decode_header, decode_wrenches
 from com_core.bags.reader import BagReading, read_raw
 from com_core.contract import (
+    DIAGNOSTIC_NAME,
+    DIAGNOSTICS_TOPIC,
     JOINT_STATES_TOPIC,
     POSE_TOPIC,
     ROBOT_DESCRIPTION_TOPIC,
@@ -30,7 +32,8 @@ def feed_bag(
 ) -> tuple[int, int]:
     """Feed a bag's wrenches and pose labels to ``exploration`` in recorded order, and
     for ``information`` 'kinematics' its joint states, with the last robot description
-    in ``reading.robot_description``.
+    in ``reading.robot_description`` and the estimator's last exploration status's values
+    in ``reading.estimator_values``.
 
     Returns (wrench messages, label messages) read; ``reading`` as in ``read_raw``.
     Wrenches are decoded in batches, as the node does; the result does not depend on the
@@ -49,7 +52,7 @@ def feed_bag(
             exploration.add_samples(stamps, wrenches, frames)
             pending.clear()
 
-    topics = [wrench_topic, pose_topic]
+    topics = [wrench_topic, pose_topic, DIAGNOSTICS_TOPIC]
     if exploration.information != WRENCHES:
         topics += [JOINT_STATES_TOPIC, ROBOT_DESCRIPTION_TOPIC]
     for topic, msgtype, _, raw in read_raw(bag, topics, reading):
@@ -71,5 +74,9 @@ def feed_bag(
             exploration.add_joint_state(stamp, msg.name, msg.position.tolist())
         elif topic == ROBOT_DESCRIPTION_TOPIC and reading is not None:
             reading.robot_description = typestore.deserialize_cdr(raw, msgtype).data
+        elif topic == DIAGNOSTICS_TOPIC and reading is not None:
+            for status in typestore.deserialize_cdr(raw, msgtype).status:
+                if status.name == DIAGNOSTIC_NAME:
+                    reading.estimator_values = {kv.key: kv.value for kv in status.values}
     flush()
     return n_wrench, n_label

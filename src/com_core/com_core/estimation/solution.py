@@ -61,11 +61,13 @@ __all__ = [
     "Solution",
     "Verification",
     "format_solution",
+    "missing_samples",
     "noise_line",
     "solve",
     "vector_value",
     "verification_lines",
     "verify",
+    "window_counts",
 ]
 
 
@@ -192,7 +194,7 @@ class Solution:
             if key in ("com", "sigma_com"):
                 out += [(f"{key}_{axis}", text(v)) for axis, v in zip("xyz", value, strict=True)]
             elif key == "window_samples":
-                out += [(f"samples {label}", str(n)) for label, n in value.items()]
+                out += [(f"{SAMPLES_KEY}{label}", str(n)) for label, n in value.items()]
             elif key not in ("reason", "notes"):
                 out.append((key, text(value)))
         return out
@@ -483,6 +485,33 @@ def _motion_check_line(values: Mapping[str, str], pose: str) -> str:
         f"{vec(predicted[3:], 1e3)} mN m; {ratio[0]:.2f} and {ratio[1]:.2f} of it "
         f"({ratio[2]:.2f} and {ratio[3]:.2f} allowed)"
     )
+
+
+SAMPLES_KEY = "samples "
+"""A status value's key prefix: ``samples <label>`` holds a window's sample count."""
+
+
+def window_counts(values: Mapping[str, str]) -> dict[str, int]:
+    """The samples (wrenches) of each window a status's ``values`` name, by label."""
+    out = {}
+    for key, text in values.items():
+        if key.startswith(SAMPLES_KEY):
+            try:
+                out[key.removeprefix(SAMPLES_KEY)] = int(text)
+            except ValueError:
+                continue
+    return out
+
+
+def missing_samples(used: Mapping[str, int], held: Mapping[str, int]) -> list[str]:
+    """One line per window whose bag ``held`` fewer samples than the estimator ``used``
+    (both by label): the bag lost them, and a replay of it cannot give the node's
+    numbers. [] when the bag holds every sample used."""
+    return [
+        f"the bag holds {held.get(label, 0)} of the {n} samples the estimator used in {label}"
+        for label, n in used.items()
+        if held.get(label, 0) < n
+    ]
 
 
 def noise_line(values: Mapping[str, str]) -> str | None:

@@ -645,7 +645,7 @@ def _draw_summary(fig, run: RunData, rows: list[_Row], left: float, top: float) 
     problems = []
     if run.missing:
         problems.append("missing topics: " + ", ".join(run.missing))
-    problems += run.notes
+    problems += run.notes + run.incomplete
     if problems:
         text = "\n".join(textwrap.fill(p, 72, subsequent_indent="    ") for p in problems)
         fig.text(
@@ -710,13 +710,16 @@ def _draw_banner(fig, run: RunData) -> None:
     )
 
 
-def write_report(bag: Path | str, png: Path | str | None = None) -> Path:
+def write_report(
+    bag: Path | str, png: Path | str | None = None, run: RunData | None = None
+) -> Path:
     """Read the run's bag and write its PNG report (default: <bag>/report.png); return the path.
 
     Parameters
     ----------
     bag : rosbag2 directory (MCAP) of one run.
     png : output file; its directory is created if needed.
+    run : the bag already read (``read_run``), if it was.
 
     Returns
     -------
@@ -729,7 +732,7 @@ def write_report(bag: Path | str, png: Path | str | None = None) -> Path:
     if not bag.is_dir():
         raise FileNotFoundError(f"{bag} is not a rosbag2 directory")
     png = bag / "report.png" if png is None else Path(png)
-    run = read_run(bag)
+    run = read_run(bag) if run is None else run
     rows = _rows(run)
 
     fig = Figure(figsize=(16, 11), dpi=100)  # no pyplot: no global figure registry

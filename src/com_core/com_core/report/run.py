@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from com_core.bags.cdr import decode_header, decode_wrench_batch
-from com_core.bags.reader import read_raw
+from com_core.bags.reader import read_raw, recorder_lost, recorder_lost_text
 from com_core.contract import (
     DIAGNOSTIC_NAME,
     DIAGNOSTICS_TOPIC,
@@ -37,6 +37,8 @@ from com_core.contract import (
     done_stamp,
     status_of,
 )
+from com_core.estimation.cutting import window_sample_counts
+from com_core.estimation.solution import missing_samples, window_counts
 from com_core.robot.dynamics import INERTIA_ELEMENTS
 
 __all__ = ["RUN_BAG_TOPICS", "Inertia", "RunData", "motion_fitted", "read_run"]
@@ -90,6 +92,8 @@ class RunData:
         the last one), or None.
     counts : messages read per topic.
     notes : problems met while reading (unreadable bag, undecodable messages).
+    incomplete : what the bag lacks of the run: messages the recorder was told it lost,
+        and each window of which it holds fewer samples than the estimator used.
     """
 
     name: str
@@ -105,6 +109,7 @@ class RunData:
     object_text: str | None = None
     counts: dict[str, int] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    incomplete: list[str] = field(default_factory=list)
 
     @property
     def missing(self) -> list[str]:
@@ -205,6 +210,12 @@ def read_run(bag: Path | str) -> RunData:
     for name, n in other_frames.items():
         run.notes.append(f"{n} wrench samples in frame {name!r}, not 'ft_sensor'")
     run.done_ns = done_stamp(run.labels)  # in recorded order, before sorting by stamp
+    if lost := recorder_lost_text(recorder_lost(bag)):
+        run.incomplete.append(lost)
+    if run.diagnostic is not None:  # the windows the bag holds fewer samples of than used
+        used = window_counts(run.diagnostic["values"])
+        held = window_sample_counts(run.stamps, run.labels, run.done_ns)
+        run.incomplete += missing_samples(used, held)
     run.labels.sort(key=lambda sl: sl[0])
     latched_earlier = run.estimate is not None and run.estimate.stamp_ns != run.done_ns
     if run.done_ns is not None and latched_earlier:  # the latched estimate of an earlier run
