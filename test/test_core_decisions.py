@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 import time
 from dataclasses import replace
 
@@ -15,13 +16,17 @@ from conftest import choreography
 from com_core.estimation.tare_cache import TareCache, save_tares
 from com_core.estimation.windows import window_from_mean
 from com_core.planning.decisions import (
+    BAG_BYTES_PER_S,
     GRIPPER_HOLDING,
     PlanInfeasible,
     PlannedRun,
     RunSettings,
+    bag_bytes,
+    bag_room_refusal,
     cached_tare,
     complete_tare_pass,
     estimator_calibration,
+    free_room,
     grasp_holds,
     held_mass,
     may_hold_object,
@@ -322,3 +327,14 @@ def test_a_target_refused_at_a_small_tilt_says_what_raise_tilt_would_do():
         predicted_run(plan_within_reach(small, PANDA, NOISE), small, PANDA, "ml", "wrenches")
     assert str(refused.value).startswith("target COM sigma cannot be met: ")
     assert "allow raise_tilt" in str(refused.value)
+
+
+def test_a_bag_dir_without_room_for_the_run_is_refused_with_the_room_it_has(tmp_path):
+    planned = 60.0
+    assert bag_bytes(planned) == round(1.5 * (planned * BAG_BYTES_PER_S + 2_000_000))
+    free = shutil.disk_usage(tmp_path).free
+    assert bag_room_refusal(tmp_path / "not" / "yet", planned) == ""  # its parent's room
+    too_long = 2 * free / BAG_BYTES_PER_S  # s: a run whose bag cannot fit
+    refusal = bag_room_refusal(tmp_path, too_long)
+    assert refusal.startswith(f"bag_dir {tmp_path}: ") and "MB free" in refusal
+    assert free_room(tmp_path / "missing").endswith(f"MB free on {tmp_path}")

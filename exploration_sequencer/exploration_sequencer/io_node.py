@@ -37,6 +37,10 @@ class TimeoutRunError(RunError):
     """Something the sim answers did not happen in time (e.g. the arm was blocked)."""
 
 
+class RecordingError(RunError):
+    """The run's recording stopped (a full or failing disk): the run goes back and ends."""
+
+
 class CancelledRunError(RunError):
     """The run was cancelled (a goal's cancel, or the node stopping)."""
 

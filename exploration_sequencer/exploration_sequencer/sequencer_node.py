@@ -117,9 +117,11 @@ from com_core.planning.decisions import (
     PlanInfeasible,
     Poses,
     RunSettings,
+    bag_room_refusal,
     cached_tare,
     complete_tare_pass,
     estimator_calibration,
+    free_room,
     grasp_holds,
     held_mass,
     may_hold_object,
@@ -165,7 +167,13 @@ from com_core.sensing.noise import NoiseModel
 from com_interfaces.action import Explore
 from exploration_sequencer.arm import Arm
 from exploration_sequencer.explore_action import feedback_of, goal_options, result_of
-from exploration_sequencer.io_node import CancelledRunError, IoNode, RunError, TimeoutRunError
+from exploration_sequencer.io_node import (
+    CancelledRunError,
+    IoNode,
+    RecordingError,
+    RunError,
+    TimeoutRunError,
+)
 from exploration_sequencer.parameters import PARAMETERS
 
 CANCEL_TIMEOUT = 8.0  # s (wall) a node stopping mid-run gives the way back (SIGINT: 10 s)
@@ -230,6 +238,7 @@ class SequencerNode(Node):
         self._goal = None  # the running goal's handle
         self._phase = ""
         self._start_ns, self._planned_s = 0, math.inf  # the run's start (sim ns), plan (s)
+        self._recording_failed = False  # the recorder's failure was raised once
         self._phases: tuple[PhaseTime, ...] = ()  # the run's phases as planned
         self._current, self._phase_ns = -1, 0  # the phase under way (index), its start (sim ns)
         self._clock_mark = (0.0, 0)  # (wall s, sim ns) when the run first read the clock
@@ -384,6 +393,12 @@ class SequencerNode(Node):
             status = OK if success else status_of(self._status.level) if self._status else ERROR
         except CancelledRunError as exc:
             status, message = Explore.Result.CANCELLED, self._cancel(run_id, str(exc))
+        except RecordingError as exc:  # the bag so far closed, the arm back
+            status, message = ERROR, f"run {run_id} failed: {exc}"
+            self.get_logger().error(message)
+            self._label(self.io.now_ns(), MOVING)
+            self._go_back(run_id, "after the recording stopped")
+            self._stop_recording()
         except RunError as exc:
             status, message = ERROR, f"run {run_id} failed: {exc}"
             self.get_logger().error(message)
@@ -425,16 +440,21 @@ class SequencerNode(Node):
             self.io.cancel.clear()
         self._label(self.io.now_ns(), CANCELLED)
         self._label(self.io.now_ns(), MOVING)
-        try:
-            if self.arm.motion is not None:  # else cancelled before anything moved
-                self.arm.come_to_rest()
-                home, pick = list(self.config.home_joints), list(self.config.pick_joints)
-                self._to_known_state(home, pick, "after the cancel")
-        except RunError as exc:
-            log.error(f"run {run_id}: not back home after the cancel: {exc}")
+        self._go_back(run_id, "after the cancel")
         self._stop_recording()
         bag = f"; bag {self._bag}" if self._bag else ""
         return f"[CANCELLED] run {run_id} cancelled: {why}{bag}"
+
+    def _go_back(self, run_id: str, when: str) -> None:
+        """The object put back and the arm home (nothing when nothing moved yet); a way
+        back that fails is logged."""
+        try:
+            if self.arm.motion is not None:
+                self.arm.come_to_rest()
+                home, pick = list(self.config.home_joints), list(self.config.pick_joints)
+                self._to_known_state(home, pick, when)
+        except RunError as exc:
+            self.get_logger().error(f"run {run_id}: not back home {when}: {exc}")
 
     def feedback_callback(self) -> None:
         """The running goal's feedback; a cancel it asked for stops the run."""
@@ -652,7 +672,10 @@ class SequencerNode(Node):
         """Start recording the run to <bag_dir>/<run_id> (with the robot configuration the
         replay takes its frames from) and its progress, ``planned_s`` s (sim) long."""
         bag = Path(self.p("bag_dir")).resolve() / run_id
+        if why := bag_room_refusal(bag.parent, planned_s):
+            raise RunError(why)  # before anything moves
         self._labels = []
+        self._recording_failed = False
         self.io.recorder.start(bag)
         self._bag = bag
         self._start_ns, self._planned_s = self.io.now_ns(), planned_s
@@ -982,6 +1005,7 @@ class SequencerNode(Node):
                 f"{LABEL_ACK_TIMEOUT:g} s: a reader that falls this far behind may miss it"
             )
         self._labels.append((stamp_ns, label))
+        self._check_recording()
         if label.startswith(STATIC_PREFIXES):
             self.get_logger().info(f"window {label} from t={stamp_ns * 1e-9:.3f} s")
 
@@ -1066,9 +1090,23 @@ class SequencerNode(Node):
             self.get_logger().error(f"payload files not written: {answer.message}")
 
     def _stop_recording(self) -> dict[str, int]:
-        if self.io.recorder.recording:
+        """Close the bag; messages written per topic ({} when none or the recording
+        failed: the bag holds what was written before, logged)."""
+        if not self.io.recorder.recording:
+            return {}
+        try:
             return self.io.recorder.stop()
-        return {}
+        except RuntimeError as exc:
+            self.get_logger().error(f"{exc}; {free_room(self._bag)}")
+            return {}
+
+    def _check_recording(self) -> None:
+        """RecordingError once the recorder says its writer stopped (a full disk)."""
+        if self._recording_failed or not self.io.recorder.recording:
+            return
+        if why := self.io.recorder.failure():
+            self._recording_failed = True
+            raise RecordingError(f"{why}; {free_room(self._bag)}")
 
     def _read_run(self, bag: Path) -> RunData | None:
         """The closed bag read back (the report's ``read_run``: what it lacks of the run
