@@ -4,6 +4,8 @@ value for value, the latched ones first; the bag readable while it records."""
 from __future__ import annotations
 
 import re
+import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -161,3 +163,40 @@ def test_recorder_keeps_every_message_at_5_khz(start_node, rclpy_context, tmp_pa
     with Reader(bag) as reader:  # a complete rosbag2 directory with every run topic
         assert {c.topic for c in reader.connections} == set(RUN_TOPICS)
         assert reader.message_count == sum(counts.values())
+
+
+RECORDING_PROCESS = """
+import sys, time
+from pathlib import Path
+from exploration_sequencer.recorder_process import RecorderProcess
+recorder = RecorderProcess()
+recorder.start(Path(sys.argv[1]))
+print(recorder._process.pid, flush=True)
+time.sleep(600)
+"""
+
+
+def test_the_recorders_process_closes_its_bag_and_ends_when_its_parent_is_killed(
+    ros_env, tmp_path
+):
+    """A sequencer killed by SIGKILL leaves no recorder behind, and its bag closed."""
+    import signal
+
+    from com_core.bags.reader import read_metadata
+
+    bag = tmp_path / "run"
+    parent = subprocess.Popen(
+        [sys.executable, "-c", RECORDING_PROCESS, str(bag)],
+        env=ros_env,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        child = int(parent.stdout.readline())
+        parent.send_signal(signal.SIGKILL)
+        parent.wait(timeout=10)
+        assert wait_for(lambda: not Path(f"/proc/{child}").exists(), 10.0), "recorder runs on"
+        assert read_metadata(bag)[1] is True  # custom_data.complete: closed
+    finally:
+        parent.kill()
+        parent.wait()

@@ -20,6 +20,7 @@ from com_core.bags.cdr import decode_header
 from com_core.bags.reader import read_metadata, read_raw
 from com_core.bags.writer import CrashSafeBagWriter
 from com_core.contract import (
+    DIAGNOSTICS_TOPIC,
     JOINT_STATES_TOPIC,
     POSE_TOPIC,
     ROBOT_DESCRIPTION_TOPIC,
@@ -283,3 +284,28 @@ def test_a_defect_in_one_run_is_its_error_and_the_others_go_on(tmp_path, capsys,
     rows = list(csv.DictReader((tmp_path / "r.csv").open()))
     assert rows[0]["status"] == "ERROR" and rows[0]["reason"].startswith("internal error: ")
     assert rows[1]["status"] == "NO BAG" and out.splitlines()[-1] == "1 ERROR, 1 NO BAG of 2"
+
+
+def test_a_bag_that_lacks_samples_the_node_used_is_warned_by_window(tmp_path, capsys, full):
+    """The node's window counts come with the bag (its status on /diagnostics): a copy
+    without 5 wrenches of the first object window replays WARN, naming that window."""
+    labels = [decode_header(raw) for *_, raw in read_raw(SAMPLE, [POSE_TOPIC])]
+    start, window = next((s, lbl) for s, lbl in labels if lbl.startswith("object/"))
+    bag = tmp_path / "lacking"
+    topics = (WRENCH_TOPIC, POSE_TOPIC, JOINT_STATES_TOPIC, ROBOT_DESCRIPTION_TOPIC,
+              DIAGNOSTICS_TOPIC)  # fmt: skip
+    dropped = 0
+    with CrashSafeBagWriter(bag) as writer:
+        for topic, msgtype, log_ns, raw in read_raw(SAMPLE, topics):
+            if topic == WRENCH_TOPIC and dropped < 5 and decode_header(raw)[0] >= start:
+                dropped += 1
+                continue
+            writer.write(topic, msgtype, log_ns, raw)
+    shutil.copy(SAMPLE / TARE_FILE, bag / TARE_FILE)
+    out = run_replay(capsys, bag)
+    used = full["window_samples"][window]
+    assert out["status"] == "WARN"
+    assert (
+        f"the bag holds {used - 5} of the {used} samples the estimator used in {window}"
+        in (out["reason"])
+    )

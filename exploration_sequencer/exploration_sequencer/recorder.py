@@ -63,6 +63,7 @@ __all__ = ["RUN_TOPICS", "Recorder"]
 RELIABLE_DEPTH = 100
 PREROLL = 2000  # stream messages before a start that go into the bag: ~0.5 s at 4 kHz
 FLUSH_INTERVAL = 0.1  # s: the most a crash loses
+PUMP_TIMEOUT = 20.0  # s (wall) a start or stop waits for the pump (a stop writes a backlog)
 _IDLE_WAIT = 0.01  # s the pump sleeps when nothing came
 
 Item = tuple[str, int, bytes]  # topic, log time ns, CDR bytes
@@ -201,18 +202,25 @@ class Recorder:
     # --- the pump -----------------------------------------------------------------------
 
     def _run(self, command: Callable[[], None]) -> None:
-        """Run ``command`` on the pump thread, after the messages already received."""
+        """Run ``command`` on the pump thread, after the messages already received; what
+        it raises is raised here."""
         done = threading.Event()
+        raised: list[BaseException] = []
 
         def run() -> None:
             try:
                 command()
+            except BaseException as exc:
+                raised.append(exc)
             finally:
                 done.set()
 
         self._commands.append(run)
         self._wake.set()
-        done.wait()
+        if not done.wait(timeout=PUMP_TIMEOUT):
+            raise RuntimeError(f"the recorder's pump did not answer in {PUMP_TIMEOUT:g} s")
+        if raised:
+            raise raised[0]
 
     def _pump(self) -> None:
         incoming, commands = self._incoming, self._commands

@@ -17,7 +17,7 @@ same calls (``start``, ``stop``, ``capture``, ``release``)::
 
 The child ignores SIGINT (a terminal's Ctrl-C reaches the whole process group, and the
 sequencer still records its way back after a cancel) and closes its bag and ends when
-the pipe closes (its parent ended, however it ended) or on SIGTERM. While a topic is
+the pipe closes or its parent is gone (however the parent ended), or on SIGTERM. While a topic is
 captured, ``latest_ns`` holds the newest header stamp of its messages (shared memory:
 waiting on it costs the child nothing).
 """
@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import multiprocessing
+import os
 import signal
 import threading
 from multiprocessing.connection import Connection
@@ -155,8 +156,9 @@ def _serve(conn: Connection, latest: Any) -> None:
         target=_answer, args=(conn, recorder, stopping), name="recorder calls", daemon=True
     )
     thread.start()
-    try:
-        while not stopping.is_set() and rclpy.ok():
+    parent = os.getppid()
+    try:  # until told, or until the parent is gone (even if the call thread is stuck)
+        while not stopping.is_set() and rclpy.ok() and os.getppid() == parent:
             executor.spin_once(timeout_sec=0.1)
     finally:
         if recorder.recording:
