@@ -239,6 +239,7 @@ class SequencerNode(Node):
         self._phase = ""
         self._start_ns, self._planned_s = 0, math.inf  # the run's start (sim ns), plan (s)
         self._recording_failed = False  # the recorder's failure was raised once
+        self._recording_ns = 0  # sim time (ns) at which the run's recording started
         self._phases: tuple[PhaseTime, ...] = ()  # the run's phases as planned
         self._current, self._phase_ns = -1, 0  # the phase under way (index), its start (sim ns)
         self._clock_mark = (0.0, 0)  # (wall s, sim ns) when the run first read the clock
@@ -677,6 +678,7 @@ class SequencerNode(Node):
         self._labels = []
         self._recording_failed = False
         self.io.recorder.start(bag)
+        self._recording_ns = self.io.now_ns()  # no window of the run starts before it
         self._bag = bag
         self._start_ns, self._planned_s = self.io.now_ns(), planned_s
         write_robot_config(self.config, bag / BAG_ROBOT_FILE)  # the replay's frames
@@ -981,7 +983,8 @@ class SequencerNode(Node):
         joint states first show the arm resting, so the pass's timing in sim time does
         not depend on how soon this node reacts."""
         dwell_ns = round(dwell * 1e9)
-        start = self.arm.move(poses[0][1], poses[0][0])
+        # an arm at rest all along rests from before the recording: the bag starts there
+        start = max(self.arm.move(poses[0][1], poses[0][0]), self._recording_ns)
         for k, (name, _) in enumerate(poses):
             end = start + dwell_ns
             self._label(start, prefix + name)
