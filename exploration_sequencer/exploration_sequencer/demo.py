@@ -58,7 +58,6 @@ from com_core.runtime.processes import executable, last_error_line, ros_args, st
 from com_core.runtime.rosenv import keep_dds_local
 from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES
 from exploration_sequencer.parameters import PARAMETERS as SEQUENCER
-from wrench_sim.parameters import check_parameter, sensor_profile
 
 CANCEL_WAIT = 8.0  # s for a cancelled goal's result before the nodes are stopped
 POLL = 0.2  # s between checks that the nodes still run, while waiting on the sequencer
@@ -67,6 +66,12 @@ ECHO_POLL = 0.05  # s between looks at the sequencer's log for lines to echo
 THIRD_MOTION_SEED = 7  # the motion the demo runs while holding, after a run in motion
 STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
 """Signals that end the demo as Ctrl-C does: the run cancelled, then the nodes stopped."""
+NO_SIMULATOR = (
+    "the demo runs the simulator, and the wrench_sim package is not installed: it is an"
+    " optional dependency of exploration_sequencer (a real arm needs none); build it beside"
+    " this package with its dependencies (rosdep install --from-paths wrench_sim --ignore-src)"
+)
+"""Why the demo cannot start: ``wrench_sim`` (and so pybullet) is not installed."""
 
 
 class Child(NamedTuple):
@@ -162,6 +167,13 @@ def interrupted_by(error: KeyboardInterrupt) -> signal.Signals:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    try:
+        import wrench_sim  # noqa: F401  # the simulator: an optional dependency (package.xml)
+    except ModuleNotFoundError as error:
+        if error.name != "wrench_sim":
+            raise
+        print(f"demo: {NO_SIMULATOR}", file=sys.stderr)
+        return 2
     for sig in STOP_SIGNALS:
         signal.signal(sig, interrupt)
     try:
@@ -291,6 +303,8 @@ def flag_refusals(
     """Why the flags cannot run ([] when they can), each naming the flag: every value the
     nodes would take checked by its parameter's row (``com_core.inputs``), and the
     simulated sensor's parts together (``SensorProfile.problems``)."""
+    from wrench_sim.parameters import check_parameter, sensor_profile
+
     out: dict[str, str] = {}  # by flag: the first refusal (--mass sets two parameters)
     for name, value in sim.items():
         out.setdefault(
