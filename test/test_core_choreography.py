@@ -184,19 +184,3 @@ def test_a_motion_of_motion_time_is_one_the_sim_accepts_and_no_faster(arm):
         assert peak[slowest] == pytest.approx(velocity[slowest], rel=2e-3)
         with pytest.raises(ValueError, match="velocity limit"):
             trajectory_from_command(motion.arm_joints, [0.9 * duration], [goal], limits, 0.0, rest)
-
-
-def test_a_windows_joints_are_the_mean_of_its_own_joint_states():
-    """The joint states inside the window, not the latest one: after the window's end the
-    next move may have begun (a cached tare's joints give the hand's model its gravity)."""
-    from exploration_sequencer.io_node import mean_joint_positions
-
-    history = [
-        (0, {"j": (1.0, 0.0)}),
-        (10, {"j": (1.0, 0.0)}),
-        (20, {"j": (1.2, 0.0)}),
-        (30, {"j": (1.5, 2.0)}),  # the next move, after the window's end
-    ]
-    assert mean_joint_positions(history, 0, 30) == {"j": (1.0 + 1.0 + 1.2) / 3}
-    assert mean_joint_positions(history, 40, 50) == {"j": 1.5}  # none inside: the latest
-    assert mean_joint_positions([], 0, 10) == {}

@@ -151,6 +151,46 @@ def test_kinematics_without_a_robot_model_or_joint_states_says_why():
     assert [w.pose for w in partial.windows] == ["tilt_x+", "tilt_x-", "tilt_y+", "tilt_y-"]
 
 
+def test_each_joint_is_taken_from_the_publishers_that_name_it_in_any_arrival_order():
+    """An arm's publisher and a gripper's (a third of its rate, its own stamps), each
+    naming its own joints: each window takes each joint from the messages that name it,
+    as from one publisher of every joint, and the estimate does not depend on how the
+    two publishers' messages interleaved (the node's and the bag's orders may differ)."""
+    from conftest import PANDA
+
+    stream, states, robot = kinematic_stream(np.random.default_rng(8))
+    fingers = list(PANDA.gripper_joints)
+    arm = [(t, [n for n in q if n not in fingers], [v for n, v in q.items() if n not in fingers])
+           for t, _, q in states]  # fmt: skip
+    gripper = [(t + 7_000_000, fingers, [q[n] for n in fingers]) for t, _, q in states[::3]]
+    orders = (sorted(arm + gripper, key=lambda m: m[0]), arm + gripper, gripper[::-1] + arm)
+    solutions = []
+    for order in orders:
+        ex = Exploration(information="kinematics", robot=robot)
+        for message in order:
+            assert ex.add_joint_state(*message)
+        solutions.append(fed(stream, ex).solve())
+    first = solutions[0]
+    assert first.status == OK and first.information == "kinematics", first.reason
+    for other in solutions[1:]:
+        assert other.estimate.mass == first.estimate.mass
+        assert other.estimate.com.tolist() == first.estimate.com.tolist()
+    whole = Exploration(information="kinematics", robot=robot)
+    for stamp, _, q in states:
+        whole.add_joint_state(stamp, list(q), list(q.values()))
+    one = fed(stream, whole).solve().estimate
+    np.testing.assert_allclose(first.estimate.com, one.com, rtol=1e-12, atol=1e-15)
+    assert first.estimate.mass == pytest.approx(one.mass, rel=1e-12)
+    # the gripper's messages alone give no window its arm; a malformed one is refused
+    ex = Exploration(information="kinematics", robot=robot)
+    assert not ex.add_joint_state(0, fingers, [0.04])
+    for message in gripper:
+        ex.add_joint_state(*message)
+    alone = fed(stream, ex).solve()
+    assert alone.status == ERROR and alone.reason.startswith("no windows to fit")
+    assert "window 'object/home': the joint states lack 'panda_joint1'" in alone.reason
+
+
 def test_an_exploration_without_labels_solves_to_no_windows():
     ex = Exploration()
     ex.add_samples([1, 2, 3], np.zeros((3, 6)), "ft_sensor")

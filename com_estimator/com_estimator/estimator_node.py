@@ -397,7 +397,10 @@ class EstimatorNode(Node):
 
     def joint_state_callback(self, msg: JointState) -> None:
         """Joint positions for the gravity of each window (information 'kinematics') and
-        for the orientation of each sample to compensate."""
+        for the orientation of each sample to compensate. A message may name some joints
+        only (another publisher's: a gripper's): the windows take each joint from the
+        messages that name it (``cutting.window_rotation``), the compensation the messages
+        that name every joint of the robot model."""
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
         if len(msg.position) != len(msg.name):  # malformed: not one position per joint
             self.get_logger().warning(

@@ -12,6 +12,8 @@ ahead. The arm rests at a goal when every joint is within 5 mrad of it and slowe
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 from builtin_interfaces.msg import Duration
 from rclpy.node import Node
 from std_msgs.msg import Float64MultiArray
@@ -28,7 +30,7 @@ REST_POSITION, REST_SPEED = 5e-3, 5e-3  # rad, rad/s
 
 
 def resting(
-    joints: dict[str, tuple[float, float]], names: tuple[str, ...], goal: list[float]
+    joints: Mapping[str, tuple[float, float]], names: tuple[str, ...], goal: list[float]
 ) -> bool:
     """The joints ``names`` (position rad, speed rad/s) are within REST_POSITION of
     ``goal`` and slower than REST_SPEED."""
@@ -138,11 +140,15 @@ class Arm:
                 raise
             self._log.warning(f"{exc}: going on from where the arm is")
             return io.now_ns()
-        rested = io.now_ns()
-        for stamp, joints in reversed(tuple(io.joint_history)):  # tuple(): one C call
-            if not resting(joints, self.config.arm_joints, goal):
-                break
-            rested = stamp
+        target = dict(zip(self.config.arm_joints, goal, strict=True))
+
+        def still(name: str, position: float, velocity: float) -> bool:
+            return abs(position - target[name]) < REST_POSITION and abs(velocity) < REST_SPEED
+
+        # each joint by its own joint states: a gripper's publisher does not count
+        rested = io.joint_states.rested_since(self.config.arm_joints, still)
+        if rested is None:  # moved again since the wait saw it resting
+            rested = io.now_ns()
         # never before the move's planned end: a move smaller than the rest tolerance
         # looks resting at its goal before it has begun
         ready = max(rested, arrival_ns) + round(self.settle * 1e9)

@@ -9,8 +9,7 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections import deque
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Mapping
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
@@ -24,6 +23,7 @@ from com_core.contract import (
     LIVE_STATUS_NAME,
     heard_stamps,
 )
+from com_core.robot.joint_states import JointStates
 from exploration_sequencer.recorder_process import RecorderProcess
 
 _NEVER = -(2**62)
@@ -48,6 +48,9 @@ class CancelledRunError(RunError):
 class IoNode(Node):
     """High-rate inputs: joint states, the estimator's answers, the sim clock, recording.
 
+    ``joint_states`` merges /joint_states per joint from any number of publishers (the
+    arm's, a gripper's), each joint's last 2 s by its own stamps; a message that names
+    one of ``arm_joints`` (any message while it is empty) says the arm answers.
     ``sim_timeout`` (s, wall) is how long ``wait`` goes without /joint_states before it
     says the simulator stopped answering. ``cancel``, once set, makes every ``wait``
     raise ``CancelledRunError``. ``live`` holds the values of the estimator's latest live
@@ -58,9 +61,9 @@ class IoNode(Node):
         super().__init__("exploration_sequencer_io")
         self.sim_timeout = 5.0
         self.joints_wall = -math.inf
-        # (stamp ns, {name: (position, velocity)}) of the last 2 s at 100 Hz: the latest
-        # joint state, and when the arm came to rest
-        self.joint_history: deque[tuple[int, dict[str, tuple[float, float]]]] = deque(maxlen=200)
+        # each joint's latest state, its means over a window, and when the arm came to rest
+        self.joint_states = JointStates(keep=2.0)
+        self.arm_joints: frozenset[str] = frozenset()
         self.diagnostics: list = []
         self.estimator_latest = _NEVER  # ns: the latest wrench the estimator has heard
         self.estimator_label = _NEVER  # ns: stamp of the latest label it has heard
@@ -71,20 +74,29 @@ class IoNode(Node):
         self.recorder = RecorderProcess()
 
     def joint_state_callback(self, msg: JointState) -> None:
-        velocities = msg.velocity if len(msg.velocity) == len(msg.name) else [0.0] * len(msg.name)
-        joints = dict(zip(msg.name, zip(msg.position, velocities, strict=True), strict=True))
+        """Merge a message of any publisher's joints; one without a position per name is
+        dropped."""
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-        self.joint_history.append((stamp, joints))
-        self.joints_wall = time.monotonic()
+        if not self.joint_states.add(stamp, msg.name, msg.position, msg.velocity):
+            self.get_logger().warning(
+                f"dropped a joint state of {len(msg.name)} names and {len(msg.position)} "
+                "positions",
+                throttle_duration_sec=10.0,
+            )
+            return
+        if not self.arm_joints or not self.arm_joints.isdisjoint(msg.name):
+            self.joints_wall = time.monotonic()
 
     @property
-    def joints(self) -> dict[str, tuple[float, float]]:
-        """The latest joint state: {name: (position rad or m, velocity)}; {} before one."""
-        return self.joint_history[-1][1] if self.joint_history else {}
+    def joints(self) -> Mapping[str, tuple[float, float]]:
+        """The merged joint state: {name: (position rad or m, velocity rad/s or m/s)} of
+        each joint's latest message, whichever publisher sent it; {} before one."""
+        return self.joint_states.latest
 
     def joints_over(self, start_ns: int, end_ns: int) -> dict[str, float]:
-        """``mean_joint_positions`` of the history (its last 2 s) over [start_ns, end_ns)."""
-        return mean_joint_positions(self.joint_history, start_ns, end_ns)
+        """Each joint's mean position (rad, m) over its own joint states stamped in
+        [start_ns, end_ns) (``JointStates.mean_positions``; the last 2 s are kept)."""
+        return self.joint_states.mean_positions(start_ns, end_ns)
 
     def diagnostics_callback(self, msg: DiagnosticArray) -> None:
         for status in msg.status:
@@ -129,16 +141,3 @@ class IoNode(Node):
     def sleep_until(self, stamp_ns: int, what: str) -> None:
         """Wait until sim time ``stamp_ns``."""
         self.wait(lambda: self.now_ns() >= stamp_ns, what, wall_timeout=None)
-
-
-def mean_joint_positions(
-    history: Iterable[tuple[int, dict[str, tuple[float, float]]]], start_ns: int, end_ns: int
-) -> dict[str, float]:
-    """The mean joint positions (rad, m) of the joint states (stamp ns, {name: (position,
-    velocity)}) stamped in [start_ns, end_ns): a window's own, not a reading taken after
-    it, when the next move may have begun; the latest joint state's if none is inside."""
-    states = list(history)
-    inside = [joints for stamp, joints in states if start_ns <= stamp < end_ns]
-    if not inside:
-        return {name: q for name, (q, _) in states[-1][1].items()} if states else {}
-    return {name: sum(j[name][0] for j in inside) / len(inside) for name in inside[-1]}

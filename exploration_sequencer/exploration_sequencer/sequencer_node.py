@@ -38,6 +38,7 @@ motion is ``arm``; the estimation is the estimator's (and ``com_core``'s).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
 import threading
@@ -583,12 +584,19 @@ class SequencerNode(Node):
         self._phases, self._current, self._progress = (), -1, 0.0
         config, motion = self.config, self._choreography()
         self.arm.motion = motion
+        with contextlib.suppress(TimeoutRunError):  # missing: named below
+            self.io.wait(  # a gripper's publisher may be heard before the arm's
+                lambda: all(name in self.io.joints for name in config.arm_joints),
+                "waiting for the arm's joint states",
+                wall_timeout=self.io.sim_timeout,
+            )
         missing = [name for name in config.arm_joints if name not in self.io.joints]
         if missing:
             raise RunError(
                 f"{JOINT_STATES_TOPIC} has no {', '.join(missing)} of the robot configuration's "
                 f"arm_joints (it names {', '.join(self.io.joints)})"
             )
+        self.io.arm_joints = frozenset(config.arm_joints)  # their messages: the arm answers
         self._handshake()
         if information := self._overrides.get("information"):  # before the reset: the
             self._set_estimator("information", information)  # estimator reads it there

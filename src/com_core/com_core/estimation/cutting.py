@@ -9,7 +9,9 @@ label only closes the current one. Samples belong to the windows their own heade
 fall in, [start, stop) in ns; the windows of one label are merged. A window's
 orientation under the kinematic information is R_base_sensor of the mean joint state
 within it (the URDF's forward kinematics, ``com_core.robot.model``), and its time the
-mean of its samples' stamps (s): the bias drift's clock (``known_gravity``).
+mean of its samples' stamps (s): the bias drift's clock (``known_gravity``). Each joint's
+mean is over the joint states that name it, so that publishers of some joints each (an
+arm's broadcaster, a gripper's) count for theirs, whatever order their messages came in.
 """
 
 from __future__ import annotations
@@ -118,9 +120,11 @@ def window_rotation(
     inbox: Inbox, robot: RobotModel, label: str, until_ns: int | None = None
 ) -> NDArray[np.float64]:
     """R_base_sensor (3, 3) over window ``label`` from ``robot`` and the joint states in
-    its span (or the nearest within JOINT_STATE_GAP s of it), at their mean. Raises
-    WindowError with the reason when there is none or the joints moved more than
-    JOINT_MOTION."""
+    its span, at each joint's mean over the states that name it there (or the nearest that
+    names it within JOINT_STATE_GAP s of the span). Raises WindowError with the reason when
+    there is none or a joint moved more than JOINT_MOTION. Each joint's states are taken
+    in stamp order (ties by position), so the result is the same whatever order the
+    messages of several publishers arrived in."""
     parts = spans(inbox, until_ns)[label]
     joint_states = inbox.joint_states
     stamps = np.array([t for t, _ in joint_states], dtype=np.int64)
@@ -128,20 +132,32 @@ def window_rotation(
     distance = np.full(len(stamps), np.inf)
     for a, b in parts:
         distance = np.minimum(distance, np.maximum(a - stamps, 0) + np.maximum(stamps - b + 1, 0))
-    inside = list(np.flatnonzero(distance == 0))
-    if not inside and len(stamps) and distance.min() <= JOINT_STATE_GAP * 1e9:
-        inside = [int(np.argmin(distance))]
-    if not inside:
+    gap = JOINT_STATE_GAP * 1e9
+    if not len(stamps) or distance.min() > gap:
         raise WindowError(f"no joint state within {JOINT_STATE_GAP:g} s of window {label!r}")
-    names = robot.joint_names
-    try:
-        q = np.array([[joint_states[k][1][n] for n in names] for k in inside])
-    except KeyError as error:
-        raise WindowError(f"window {label!r}: the joint states lack {error}") from error
-    moved = float(np.max(np.ptp(q, axis=0)))
+
+    def naming(name: str, indices: list[int]) -> list[tuple[float, int, float]]:
+        """(distance ns, stamp ns, position) of the states of ``indices`` that name
+        joint ``name``."""
+        return [(distance[k], stamps[k], joint_states[k][1][name]) for k in indices
+                if name in joint_states[k][1]]  # fmt: skip
+
+    inside = np.flatnonzero(distance == 0).tolist()
+    near = np.flatnonzero(distance <= gap).tolist()
+    positions, moved = {}, 0.0
+    for name in robot.joint_names:
+        own = sorted(naming(name, inside))
+        if not own:  # none inside: the nearest that names it
+            nearest = naming(name, near)
+            if not nearest:
+                raise WindowError(f"window {label!r}: the joint states lack {name!r}")
+            own = [min(nearest)]
+        q = np.array([position for _, _, position in own], dtype=np.float64)
+        moved = max(moved, float(np.ptp(q)))
+        positions[name] = float(np.mean(q))
     if moved > JOINT_MOTION:
         raise WindowError(f"window {label!r}: the joints moved {moved * 1e3:.1f} mrad")
-    return robot.sensor_rotation(dict(zip(names, q.mean(axis=0), strict=True)))
+    return robot.sensor_rotation(positions)
 
 
 def window_time(

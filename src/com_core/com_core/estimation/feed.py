@@ -31,7 +31,8 @@ def feed_bag(
     reading: BagReading | None = None,
 ) -> tuple[int, int]:
     """Feed a bag's wrenches and pose labels to ``exploration`` in recorded order, and
-    for ``information`` 'kinematics' its joint states, with the last robot description
+    for ``information`` 'kinematics' its joint states (every publisher's, each message
+    with the joints it names, as the node keeps them), with the last robot description
     in ``reading.robot_description`` and the estimator's last exploration status's values
     in ``reading.estimator_values``.
 

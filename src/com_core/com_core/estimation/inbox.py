@@ -20,7 +20,9 @@ across topics, so the estimator node and the offline replay keep the same input:
 - a ``cancelled`` label ends a run that was cancelled: its labels and samples up to the
   label's stamp are dropped, so nothing of it is estimated (``cancelled``, the stamps);
 - joint states (sensor_msgs/JointState: rad or m, by joint name) are kept with their
-  stamps, for each window's orientation under the kinematic information.
+  stamps, for each window's orientation under the kinematic information, each message
+  with the joints it names (a gripper's publisher names only its own); one without a
+  position per name is refused (``add_joint_state``).
 """
 
 from __future__ import annotations
@@ -243,7 +245,12 @@ class Inbox:
 
     def add_joint_state(
         self, stamp_ns: int, names: Sequence[str], positions: Sequence[float]
-    ) -> None:
-        """A joint state (sensor_msgs/JointState: names, positions in rad or m) at
-        ``stamp_ns``, for the gravity of each window under the kinematic information."""
+    ) -> bool:
+        """A joint state (sensor_msgs/JointState: names, positions in rad or m; any of the
+        robot's joints) at ``stamp_ns``, for the gravity of each window under the
+        kinematic information; False (nothing kept) when the positions are not one per
+        name."""
+        if len(positions) != len(names):
+            return False
         self._joint_states.append((int(stamp_ns), dict(zip(names, positions, strict=True))))
+        return True

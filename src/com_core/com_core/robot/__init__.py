@@ -1,6 +1,6 @@
 """The arm: its configuration files, its kinematic model from the URDF, inverse
-kinematics, the choreography of an exploration's poses, and the wrench a load exerts on
-the sensor in motion.
+kinematics, the choreography of an exploration's poses, the wrench a load exerts on the
+sensor in motion, and its joint states merged per joint from several publishers.
 """
 
 from com_core.robot.choreography import (
@@ -38,6 +38,7 @@ from com_core.robot.inverse_kinematics import (
     largest_reachable_tilt,
     solve_pose,
 )
+from com_core.robot.joint_states import JointStates
 from com_core.robot.model import (
     DEFAULT_GRAVITY,
     KinematicsError,
@@ -57,6 +58,7 @@ __all__ = [
     "VERIFY_TILT",
     "Choreography",
     "IkResult",
+    "JointStates",
     "KinematicsError",
     "PoseUnreachable",
     "RobotConfig",
