@@ -22,7 +22,7 @@ from com_core.report.run import read_run
 
 pytestmark = pytest.mark.system
 
-BAG = re.compile(r"bag (\S+)")
+BAG = re.compile(r"; bag (\S+)$")
 
 
 @pytest.fixture

@@ -54,7 +54,13 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from com_core.bags.reader import RECORDER_LOST_KEY
 from com_core.bags.writer import CrashSafeBagWriter
-from com_core.contract import BEST_EFFORT_TOPICS, LATCHED_TOPICS
+from com_core.contract import (
+    BEST_EFFORT_TOPICS,
+    CLOCK_TOPIC,
+    JOINT_STATES_TOPIC,
+    LATCHED_TOPICS,
+    WRENCH_TOPIC,
+)
 from com_core.contract import TOPIC_TYPES as RUN_TOPICS
 from com_estimator.stream_qos import stream_qos, subscribe_adapted
 
@@ -63,6 +69,8 @@ __all__ = ["RUN_TOPICS", "Recorder"]
 RELIABLE_DEPTH = 100
 PREROLL = 2000  # stream messages before a start that go into the bag: ~0.5 s at 4 kHz
 FLUSH_INTERVAL = 0.1  # s: the most a crash loses
+AWAITED = (WRENCH_TOPIC, JOINT_STATES_TOPIC, CLOCK_TOPIC)  # the streams a run's windows need
+STREAM_WAIT = 5.0  # s (wall) a start waits for an awaited stream's first message
 PUMP_TIMEOUT = 20.0  # s (wall) a start or stop waits for the pump (a stop writes a backlog)
 _IDLE_WAIT = 0.01  # s the pump sleeps when nothing came
 
@@ -94,6 +102,7 @@ class Recorder:
         self._requested: dict[str, QoSProfile] = {}
         self._lost: dict[str, int] = {}  # messages DDS says this recording lost, per topic
         self._wake = threading.Event()
+        self._heard: set[str] = set()  # the streams a message of which came
         for topic, msgtype in self._topics.items():
             if topic in BEST_EFFORT_TOPICS:  # the streams: as their publishers offer
                 events = SubscriptionEventCallbacks(message_lost=self._lost_callback(topic))
@@ -138,7 +147,9 @@ class Recorder:
         return "" if self._error is None else f"recording to {self.path} stopped: {self._error}"
 
     def start(self, bag_dir: Path) -> None:
-        """Begin recording to ``bag_dir`` (which must not exist)."""
+        """Begin recording to ``bag_dir`` (which must not exist), once each ``AWAITED``
+        stream that has a publisher is heard (``STREAM_WAIT`` s at most: a stream's
+        subscription is made when its publisher is discovered, and matched after that)."""
         if self._writer is not None:
             raise RuntimeError(f"already recording to {self._writer.path}")
         bag_dir = Path(bag_dir)
@@ -160,8 +171,27 @@ class Recorder:
             self._write([*items, *self._recent])
             self._recent.clear()
 
+        self._wait_for_streams()
         self._run(begin)
         self._node.get_logger().info(f"recording {len(self._topics)} topics to {bag_dir}")
+
+    def _wait_for_streams(self) -> None:
+        """Wait until each ``AWAITED`` stream with a publisher has delivered a message; log
+        the ones that did not within ``STREAM_WAIT`` s."""
+        deadline = time.monotonic() + STREAM_WAIT
+        while True:
+            silent = [topic for topic in AWAITED
+                      if topic in self._topics and topic not in self._heard
+                      and self._node.get_publishers_info_by_topic(topic)]  # fmt: skip
+            if not silent:
+                return
+            if time.monotonic() > deadline:
+                self._node.get_logger().warning(
+                    f"recording without a message yet of {', '.join(silent)} (published, "
+                    f"not heard within {STREAM_WAIT:g} s)"
+                )
+                return
+            time.sleep(0.02)
 
     def stop(self) -> dict[str, int]:
         """Finish the recording (every message received before the call, then flush,
@@ -280,9 +310,11 @@ class Recorder:
 
     def _stream_callback(self, topic: str) -> Callable[[bytes], None]:
         append, captures, on_capture = self._incoming.append, self._captures, self._on_capture
+        heard = self._heard
 
         def record(raw: bytes) -> None:
             append((topic, time.time_ns(), raw))
+            heard.add(topic)
             kept = captures.get(topic)
             if kept is not None:
                 kept.append(raw)

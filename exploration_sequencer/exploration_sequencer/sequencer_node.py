@@ -1148,8 +1148,8 @@ def _summary(status, plan_line: str, bag: Path, incomplete: list[str]) -> str:
             head += f" (wrenches alone: COM +- ({', '.join(f'{v:.2f}' for v in alone)}) mm)"
         head += "".join(f"; {line}" for line in verification_lines(values))
         head += f"; {noise}" if (noise := noise_line(values)) else ""
-    lacks = "".join(f" (incomplete: {line})" for line in incomplete)
-    return f"{head}; {plan_line}; bag {bag}{lacks}"
+    lacks = "".join(f"; incomplete: {line}" for line in incomplete)
+    return f"{head}; {plan_line}{lacks}; bag {bag}"
 
 
 def _spin_until_shutdown(executor: MultiThreadedExecutor) -> None:
