@@ -42,3 +42,16 @@ def test_a_users_own_profiles_file_is_kept(monkeypatch: pytest.MonkeyPatch) -> N
     monkeypatch.setenv("FASTRTPS_DEFAULT_PROFILES_FILE", "/etc/theirs.xml")
     keep_dds_local()
     assert os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"] == "/etc/theirs.xml"
+
+
+def test_a_node_says_which_discovery_it_uses_and_how_to_widen_it(monkeypatch) -> None:
+    from com_core.runtime.rosenv import discovery_line
+
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    monkeypatch.setenv("ROS_DOMAIN_ID", "7")
+    line = discovery_line()
+    assert line.startswith("DDS discovery: ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, ")
+    assert "ROS_DOMAIN_ID=7" in line and "ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET" in line
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "SUBNET")
+    wide = "DDS discovery: ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET, ROS_DOMAIN_ID=7"
+    assert discovery_line() == wide

@@ -105,7 +105,7 @@ from com_core.robot.config import default_robot_config
 from com_core.robot.dynamics import INERTIA_ELEMENTS, inertia_elements
 from com_core.robot.model import RobotModel
 from com_core.runtime.lifeline import stop_with_parent
-from com_core.runtime.rosenv import keep_dds_local, start_refusal, stop_on_signals
+from com_core.runtime.rosenv import discovery_line, keep_dds_local, start_refusal, stop_on_signals
 from com_estimator.stream_qos import subscribe_adapted
 
 MAX_MESSAGE_LENGTH = 1000  # characters of a diagnostic message
@@ -628,6 +628,7 @@ def _status(solution: Solution, name: str, frame: str, values: list[KeyValue]) -
 def main(args: list[str] | None = None) -> int:
     keep_dds_local()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    rclpy.logging.get_logger("com_estimator").info(discovery_line())
     stopping = stop_on_signals()
     try:
         node = EstimatorNode()

@@ -162,7 +162,7 @@ from com_core.robot.config import (
     write_robot_config,
 )
 from com_core.runtime.lifeline import stop_with_parent
-from com_core.runtime.rosenv import keep_dds_local, start_refusal, stop_on_signals
+from com_core.runtime.rosenv import discovery_line, keep_dds_local, start_refusal, stop_on_signals
 from com_core.sensing.calibration import Calibration
 from com_core.sensing.noise import NoiseModel
 from com_interfaces.action import Explore
@@ -1164,6 +1164,7 @@ def _spin_until_shutdown(executor: MultiThreadedExecutor) -> None:
 def main(args: list[str] | None = None) -> int:
     keep_dds_local()
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    rclpy.logging.get_logger("exploration_sequencer").info(discovery_line())
     stopping = stop_on_signals()
     io = IoNode()
     try:

@@ -82,7 +82,7 @@ from com_core.inputs import InputError
 from com_core.robot.config import KEYS, RobotConfig, RobotConfigError
 from com_core.robot.dynamics import INERTIA_ELEMENTS, inertia_elements
 from com_core.runtime.lifeline import stop_with_parent
-from com_core.runtime.rosenv import keep_dds_local, start_refusal
+from com_core.runtime.rosenv import discovery_line, keep_dds_local, start_refusal
 from com_core.sensing.sensor_profiles import SensorProfile
 from com_core.sensing.wrench_model import SensorModel, rotation_about
 from wrench_sim.parameters import (
@@ -483,6 +483,7 @@ def main(args: list[str] | None = None) -> int:
     # process started with SIGINT ignored (a background job of a script).
     signal.signal(signal.SIGINT, signal.default_int_handler)
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    rclpy.logging.get_logger("wrench_sim").info(discovery_line())
     try:
         node = SimNode()
     except (ParameterException, InputError, RobotConfigError) as error:  # the user's input

@@ -8,7 +8,13 @@ import signal
 import threading
 from pathlib import Path
 
-__all__ = ["FASTDDS_PROFILES", "keep_dds_local", "start_refusal", "stop_on_signals"]
+__all__ = [
+    "FASTDDS_PROFILES",
+    "discovery_line",
+    "keep_dds_local",
+    "start_refusal",
+    "stop_on_signals",
+]
 
 FASTDDS_PROFILES = Path(__file__).with_name("fastdds_profiles.xml")
 """The Fast DDS profiles this project's processes load: a service waits up to 2 s, not
@@ -29,6 +35,22 @@ def keep_dds_local(own_domain: bool = False) -> None:
     os.environ.setdefault("FASTRTPS_DEFAULT_PROFILES_FILE", str(FASTDDS_PROFILES))
     if own_domain:
         os.environ.setdefault("ROS_DOMAIN_ID", str(os.getpid() % 100 + 1))
+
+
+def discovery_line() -> str:
+    """The DDS discovery this process uses and how to widen it: each node logs it at
+    start, so that a driver on another computer that is not seen says why."""
+    scope = os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "") or "(unset)"
+    domain = os.environ.get("ROS_DOMAIN_ID", "") or "0 (unset)"
+    line = f"DDS discovery: ROS_AUTOMATIC_DISCOVERY_RANGE={scope}, ROS_DOMAIN_ID={domain}"
+    if scope == "LOCALHOST":
+        line += (
+            ": only nodes on this computer are seen (this project's default when the "
+            "variable is unset); a driver on another computer (a robot's controller PC) "
+            "needs ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET, or ROS_STATIC_PEERS naming it, set "
+            "before every node starts"
+        )
+    return line
 
 
 def stop_on_signals(
