@@ -40,9 +40,11 @@ test: setup lint
 	$(IN_ENV) python -m pytest test $(ARGS)
 
 # The core and unit tests: no node processes, no rclpy context (the `system` marker), no
-# Monte Carlo statistics over hundreds of fits (the `slow` marker).
+# Monte Carlo statistics over hundreds of fits (the `slow` marker); on every core
+# (pytest-xdist: each worker takes its share of the tests in file order and takes over
+# another's when it runs out, so a module's shared fixtures are mostly built once).
 test-fast: setup lint
-	$(IN_ENV) python -m pytest test -m "not system and not slow" $(ARGS)
+	$(IN_ENV) python -m pytest test -m "not system and not slow" -n auto --dist worksteal $(ARGS)
 
 lint: $(VENV_STAMP)
 	$(VENV)/bin/ruff check .

@@ -15,14 +15,22 @@
   ``wait_for_messages`` and ``spin_until`` wait on it with a timeout.
 - ``replay_json(bag)``: the installed replay's --json answer; ``write_stream_bag(path,
   stream)``: a run bag of a synthetic exploration stream (no ROS).
+- OPENBLAS_NUM_THREADS is 1 unless set (see below).
 """
 
 from __future__ import annotations
 
+import os
+
+# One BLAS thread unless told otherwise, read once as numpy loads (here, through com_core),
+# and inherited by the processes the tests start: the fits' least squares are small, and a
+# second thread waiting for a core that another process keeps busy makes each of them 100
+# times slower.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 import fcntl
 import itertools
 import json
-import os
 import signal
 import subprocess
 import tempfile

@@ -10,7 +10,12 @@ import numpy as np
 import pytest
 from test_sim_physics import grasp
 
-from com_core.robot.dynamics import inertial_parameters, load_of, sensor_regressor
+from com_core.robot.dynamics import (
+    inertial_parameters,
+    load_of,
+    sensor_regressor,
+    sensor_regressors,
+)
 from com_core.robot.model import RobotModel
 from wrench_sim.config import SimConfig
 from wrench_sim.load import GroundTruth
@@ -62,8 +67,7 @@ def regressors_of(world: ArmWorld, positions, velocities, accelerations) -> np.n
     robot = world.config.robot
     model = RobotModel(world.urdf_text, robot.sensor_frame)
     assert model.joint_names == robot.arm_joints  # the fingers are fixed (rigid grasp)
-    motion = zip(positions, velocities, accelerations, strict=True)
-    return np.array([sensor_regressor(model, *x) for x in motion])
+    return sensor_regressors(model, positions, velocities, accelerations)
 
 
 def fitted(world: ArmWorld, motion, readings) -> tuple:

@@ -10,7 +10,8 @@ drive the arm into the ground and read the collision it reports.
 from __future__ import annotations
 
 import itertools
-from dataclasses import replace
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pytest
@@ -85,15 +86,30 @@ XARM_POSES = {
 }
 
 
-def grasp(world: ArmWorld) -> None:
-    """Pick the object from its stand and lift it to the home pose, without a collision."""
-    studies.grasp(world)
+def grasp(world: ArmWorld, seconds: float | None = None) -> None:
+    """Pick the object from its stand and lift it to the home pose, without a collision:
+    ``studies.grasp`` with moves of ``seconds``; None: its 3 s in friction mode (where the
+    lift's speed shapes the grasp), 1.5 s in rigid mode (the object fixed to the hand once
+    closed on)."""
+    if seconds is None:
+        seconds = 3.0 if world.config.grasp_mode == "friction" else 1.5
+    studies.grasp(world, seconds)
     assert world.collisions == 0, world.events
+
+
+def move(world: ArmWorld, q: Sequence[float]) -> None:
+    """Move every arm joint to ``q`` (rad) and wait until the arm is settled: one quintic
+    over the furthest joint's distance plus 0.3 s, 0.6 s at least (at most 1.9 rad/s).
+    The static wrench at the end is what a 4 s move leaves (measured over every pose
+    here, rigid and friction mode, hand and held object: the same to 1 % of each
+    tolerance)."""
+    now = np.array(world.joint_state()[1][: len(q)])
+    world.move_arm(q, max(0.6, float(np.abs(np.asarray(q) - now).max()) + 0.3))
 
 
 def hold_and_compare(world: ArmWorld, q: list[float], steps: int = 20) -> np.ndarray:
     """Move to ``q``, hold still; sensed minus analytic wrench over ``steps`` steps, (n, 6)."""
-    world.move_arm(q, 4.0)
+    move(world, q)
     world.run(0.2)
     errors = []
     for _ in range(steps):
@@ -106,11 +122,58 @@ def hold_and_compare(world: ArmWorld, q: list[float], steps: int = 20) -> np.nda
     return np.array(errors)
 
 
+@dataclass(frozen=True)
+class Pose:
+    """What ``sweep`` read at one pose: the sensed minus the analytic wrench over its steps
+    (n, 6), then the joint positions by name (rad, m), gravity in ``ft_sensor`` (m/s^2),
+    the sensed force (N) and whether the object was held."""
+
+    errors: np.ndarray
+    joints: dict[str, float]
+    gravity: np.ndarray
+    force: np.ndarray
+    held: bool
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A world taken through poses (``sweep``): the URDF it loaded, each pose's reading by
+    name in the order visited, and its collision count and events at the end."""
+
+    urdf: str
+    poses: dict[str, Pose]
+    collisions: int
+    events: list[str]
+
+
+def sweep(world: ArmWorld, poses: dict[str, list[float]], steps: int = 20) -> Sweep:
+    """``hold_and_compare`` at each of ``poses`` in turn, and what the world reads at the
+    end of each; shared by the tests of one world's poses (a sweep is seconds of sim)."""
+    out = {}
+    for name, q in poses.items():
+        errors = hold_and_compare(world, q, steps)
+        names, positions, _, _ = world.joint_state()
+        joints = dict(zip(names, positions, strict=True))
+        force = world.wrench[:3].copy()
+        out[name] = Pose(errors, joints, world.gravity_in_sensor(), force, world.object_held)
+    return Sweep(world.urdf_text, out, world.collisions, list(world.events))
+
+
 @pytest.fixture(scope="module")
 def rigid_world():
     world = ArmWorld(SimConfig(object_shape="box", object_com_offset=COM_OFFSET))
     yield world
     world.close()
+
+
+@pytest.fixture(scope="module")
+def hand_sweep() -> Sweep:
+    """The Panda in rigid mode, the box on its stand: every pose of POSES, the hand alone."""
+    world = ArmWorld(SimConfig(object_shape="box", object_com_offset=COM_OFFSET))
+    try:
+        return sweep(world, POSES)
+    finally:
+        world.close()
 
 
 def test_hand_ground_truth_comes_from_the_urdf(rigid_world):
@@ -120,13 +183,12 @@ def test_hand_ground_truth_comes_from_the_urdf(rigid_world):
     assert_allclose(com, [0.0, 0.0, (0.81 * 0.04 + 0.2 * 0.0784) / 1.01], atol=1e-7)
 
 
-def test_hand_only_matches_gravity_wrench_at_every_orientation(rigid_world):
-    assert not rigid_world.object_held
-    for name, q in POSES.items():
-        errors = hold_and_compare(rigid_world, q)
-        assert np.abs(errors[:, :3]).max() < FORCE_TOL, name
-        assert np.abs(errors[:, 3:]).max() < TORQUE_TOL, name
-    rigid_world.move_arm(HOME_JOINTS, 4.0)
+def test_hand_only_matches_gravity_wrench_at_every_orientation(hand_sweep):
+    assert list(hand_sweep.poses) == list(POSES)
+    for name, pose in hand_sweep.poses.items():
+        assert not pose.held, name
+        assert np.abs(pose.errors[:, :3]).max() < FORCE_TOL, name
+        assert np.abs(pose.errors[:, 3:]).max() < TORQUE_TOL, name
 
 
 def test_rigid_grasp_matches_gravity_wrench_at_every_orientation(rigid_world):
@@ -177,23 +239,35 @@ def test_hand_mass_override_scales_the_hand():
         world.close()
 
 
-def test_friction_mode_error_stays_within_the_documented_bound():
+FRICTION_POSES = ("home", "j6+0.5", "j6-0.5", "j5+0.5", "fingers-down", "fingers-up")
+
+
+@pytest.fixture(scope="module")
+def friction_sweep() -> Sweep:
+    """The Panda in friction mode, the box grasped: FRICTION_POSES in turn, then the rest of
+    POSES (for the sensor's orientation), 50 steps each."""
     world = ArmWorld(
         SimConfig(object_shape="box", grasp_mode="friction", object_com_offset=COM_OFFSET)
     )
     try:
         grasp(world)
-        report = []
-        for name in ("home", "j6+0.5", "j6-0.5", "j5+0.5", "fingers-down", "fingers-up"):
-            error = np.abs(hold_and_compare(world, POSES[name], steps=50).mean(axis=0))
-            report.append(f"{name}: {error[:3].max():.3f} N, {error[3:].max():.4f} N m")
-            assert world.object_held, name
-            bound = FRICTION_ACROSS if name in ACROSS_FINGERS else FRICTION_ANY
-            assert error[:3].max() < bound[0], report
-            assert error[3:].max() < bound[1], report
-        print("friction-mode static wrench error:", "; ".join(report))
+        return sweep(world, {name: POSES[name] for name in FRICTION_POSES} | POSES, steps=50)
     finally:
         world.close()
+
+
+def test_friction_mode_error_stays_within_the_documented_bound(friction_sweep):
+    report = []
+    assert list(friction_sweep.poses)[: len(FRICTION_POSES)] == list(FRICTION_POSES)
+    for name in FRICTION_POSES:
+        pose = friction_sweep.poses[name]
+        error = np.abs(pose.errors.mean(axis=0))
+        report.append(f"{name}: {error[:3].max():.3f} N, {error[3:].max():.4f} N m")
+        assert pose.held, name
+        bound = FRICTION_ACROSS if name in ACROSS_FINGERS else FRICTION_ANY
+        assert error[:3].max() < bound[0], report
+        assert error[3:].max() < bound[1], report
+    print("friction-mode static wrench error:", "; ".join(report))
 
 
 def test_a_friction_grasp_too_weak_for_a_tilt_slips_and_the_ground_truth_shows_it():
@@ -391,7 +465,7 @@ def test_an_offset_at_the_edge_of_the_holdable_range_is_held(shape, grasp_mode):
     )
     try:
         world.run(3.0)
-        grasp(world)
+        grasp(world, 3.0)  # 3 s more on the stand, as the arm comes
         world.run(0.3)
         assert world.object_held, world.events
         centre = np.array([0.0, 0.0, OBJECT_TOP_BELOW_FLANGE + SHAPES[shape].half_extents[2]])
@@ -427,32 +501,34 @@ def test_every_seeded_com_offset_is_in_the_holdable_range(shape):
 
 
 @pytest.mark.parametrize(
-    ("robot", "grasp_mode"), [("panda", "rigid"), ("panda", "friction"), ("xarm6", "rigid")]
+    ("robot", "grasp_mode", "swept"),
+    [
+        ("panda", "rigid", "hand_sweep"),
+        ("panda", "friction", "friction_sweep"),
+        ("xarm6", "rigid", "xarm_hand_sweep"),
+    ],
+    ids=["panda-rigid", "panda-friction", "xarm6-rigid"],
 )
-def test_the_urdf_the_sim_loads_gives_its_sensor_orientation(robot, grasp_mode):
+def test_the_urdf_the_sim_loads_gives_its_sensor_orientation(robot, grasp_mode, swept, request):
     """com_core.robot.model on the URDF the sim publishes: the sensor frame (``panda_hand``,
     ``xarm_gripper_base_link``) turns as the simulated sensor does, and the hand's sensed
     force is m g_s with the g_s it computes (frames and signs checked against the
-    measurement itself)."""
+    measurement itself). At every pose of the sweep of that robot and grasp mode (the
+    rigid ones with the hand alone, the friction one holding the box)."""
     from com_core.robot.model import RobotModel
 
     config = read_robot_config(robot)
-    world = ArmWorld(SimConfig(robot=config, object_shape="box", grasp_mode=grasp_mode))
-    try:
-        model = RobotModel(world.urdf_text, config.sensor_frame, config.base_frame)
-        poses = POSES if robot == "panda" else XARM_POSES
-        for name, q in poses.items():
-            world.move_arm(q, 4.0)
-            world.run(0.2)
-            names, positions, _, _ = world.joint_state()
-            g_s = model.gravity_in_sensor(dict(zip(names, positions, strict=True)))
-            # pybullet keeps link orientations and joint positions consistent to ~1e-8 rad
-            assert_allclose(g_s, world.gravity_in_sensor(), atol=1e-6, err_msg=name)
-            if grasp_mode == "rigid":  # the friction-mode sensor carries the finger error
-                f = world.wrench[:3]  # the direction the hand's weight is sensed in
-                assert_allclose(f / np.linalg.norm(f), g_s / STANDARD_GRAVITY, atol=1e-4)
-    finally:
-        world.close()
+    sweep: Sweep = request.getfixturevalue(swept)
+    model = RobotModel(sweep.urdf, config.sensor_frame, config.base_frame)
+    assert set(sweep.poses) == set(POSES if robot == "panda" else XARM_POSES)
+    for name, pose in sweep.poses.items():
+        g_s = model.gravity_in_sensor(pose.joints)
+        # pybullet keeps link orientations and joint positions consistent to ~1e-8 rad
+        assert_allclose(g_s, pose.gravity, atol=1e-6, err_msg=name)
+        if grasp_mode == "rigid":  # the friction-mode sensor carries the finger error
+            assert not pose.held, name
+            f = pose.force  # the direction the hand's weight is sensed in
+            assert_allclose(f / np.linalg.norm(f), g_s / STANDARD_GRAVITY, atol=1e-4)
 
 
 # A push on the held object: ~2 N at its COM and a ~0.05 N m couple, in no axis's direction.
@@ -518,7 +594,7 @@ def test_a_push_changes_the_reading_by_the_push_as_the_sensor_reads_it(held_worl
     gravity wrench after it; the push starts at its start time, not before."""
     world = held_world
     for name in PUSH_POSES:
-        world.move_arm(POSES[name], 4.0)
+        move(world, POSES[name])
         world.run(0.2)
         before = still_wrench(world)
         expected = push_in_sensor(world, PUSH_FORCE, PUSH_TORQUE, frame)
@@ -556,7 +632,7 @@ def test_a_push_changes_the_reading_by_the_push_as_the_sensor_reads_it(held_worl
 def test_pushes_add_up(held_world):
     """A world push and a sensor-frame push at once: the reading changes by both."""
     world = held_world
-    world.move_arm(POSES["j6+0.5"], 4.0)
+    move(world, POSES["j6+0.5"])
     world.run(0.2)
     before = still_wrench(world)
     second = ((0.0, 0.8, -0.5), (-0.02, 0.0, 0.01))
@@ -622,6 +698,19 @@ def xarm_world():
     world.close()
 
 
+@pytest.fixture(scope="module")
+def xarm_hand_sweep() -> Sweep:
+    """The xArm6 in rigid mode, the box on its stand: every pose of XARM_POSES, the hand
+    alone, then home (its collisions and events counted after that)."""
+    world = ArmWorld(SimConfig(robot=XARM, object_shape="box", object_com_offset=XARM_COM_OFFSET))
+    try:
+        swept = sweep(world, XARM_POSES)
+        move(world, XARM.home_joints)
+        return replace(swept, collisions=world.collisions, events=list(world.events))
+    finally:
+        world.close()
+
+
 def urdf_load_inertia(urdf: str, sensor_frame: str, links: list[str]) -> tuple[float, np.ndarray]:
     """Mass (kg) and COM (3,) in m, sensor frame, of ``links`` from the URDF's inertials (link
     poses by pinocchio at its neutral configuration)."""
@@ -665,14 +754,13 @@ def test_xarm_hand_ground_truth_is_the_gripper_of_the_urdf(xarm_world):
     assert_allclose(com, urdf_com, atol=1e-7)
 
 
-def test_xarm_hand_only_matches_gravity_wrench_at_every_orientation(xarm_world):
-    assert not xarm_world.object_held
-    for name, q in XARM_POSES.items():
-        errors = hold_and_compare(xarm_world, q)
-        assert np.abs(errors[:, :3]).max() < FORCE_TOL, name
-        assert np.abs(errors[:, 3:]).max() < TORQUE_TOL, name
-    xarm_world.move_arm(XARM.home_joints, 4.0)
-    assert xarm_world.collisions == 0, xarm_world.events
+def test_xarm_hand_only_matches_gravity_wrench_at_every_orientation(xarm_hand_sweep):
+    assert list(xarm_hand_sweep.poses) == list(XARM_POSES)
+    for name, pose in xarm_hand_sweep.poses.items():
+        assert not pose.held, name
+        assert np.abs(pose.errors[:, :3]).max() < FORCE_TOL, name
+        assert np.abs(pose.errors[:, 3:]).max() < TORQUE_TOL, name
+    assert xarm_hand_sweep.collisions == 0, xarm_hand_sweep.events
 
 
 def test_xarm_rigid_grasp_matches_gravity_wrench_at_every_orientation(xarm_world):

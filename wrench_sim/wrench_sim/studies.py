@@ -32,16 +32,16 @@ __all__ = [
 ]
 
 
-def grasp(world: ArmWorld) -> None:
-    """Pick the object from its stand and lift it to the home pose; RuntimeError when the
-    gripper does not hold it."""
+def grasp(world: ArmWorld, seconds: float = 3.0) -> None:
+    """Pick the object from its stand and lift it to the home pose, each move in
+    ``seconds``; RuntimeError when the gripper does not hold it."""
     robot = world.config.robot
-    world.move_arm(robot.pick_joints, 3.0)
+    world.move_arm(robot.pick_joints, seconds)
     world.command_gripper(robot.gripper_closed)
     world.run(0.5)
     if not world.object_held:
         raise RuntimeError(f"the grasp failed: {world.events}")
-    world.move_arm(robot.home_joints, 3.0)
+    world.move_arm(robot.home_joints, seconds)
 
 
 def run_excitation(

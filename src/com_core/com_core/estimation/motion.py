@@ -46,7 +46,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from com_core.estimation.inertial import fit_whitened
-from com_core.robot.dynamics import inertia_elements, load_of, sensor_regressor
+from com_core.robot.dynamics import inertia_elements, load_of, sensor_regressors
 from com_core.robot.model import RobotModel
 from com_core.sensing.calibration import Calibration
 from com_core.sensing.noise import NoiseModel
@@ -187,7 +187,7 @@ def regressors_along(
     robot: RobotModel, q: NDArray[np.float64], dq: NDArray[np.float64], ddq: NDArray[np.float64]
 ) -> NDArray[np.float64]:
     """(n, 6, 10): ``sensor_regressor`` at each row of q, dq, ddq."""
-    return np.array([sensor_regressor(robot, *row) for row in zip(q, dq, ddq, strict=True)])
+    return sensor_regressors(robot, q, dq, ddq)
 
 
 def fit_motion(

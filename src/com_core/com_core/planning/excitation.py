@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from com_core.robot.dynamics import sensor_regressor
+from com_core.robot.dynamics import sensor_regressors
 from com_core.robot.model import RobotModel
 
 __all__ = [
@@ -101,13 +101,12 @@ def excitation_information(robot: RobotModel, excitation: Excitation) -> NDArray
     """The information matrix (16, 16) of the load's 10 parameters and the sensor's 6
     biases over one period sampled at 100 Hz, under white noise ``SIGMA``."""
     t = np.arange(0.0, excitation.period, 1.0 / _RATE)
-    q, dq, ddq = excitation.at(t)
+    Y = sensor_regressors(robot, *excitation.at(t))
+    rows = np.concatenate([Y, np.broadcast_to(np.eye(6), (len(t), 6, 6))], axis=2)
+    rows /= SIGMA[:, None]
     info = np.zeros((16, 16))
     for k in range(len(t)):
-        rows = (
-            np.hstack([sensor_regressor(robot, q[k], dq[k], ddq[k]), np.eye(6)]) / SIGMA[:, None]
-        )
-        info += rows.T @ rows
+        info += rows[k].T @ rows[k]
     return info
 
 

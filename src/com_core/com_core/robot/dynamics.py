@@ -31,6 +31,7 @@ __all__ = [
     "inertial_parameters",
     "load_of",
     "sensor_regressor",
+    "sensor_regressors",
 ]
 
 INERTIA_ELEMENTS = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
@@ -69,13 +70,54 @@ def sensor_regressor(
     model, data = robot.model, robot.data
     q = robot._configuration(positions)
     v, a = np.zeros(model.nv), np.zeros(model.nv)
-    for name, dq, ddq in zip(robot.joint_names, velocities, accelerations, strict=True):
-        at = model.idx_vs[model.getJointId(name)]
+    for at, dq, ddq in zip(robot._velocity_index, velocities, accelerations, strict=True):
         v[at], a[at] = dq, ddq
     pinocchio.framesForwardKinematics(model, data, q)
     model.gravity.linear = data.oMf[robot._base_id].rotation @ robot.gravity  # in the root
     pinocchio.rnea(model, data, q, v, a)
     return -pinocchio.frameBodyRegressor(model, data, robot._sensor_id)
+
+
+def sensor_regressors(
+    robot: RobotModel,
+    positions: ArrayLike,
+    velocities: ArrayLike,
+    accelerations: ArrayLike,
+) -> NDArray[np.float64]:
+    """(n, 6, 10): ``sensor_regressor`` at each row of ``positions``, ``velocities`` and
+    ``accelerations`` (n, joints; ``robot.joint_names`` order), the same numbers: the
+    configurations and the velocity vectors are laid out for all rows at once."""
+    import pinocchio
+
+    model, data = robot.model, robot.data
+    x = [np.asarray(rows, dtype=np.float64) for rows in (positions, velocities, accelerations)]
+    n = len(x[0])
+    if any(rows.shape != (n, len(robot.joint_names)) for rows in x):
+        raise ValueError(
+            f"positions, velocities and accelerations must each be (n, "
+            f"{len(robot.joint_names)}), got {', '.join(str(rows.shape) for rows in x)}"
+        )
+    q = np.tile(robot._pin.neutral(model), (n, 1))
+    for j, (at, nq) in enumerate(robot._slots):
+        if nq == 2:  # (cos, sin), each as ``_configuration`` computes it
+            q[:, at] = [np.cos(value) for value in x[0][:, j]]
+            q[:, at + 1] = [np.sin(value) for value in x[0][:, j]]
+        else:
+            q[:, at] = x[0][:, j]
+    v, a = np.zeros((n, model.nv)), np.zeros((n, model.nv))
+    v[:, robot._velocity_index], a[:, robot._velocity_index] = x[1], x[2]
+    # a base frame on the root joint stays where it is: gravity in the root is the same at
+    # every row (the frames are placed at the first row, and left at the last as after a
+    # call of sensor_regressor; the regressor needs the joints' kinematics alone, rnea's)
+    fixed_base = model.frames[robot._base_id].parentJoint == 0
+    out = np.empty((n, 6, 10))
+    for k in range(n):
+        if k in (0, n - 1) or not fixed_base:
+            pinocchio.framesForwardKinematics(model, data, q[k])
+            model.gravity.linear = data.oMf[robot._base_id].rotation @ robot.gravity
+        pinocchio.rnea(model, data, q[k], v[k], a[k])
+        out[k] = -pinocchio.frameBodyRegressor(model, data, robot._sensor_id)
+    return out
 
 
 def inertial_parameters(

@@ -79,6 +79,10 @@ class RobotModel:
             (self.model.idx_qs[jid], self.model.nqs[jid])
             for jid in map(self.model.getJointId, self.joint_names)
         ]
+        # each joint's index in a velocity vector, in joint_names order
+        self._velocity_index = np.array(
+            [self.model.idx_vs[self.model.getJointId(name)] for name in self.joint_names]
+        )
 
     def missing_joints(self, names: Iterable[str]) -> list[str]:
         """The model's joints that ``names`` (e.g. a JointState's) lacks, in model order."""
