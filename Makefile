@@ -5,8 +5,10 @@ VENV := .venv
 PACKAGES := com_interfaces src/com_core com_estimator wrench_sim exploration_sequencer
 VENV_STAMP := $(VENV)/.installed
 BUILD_STAMP := install/.built
-PACKAGE_FILES := $(shell find $(PACKAGES) -name setup.py -o -name setup.cfg -o -name package.xml \
-	-o -name CMakeLists.txt -o -name '*.action')
+# control_msgs's definitions the project uses, built only where no control_msgs imports
+CONTROL_MSGS := interfaces/control_msgs
+PACKAGE_FILES := $(shell find $(PACKAGES) $(CONTROL_MSGS) -name setup.py -o -name setup.cfg \
+	-o -name package.xml -o -name CMakeLists.txt -o -name '*.action' -o -name '*.msg')
 IN_ENV := source ./env.sh &&
 ARGS ?=
 
@@ -26,7 +28,11 @@ $(BUILD_STAMP): $(VENV_STAMP) $(PACKAGE_FILES)
 	source $(VENV)/bin/activate && \
 		export AMENT_PREFIX_PATH="$$VIRTUAL_ENV$${AMENT_PREFIX_PATH:+:$$AMENT_PREFIX_PATH}" && \
 		export CMAKE_PREFIX_PATH="$$VIRTUAL_ENV$${CMAKE_PREFIX_PATH:+:$$CMAKE_PREFIX_PATH}" && \
-		colcon build --symlink-install --base-paths $(PACKAGES) \
+		paths="$(PACKAGES)" && \
+		if ! PYTHONPATH="$$(tr ':' '\n' <<< "$${PYTHONPATH:-}" | grep -v '^$(CURDIR)/install/' \
+			| paste -sd:)" python -c "import control_msgs.action" 2>/dev/null; then \
+			paths="$$paths $(CONTROL_MSGS)"; fi && \
+		colcon build --symlink-install --base-paths $$paths \
 		--event-handlers console_cohesion- summary-
 	touch $@
 

@@ -33,7 +33,7 @@ for _tree in ("exploration_sequencer", "com_estimator", "wrench_sim", "src/com_c
 from com_core import contract as c  # noqa: E402
 from com_core.estimation.settings import SETTINGS  # noqa: E402
 from com_core.inputs import Input  # noqa: E402
-from com_core.robot.config import default_robot_config  # noqa: E402
+from com_core.robot.config import DEFAULT_GRIPPER_ACTION, default_robot_config  # noqa: E402
 from com_estimator.estimator_node import PARAMETERS as ESTIMATOR_PARAMETERS  # noqa: E402
 from exploration_sequencer.parameters import PARAMETERS as SEQUENCER_PARAMETERS  # noqa: E402
 from wrench_sim.parameters import PARAMETERS as SIM_PARAMETERS  # noqa: E402
@@ -71,6 +71,16 @@ def table(header: tuple[str, ...], rows: list[tuple[str, ...]]) -> list[str]:
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(cell(x) for x in row) + " |" for row in rows]
     return [*lines, ""]
+
+
+def gripper_action(kind: str, notes: str) -> tuple[str, ...]:
+    """A row of the gripper's action: its default name and the configuration's key."""
+    return (
+        f"`{DEFAULT_GRIPPER_ACTION}` (the configuration's `gripper_action`)",
+        "`control_msgs/action/GripperCommand`",
+        kind,
+        notes,
+    )
 
 
 def interface(name: str, kind: str, notes: str, type_: str | None = None) -> tuple[str, ...]:
@@ -137,7 +147,8 @@ def sim_node() -> list[str]:
             c.HAND_COMMAND_TOPIC,
             "in",
             "one value, the gripper's command, `gripper_open` .. `gripper_closed` (Panda: m "
-            "per finger, 0.04 open, 0 closed; xArm6: rad, 0 open, 0.85 closed)",
+            "per finger, 0.04 open, 0 closed; xArm6: rad, 0 open, 0.85 closed); aborts a "
+            "running gripper goal",
         ),
         interface(
             c.APPLY_WRENCH_TOPIC,
@@ -151,6 +162,21 @@ def sim_node() -> list[str]:
             "out",
             "the push as the sensor reads it (`ft_sensor`, about its origin), with each wrench "
             "sample's stamp while it acts, then one zero",
+        ),
+    ]
+    services = [
+        gripper_action(
+            "action server",
+            "the gripper as real grippers' drivers serve it: `command.position` in "
+            "`gripper_open` .. `gripper_closed` (Panda: m per finger, as franka_gripper's; "
+            "xArm6: rad), `command.max_effort` N (caps the fingers' force; 0: `grip_force`); "
+            "a goal outside these is rejected. The fingers stop on the object. Ends "
+            "succeeded with `reached_goal` within 2 % of the stroke of the goal, or "
+            "`stalled` when the fingers stayed still 0.1 s (sim) short of it (on the "
+            "object: position beyond `gripper_closed`, effort the grip force); feedback "
+            "(position, effort, stalled, reached_goal) every 50 ms while they move. A new "
+            "goal or a topic command aborts the running one; cancel stops the fingers. The "
+            "status reads ACCEPTED until the fingers stop",
         ),
     ]
     params = parameter_rows(SIM_PARAMETERS.values())
@@ -171,6 +197,9 @@ def sim_node() -> list[str]:
         "increasing, outside the joint or velocity limits) is logged as rejected and ignored; "
         "so is a push in another frame, with a non-finite value or with no object held.",
         "",
+        "### Actions",
+        "",
+        *table(INTERFACE_HEADER, services),
         "### Parameters",
         "",
         "From `wrench_sim.parameters.PARAMETERS`. A sensor part left at NaN (or `[-1.0]` for a "
@@ -343,7 +372,10 @@ def sequencer_node() -> list[str]:
                   "every reader's acknowledgement (up to 10 s) before the next"),
         interface(c.ARM_COMMAND_TOPIC, "out", "the poses' joint trajectories, each stamped "
                   "to start at the previous window's end"),
-        interface(c.HAND_COMMAND_TOPIC, "out", "open and close"),
+        interface(c.HAND_COMMAND_TOPIC, "out", "open and close, with `gripper_interface` "
+                  "`topic` (then 0.6 s of waiting)"),
+        interface(c.GRIPPER_SENT_TOPIC, "out", "each gripper command as sent, through the "
+                  "action or the topic (position, max_effort N): the bag's record of them"),
         interface(c.JOINT_STATES_TOPIC, "in", "when the arm rests; each window's joints"),
         interface(c.DIAGNOSTICS_TOPIC, "in", "the estimator's input and exploration statuses"),
         interface(c.ROBOT_DESCRIPTION_TOPIC, "in", "the URDF the poses are solved on"),
@@ -366,6 +398,11 @@ def sequencer_node() -> list[str]:
         interface(c.EXPLORE_SERVICE, "server", "the same exploration with the parameters, "
                   "for scripts; answers with the one-line summary, `success` only for OK",
                   TRIGGER),
+        gripper_action("action client", "open and close (`gripper_interface` `action`, the "
+                       "default): the goal's result within `gripper_timeout` s or the run "
+                       "fails naming the action; a closing on the object must end stalled, "
+                       "not at its goal, with the finger joint states short of closed, and "
+                       "then weigh at least `min_load`"),
         interface(c.ESTIMATOR_RESET_SERVICE, "client", "at the start of each run", TRIGGER),
         interface(c.ESTIMATOR_PARAMETERS_SERVICE, "client", "the estimator's `method`, to "
                   "predict for it", GET_PARAMETERS),

@@ -8,23 +8,33 @@ and ``speed`` (``Choreography.motion_time``); it may be stamped to start
 later (the controller starts it at its header stamp), which lets a pass send each move
 ahead. The arm rests at a goal when every joint is within 5 mrad of it and slower than
 5 mrad/s.
+
+The gripper is driven as real grippers are: a control_msgs/action/GripperCommand goal to the
+configuration's ``gripper_action`` (position in the units of ``gripper_open``, max_effort
+N), its result awaited within ``gripper_timeout`` s (wall); or, with ``gripper_interface``
+``topic``, one Float64MultiArray value on HAND_COMMAND_TOPIC and a fixed wait. Either way
+each command goes out as sent on GRIPPER_SENT_TOPIC, which the bag records.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 
+from action_msgs.msg import GoalStatus
 from builtin_interfaces.msg import Duration
+from control_msgs.action import GripperCommand
+from control_msgs.msg import GripperCommand as GripperCommandMsg
+from rclpy.action import ActionClient
 from rclpy.node import Node
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from com_core.contract import ARM_COMMAND_TOPIC, HAND_COMMAND_TOPIC
+from com_core.contract import ARM_COMMAND_TOPIC, GRIPPER_SENT_TOPIC, HAND_COMMAND_TOPIC
 from com_core.planning.decisions import GRIPPER_TIME
 from com_core.planning.excitation import Excitation
 from com_core.robot.choreography import Choreography
 from com_core.robot.config import RobotConfig
-from exploration_sequencer.io_node import IoNode, TimeoutRunError
+from exploration_sequencer.io_node import IoNode, RunError, TimeoutRunError
 
 REST_POSITION, REST_SPEED = 5e-3, 5e-3  # rad, rad/s
 
@@ -61,18 +71,25 @@ def excitation_trajectory(
 
 class Arm:
     """Moves the arm and the gripper of the robot configuration ``config``; ``motion``
-    (the choreography), ``speed`` (rad/s, mean joint speed) and ``settle`` (s to wait
-    after arriving) are set by the sequencer for each run."""
+    (the choreography), ``speed`` (rad/s, mean joint speed), ``settle`` (s to wait
+    after arriving) and the gripper's ``gripper_interface`` ('action' or 'topic'),
+    ``max_effort`` (N) and ``gripper_timeout`` (s, wall) are set by the sequencer for each
+    run."""
 
     def __init__(self, node: Node, io: IoNode, config: RobotConfig) -> None:
         self._log = node.get_logger()
         self._io = io
         self._arm_pub = node.create_publisher(JointTrajectory, ARM_COMMAND_TOPIC, 10)
         self._hand_pub = node.create_publisher(Float64MultiArray, HAND_COMMAND_TOPIC, 10)
+        self._sent_pub = node.create_publisher(GripperCommandMsg, GRIPPER_SENT_TOPIC, 10)
+        self._gripper_action = ActionClient(node, GripperCommand, config.gripper_action)
         self.config = config
         self.motion: Choreography | None = None
         self.speed = 1.0
         self.settle = 0.3
+        self.gripper_interface = "action"
+        self.max_effort = 20.0
+        self.gripper_timeout = 10.0
 
     def gripper_closed(self) -> float:
         """How far the gripper is closed, 0 open .. 1 closed: its most closed joint (a
@@ -165,11 +182,68 @@ class Arm:
             wall_timeout,
         )
 
-    def gripper(self, close: bool, wait: float = 0.0) -> None:
-        """Close (or open) the gripper and wait ``wait`` s (sim)."""
-        command = self.config.gripper_closed if close else self.config.gripper_open
-        self._hand_pub.publish(Float64MultiArray(data=[command]))
-        self._io.sleep_until(self._io.now_ns() + round(wait * 1e9), "moving the fingers")
+    def gripper(self, close: bool, wait: float = 0.0) -> GripperCommand.Result | None:
+        """Close (or open) the gripper; the command goes out on GRIPPER_SENT_TOPIC too.
+        Through the action: until its result, which is returned (RunError naming the action
+        when no server answers, the goal is rejected or does not succeed, or no result comes
+        within ``gripper_timeout``), and no earlier than ``wait`` s (sim) after the command,
+        the fingers' time in the run's plan. Through the topic: then ``wait`` s (sim), None."""
+        position = self.config.gripper_closed if close else self.config.gripper_open
+        command = GripperCommandMsg(position=float(position), max_effort=float(self.max_effort))
+        self._sent_pub.publish(command)
+        until = self._io.now_ns() + round(wait * 1e9)
+        result = None
+        if self.gripper_interface == "topic":
+            self._hand_pub.publish(Float64MultiArray(data=[position]))
+        else:
+            result = self._gripper_goal(command, "closing" if close else "opening")
+        self._io.sleep_until(until, "moving the fingers")
+        return result
+
+    def _gripper_goal(self, command: GripperCommandMsg, what: str) -> GripperCommand.Result:
+        """Send ``command`` to the gripper's action and wait for its result (see
+        ``gripper``)."""
+        client, name, timeout = (
+            self._gripper_action,
+            self.config.gripper_action,
+            self.gripper_timeout,
+        )
+        io = self._io
+
+        def waited(done, doing: str) -> None:
+            try:
+                io.wait(done, f"{doing} of the gripper action {name}", timeout)
+            except TimeoutRunError as exc:
+                raise RunError(
+                    f"no {doing.split()[-1]} from the gripper action {name} within "
+                    f"{timeout:g} s while {what} the gripper (is the gripper's driver "
+                    "running? gripper_interface 'topic' commands it by topic instead)"
+                ) from exc
+
+        waited(client.server_is_ready, "waiting for the server")
+        sent = client.send_goal_async(GripperCommand.Goal(command=command))
+        waited(sent.done, "waiting for the answer")
+        handle = sent.result()
+        if handle is None or not handle.accepted:
+            raise RunError(
+                f"the gripper action {name} rejected the goal of {what} the gripper (position "
+                f"{command.position:g}, max_effort {command.max_effort:g} N)"
+            )
+        answer = handle.get_result_async()
+        waited(answer.done, "waiting for the result")
+        response = answer.result()
+        if response is None or response.status != GoalStatus.STATUS_SUCCEEDED:
+            status = "no status" if response is None else f"status {response.status}"
+            raise RunError(
+                f"the gripper action {name} did not succeed {what} the gripper ({status})"
+            )
+        result = response.result
+        self._log.info(
+            f"gripper {what}: at {result.position:.4f}, effort {result.effort:.1f} N"
+            f"{', stalled' if result.stalled else ''}"
+            f"{', reached its goal' if result.reached_goal else ''}"
+        )
+        return result
 
     def put_back(self, home: list[float], pick: list[float]) -> None:
         """Carry what the hand holds home, down to the stand, open, and back home."""

@@ -90,5 +90,14 @@ PARAMETERS = table_of([
           unit="kg", low=0.0, high=100.0),
     Input("grasp_check_dwell", 0.2, "samples at home after lifting that check the grasp",
           unit="s", low=0.05, high=300.0),
+    Input("gripper_interface", "action", "how the gripper is commanded: 'action' (its "
+          "control_msgs/action/GripperCommand, the robot configuration's gripper_action; the "
+          "result confirms the grasp) or 'topic' (one Float64MultiArray value on "
+          "/gripper_controller/commands, then 0.6 s (sim) of waiting)", kind="str",
+          choices=("action", "topic")),
+    Input("gripper_max_effort", 20.0, "the gripper action's max_effort: the force the fingers "
+          "may grip with (0: the gripper's own limit)", unit="N", low=0.0, high=1000.0),
+    Input("gripper_timeout", 10.0, "(wall) for the gripper action's server and its result",
+          **_WAIT),
 ])  # fmt: skip
 """The parameters by name."""

@@ -13,7 +13,9 @@ when the estimator's status is OK (a WARN, e.g. the object moved in the grasp, a
 false with the reason). A second call while one runs is refused. Each run starts from a
 known state: the estimator is reset, an arm that holds something (fingers closed) puts
 it back on the stand first, an arm away from home goes home; and the grasp must hold a
-load before the object pass. Pose labels go out on ``~/pose`` (std_msgs/Header:
+load before the object pass (closed through the gripper's GripperCommand action, its
+result must show the fingers stalled on the object, ``arm``). Pose labels go out on
+``~/pose`` (std_msgs/Header:
 frame_id = label, stamp = the sim time from which it applies; reliable, transient local,
 depth 1) only once the arm has settled; each label waits for every reader's
 acknowledgement before the next goes out, so a reader that falls behind (a starved
@@ -120,6 +122,7 @@ from com_core.planning.decisions import (
     RunSettings,
     bag_room_refusal,
     cached_tare,
+    closing_problem,
     complete_tare_pass,
     estimator_calibration,
     free_room,
@@ -579,6 +582,11 @@ class SequencerNode(Node):
                 raise RunError(why)  # before anything moves
         self.io.sim_timeout = self.p("sim_timeout")
         self.arm.speed, self.arm.settle = self.p("speed"), self.p("settle")
+        self.arm.gripper_interface = self.p("gripper_interface")
+        self.arm.max_effort, self.arm.gripper_timeout = (
+            self.p("gripper_max_effort"),
+            self.p("gripper_timeout"),
+        )
         self.io.wait(lambda: self.io.joints, "waiting for the joint states", wall_timeout=None)
         self._clock_mark = (time.monotonic(), self.io.now_ns())  # the sim's rate from here
         self._phases, self._current, self._progress = (), -1, 0.0
@@ -637,7 +645,7 @@ class SequencerNode(Node):
         self._enter(GRASP, "phase 2/4: grasp and lift")
         self.arm.move(home, "home")
         self.arm.move(pick, "the object")
-        self.arm.gripper(close=True, wait=GRIPPER_TIME)
+        self._close_on_object(home)
         self._check_grasp(home, tare_home, pick)
         self._enter(OBJECT_PASS, "phase 3/4: object pass")
         start = self.io.now_ns()
@@ -763,7 +771,7 @@ class SequencerNode(Node):
             self._excite(MOTION_TARE, excitation)
         self._enter(GRASP, "phase 2/4: grasp and lift")
         self.arm.move(pick, "the object")
-        self.arm.gripper(close=True, wait=GRIPPER_TIME)
+        self._close_on_object(home)
         self._check_grasp(home, tare_home, pick)
         self._enter(OBJECT_MOTION, "phase 3/4: the object along the excitation")
         end = self._excite(MOTION_OBJECT, excitation)
@@ -915,6 +923,26 @@ class SequencerNode(Node):
         elif not self.arm.at(home):
             log.warning(f"the arm is away from home: moving it home {when}")
             self.arm.move(home, "home")
+
+    def _close_on_object(self, home: list[float]) -> None:
+        """Close the gripper on the object: the action's result (stalled on it, not at the
+        closed goal) and the finger joint states (short of closed) must show the fingers
+        stopped on something (``closing_problem``), else the gripper opens, the arm goes
+        home and RunError."""
+        result = self.arm.gripper(close=True, wait=GRIPPER_TIME)
+        what = "the gripper"
+        stalled = reached = None
+        if result is not None:
+            what = f"the gripper action {self.config.gripper_action}"
+            stalled, reached = result.stalled, result.reached_goal
+        problem = closing_problem(stalled, reached, self.arm.gripper_closed(), what)
+        if problem:
+            self.arm.gripper(close=False, wait=GRIPPER_TIME)
+            self.arm.move(home, "home")
+            raise RunError(
+                f"grasp failed: {problem}: the object was not picked up; check pick_joints "
+                "and where the object stands"
+            )
 
     def _check_grasp(self, home: list[float], tare_home: Window, pick: list[float]) -> None:
         """Lift and weigh: the wrench at home beyond the tare must hold ``min_load`` kg

@@ -12,11 +12,18 @@ each gripper joint at the virtual position.
 ``friction`` (``FrictionGripper``): the gripper is simulated: two prismatic fingers under
 position control at ``grip_force``, which a gear constraint couples as the URDF's mimic does
 (the Panda's hand); the object is held while both fingers touch it, and may slip.
+
+A command's ``max_effort`` (N; 0: none) caps the force the fingers push with (friction: each
+finger's force limit, at most ``grip_force``; rigid: the effort reported while the pads
+press the object). ``GripperGoal`` judges a GripperCommand goal as ros2_control's gripper
+action controller does: reached within ``GOAL_TOLERANCE`` of the stroke, stalled when the
+fingers stay slower than ``STALL_SPEED`` for ``STALL_TIME`` short of the goal.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 import pybullet
@@ -25,13 +32,63 @@ from numpy.typing import NDArray
 from wrench_sim.config import TIME_STEP
 from wrench_sim.scene import Scene
 
-__all__ = ["FrictionGripper", "Gripper", "RigidGripper"]
+__all__ = [
+    "GOAL_TOLERANCE",
+    "STALL_SPEED",
+    "STALL_TIME",
+    "FrictionGripper",
+    "Gripper",
+    "GripperGoal",
+    "GripperOutcome",
+    "RigidGripper",
+]
 
 _PAD_SPAN = (-0.03, -0.005)  # m along sensor z from the grasp centre: the finger pads
 _GRIPPER_STROKE_TIME = 0.4  # s from open to closed
 _GEAR_FORCE = 50.0  # N
 _GRASP_CENTRE_TOLERANCE = 0.02  # m; object centre off the grasp centre across sensor z
 _RELEASE_GAP = 1e-3  # m; pads this far beyond the object's half width release it
+GOAL_TOLERANCE = 0.02
+"""Of the stroke (|gripper_closed - gripper_open|): a goal this near is reached (0.8 mm on the
+Panda's fingers)."""
+STALL_SPEED = 0.01
+"""Of the stroke per s: fingers slower than this are still (0.4 mm/s on the Panda's)."""
+STALL_TIME = 0.1
+"""s (sim): fingers still this long short of their goal have stalled (on an object)."""
+
+
+@dataclass(frozen=True)
+class GripperOutcome:
+    """A GripperCommand goal's state: ``position`` (the command's units, m or rad),
+    ``effort`` (N or N m), ``stalled`` and ``reached_goal``."""
+
+    position: float
+    effort: float
+    stalled: bool
+    reached_goal: bool
+
+
+class GripperGoal:
+    """One goal's progress toward ``target`` (m or rad) for a gripper of ``stroke`` (its
+    |closed - open|, same units), from sim time ``start`` (s): ``update`` with the gripper's
+    state at each check says whether it has ended (reached or stalled)."""
+
+    def __init__(self, target: float, stroke: float, start: float) -> None:
+        self.target = target
+        self._tolerance = GOAL_TOLERANCE * abs(stroke)
+        self._still = STALL_SPEED * abs(stroke)
+        self._moved = start  # s: the last time the fingers moved
+        self.outcome = GripperOutcome(float("nan"), 0.0, False, False)
+
+    def update(self, time: float, position: float, speed: float, effort: float) -> bool:
+        """The gripper at sim time ``time`` (s): ``position`` (m or rad), ``speed`` (m/s or
+        rad/s), ``effort`` (N or N m); True once the goal has ended (``outcome`` says how)."""
+        reached = abs(position - self.target) <= self._tolerance
+        if abs(speed) > self._still:
+            self._moved = time
+        stalled = not reached and time - self._moved >= STALL_TIME
+        self.outcome = GripperOutcome(position, effort, stalled, reached)
+        return reached or stalled
 
 
 class Gripper:
@@ -46,11 +103,13 @@ class Gripper:
         self.held = False
         """The object is in the gripper."""
         self._closure_target = 0.0  # 0 open .. 1 closed
+        self._force = scene.config.grip_force  # N the fingers push with
 
-    def command(self, position: float) -> None:
+    def command(self, position: float, max_effort: float = 0.0) -> None:
         """Move the gripper to ``position``, in its command's units (m or rad): from the
-        configuration's ``gripper_open`` to ``gripper_closed``. Raises ValueError for a value
-        outside that range or not finite."""
+        configuration's ``gripper_open`` to ``gripper_closed``, pushing with at most
+        ``max_effort`` N (0: ``grip_force``). Raises ValueError for a value outside that
+        range or not finite, or a negative or non-finite ``max_effort``."""
         robot = self._scene.config.robot
         low, high = sorted((robot.gripper_open, robot.gripper_closed))
         if not (np.isfinite(position) and low <= position <= high):
@@ -58,7 +117,18 @@ class Gripper:
                 f"gripper position must be in [{low}, {high}] (open {robot.gripper_open}, "
                 f"closed {robot.gripper_closed}), got {position}"
             )
+        if not (np.isfinite(max_effort) and max_effort >= 0.0):
+            raise ValueError(f"max_effort must be >= 0 N (0: no limit), got {max_effort}")
+        grip_force = self._scene.config.grip_force
+        self._force = min(grip_force, max_effort) if max_effort > 0.0 else grip_force
         self._closure_target = robot.gripper_closed_fraction(float(position))
+
+    def state(self) -> tuple[float, float, float]:
+        """The gripper's position (m or rad; its joints' mean), speed (m/s or rad/s) and
+        effort (N: what the fingers push with)."""
+        positions, velocities, efforts = self.joint_state()
+        return (float(np.mean(positions)), float(np.mean(velocities)),
+                float(np.mean(np.abs(efforts))))  # fmt: skip
 
     def step(self) -> None:
         """Before each physics step."""
@@ -112,7 +182,8 @@ class RigidGripper(Gripper):
 
     def joint_state(self) -> tuple[list[float], list[float], list[float]]:
         """Each gripper joint at the virtual position (stopping where the pads meet the object
-        when it is grasped), its speed while it moves, no effort."""
+        when it is grasped), its speed while it moves, and as effort the force the pads
+        press a grasped object with (N; else 0)."""
         robot = self._scene.config.robot
         stroke = robot.gripper_closed - robot.gripper_open
         count = len(robot.gripper_joints)
@@ -121,7 +192,7 @@ class RigidGripper(Gripper):
         speed = float(np.sign(target - closure)) * stroke / _GRIPPER_STROKE_TIME
         positions = [robot.gripper_open + closure * stroke] * count
         velocities = [0.0 if closure == target or on_object else speed] * count
-        return positions, velocities, [0.0] * count
+        return positions, velocities, [self._force if on_object else 0.0] * count
 
     def _gap(self, closure: float) -> float:
         """m; each pad's distance from the grasp centre at ``closure`` (0 open, 1 closed)."""
@@ -217,10 +288,11 @@ class FrictionGripper(Gripper):
         c.changeConstraint(gear, gearRatio=-1.0, erp=0.1, maxForce=_GEAR_FORCE)
         self._drive_fingers(robot.gripper_open)
 
-    def command(self, position: float) -> None:
+    def command(self, position: float, max_effort: float = 0.0) -> None:
         """Move both fingers to ``position`` (m per finger), between ``gripper_open`` and
-        ``gripper_closed``, at the gripper's speed (ValueError outside that range)."""
-        super().command(position)
+        ``gripper_closed``, at the gripper's speed, each pushing with at most ``max_effort``
+        N (0: ``grip_force``; ValueError outside these ranges)."""
+        super().command(position, max_effort)
         self._drive_fingers(float(position))
 
     def check_contact(self) -> None:
@@ -252,6 +324,6 @@ class FrictionGripper(Gripper):
                 joint,
                 pybullet.POSITION_CONTROL,
                 targetPosition=position,
-                force=scene.config.grip_force,
+                force=self._force,
                 maxVelocity=speed,
             )

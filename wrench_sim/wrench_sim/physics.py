@@ -245,14 +245,19 @@ class ArmWorld:
         return self._arm.settled
 
     # ----------------------------------------------------------------- gripper
-    def command_gripper(self, position: float) -> None:
+    def command_gripper(self, position: float, max_effort: float = 0.0) -> None:
         """Move the gripper to ``position``, in its command's units (m or rad): from the
-        configuration's ``gripper_open`` to ``gripper_closed``.
+        configuration's ``gripper_open`` to ``gripper_closed``, pushing with at most
+        ``max_effort`` N (0: the configured ``grip_force``).
 
         Closing on the object grasps it; opening releases it. Raises ValueError for a value
-        outside that range or not finite.
+        outside that range or not finite, or a negative ``max_effort``.
         """
-        self._gripper.command(position)
+        self._gripper.command(position, max_effort)
+
+    def gripper_state(self) -> tuple[float, float, float]:
+        """The gripper's position (m or rad), speed (m/s or rad/s) and effort (N) now."""
+        return self._gripper.state()
 
     def set_slip_sigma(self, sigma: float) -> None:
         """Change the grasp-shift sigma (m) of the rigid mode from now on."""

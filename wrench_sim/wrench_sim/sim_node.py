@@ -32,12 +32,26 @@ Subscribes:
 - ARM_COMMAND_TOPIC (trajectory_msgs/JointTrajectory): a move of the configuration's
   ``arm_joints`` (any subset, any order) from ``header.stamp``.
 - HAND_COMMAND_TOPIC (std_msgs/Float64MultiArray): one value, the gripper's position from
-  ``gripper_open`` to ``gripper_closed`` (m per finger on the Panda, rad on the xArm6).
+  ``gripper_open`` to ``gripper_closed`` (m per finger on the Panda, rad on the xArm6); it
+  aborts a running gripper goal.
 - APPLY_WRENCH_TOPIC (geometry_msgs/WrenchStamped): a push on the held object, force (N) at
   its COM and a pure couple (N m), ``header.frame_id`` ``world`` or ``ft_sensor`` (the
   mounted sensor's axes; the push then turns with the hand), from ``header.stamp`` (sim
   time; zero or past: now) for ``push_duration`` s. Pushes add up. Refused with an ERROR log
   for another frame, a non-finite value or no object held; the start and end are logged.
+
+Serves the configuration's ``gripper_action`` (control_msgs/action/GripperCommand, as a
+real gripper's driver does): ``command.position`` from ``gripper_open`` to
+``gripper_closed`` (m per finger on the Panda, as franka_gripper's; rad on the xArm6) and
+``command.max_effort`` (N, caps the fingers' force; 0: ``grip_force``); a goal outside these
+is rejected with an ERROR log. The fingers move at the gripper's speed and stop on the
+object; the goal ends (``wrench_sim.gripper.GripperGoal``) succeeded with ``reached_goal``
+within 2 % of the stroke of its position, or with ``stalled`` when the fingers stayed still
+0.1 s short of it (on the object: position beyond ``gripper_closed``, effort the grip
+force); the result and the feedback (every 50 ms while they move) carry position, effort,
+stalled and reached_goal. A new goal or a topic command aborts the running one; a cancelled
+goal stops the fingers where they are. Until the fingers stop, a goal's status reads
+ACCEPTED (the physics loop, not an executor thread, moves them), then SUCCEEDED.
 
 The world's events (grasp, release, pushes, grasp shifts) are logged as INFO; a collision
 (``ArmWorld.collisions``) as a WARN.
@@ -51,8 +65,11 @@ import time
 import numpy as np
 import rclpy
 from builtin_interfaces.msg import Time
+from control_msgs.action import GripperCommand
 from geometry_msgs.msg import InertiaStamped, WrenchStamped
 from rcl_interfaces.msg import SetParametersResult
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.action.server import ServerGoalHandle
 from rclpy.exceptions import ParameterException, ParameterUninitializedException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
@@ -85,6 +102,7 @@ from com_core.runtime.lifeline import stop_with_parent
 from com_core.runtime.rosenv import discovery_line, keep_dds_local, start_refusal
 from com_core.sensing.sensor_profiles import SensorProfile
 from com_core.sensing.wrench_model import SensorModel, rotation_about
+from wrench_sim.gripper import GripperGoal, GripperOutcome
 from wrench_sim.parameters import (
     SENSOR_PARAMETERS,
     check_parameter,
@@ -96,6 +114,8 @@ from wrench_sim.sensor import WrenchSensor, profile_calibration, profile_drift, 
 
 _SPIN_EVERY = 50  # steps between spin_once calls (50 ms of sim time; one costs ~0.2 ms)
 _REPORT_EVERY = 50  # steps between checks of events, saturation and ground truth
+_GRIPPER_EVERY = 10  # steps between checks of a gripper goal (10 ms)
+_GRIPPER_FEEDBACK_EVERY = 5  # checks between a gripper goal's feedback messages (50 ms)
 STREAM_HISTORY = 10_000  # messages: 2 s (wall) of a 1 kHz stream at 5x real time
 _LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
@@ -166,6 +186,18 @@ class SimNode(Node):
         self.create_subscription(JointTrajectory, ARM_COMMAND_TOPIC, self.trajectory_callback, 10)
         self.create_subscription(Float64MultiArray, HAND_COMMAND_TOPIC, self.gripper_callback, 10)
         self.create_subscription(WrenchStamped, APPLY_WRENCH_TOPIC, self.push_callback, 10)
+        # the running gripper goal, its progress and checks so far; finished goals' outcomes
+        self._gripper_goal: tuple[ServerGoalHandle, GripperGoal, int] | None = None
+        self._gripper_outcomes: dict[bytes, tuple[str, GripperOutcome]] = {}
+        ActionServer(
+            self,
+            GripperCommand,
+            robot.gripper_action,
+            execute_callback=self._gripper_result,
+            goal_callback=self._gripper_goal_callback,
+            handle_accepted_callback=self._gripper_accepted,
+            cancel_callback=lambda _: CancelResponse.ACCEPT,
+        )
         self.executor_ = SingleThreadedExecutor(context=self.context)
         self.executor_.add_node(self)
 
@@ -274,7 +306,7 @@ class SimNode(Node):
 
     def gripper_callback(self, msg: Float64MultiArray) -> None:
         """Move the gripper: one value, its position from ``gripper_open`` to
-        ``gripper_closed`` (m or rad)."""
+        ``gripper_closed`` (m or rad); a running gripper goal is aborted."""
         try:
             if len(msg.data) != 1:
                 raise ValueError(f"expected 1 value (the gripper's position), got {len(msg.data)}")
@@ -282,7 +314,86 @@ class SimNode(Node):
         except ValueError as error:
             self.get_logger().error(f"rejected gripper command: {error}")
             return
+        self._end_gripper_goal("aborted", "a topic command replaced it")
         self.get_logger().info(f"gripper to {msg.data[0]:.4f}")
+
+    def _gripper_goal_callback(self, goal: GripperCommand.Goal) -> GoalResponse:
+        """Accept a goal the gripper can take; reject one outside its range (ERROR log)."""
+        robot = self.world.config.robot
+        low, high = sorted((robot.gripper_open, robot.gripper_closed))
+        position, effort = goal.command.position, goal.command.max_effort
+        if not (np.isfinite(position) and low <= position <= high):
+            why = f"position {position} outside [{low}, {high}]"
+        elif not (np.isfinite(effort) and effort >= 0.0):
+            why = f"max_effort {effort} N is not >= 0 (0: no limit)"
+        else:
+            return GoalResponse.ACCEPT
+        self.get_logger().error(f"rejected gripper goal: {why}")
+        return GoalResponse.REJECT
+
+    def _gripper_accepted(self, goal_handle: ServerGoalHandle) -> None:
+        """Start the fingers toward the goal; a running goal is aborted where it is."""
+        self._end_gripper_goal("aborted", "a new goal replaced it")
+        command = goal_handle.request.command
+        robot = self.world.config.robot
+        self.world.command_gripper(command.position, command.max_effort)
+        stroke = robot.gripper_closed - robot.gripper_open
+        self._gripper_goal = (
+            goal_handle,
+            GripperGoal(command.position, stroke, self.world.time),
+            0,
+        )
+        self.get_logger().info(
+            f"gripper goal: to {command.position:.4f}, max effort {command.max_effort:g} N"
+        )
+
+    def _track_gripper(self) -> None:
+        """Check the running gripper goal: feedback while the fingers move, its end once
+        they reach the goal or stall; a cancelled goal stops the fingers where they are."""
+        assert self._gripper_goal is not None
+        handle, goal, checks = self._gripper_goal
+        done = goal.update(self.world.time, *self.world.gripper_state())
+        if handle.is_cancel_requested:
+            self.world.command_gripper(self._within_stroke(goal.outcome.position))
+            self._end_gripper_goal("canceled", "cancelled")
+        elif done:
+            self._end_gripper_goal("succeeded", "")
+        else:
+            if checks % _GRIPPER_FEEDBACK_EVERY == 0:
+                handle.publish_feedback(_gripper_message(GripperCommand.Feedback(), goal.outcome))
+            self._gripper_goal = (handle, goal, checks + 1)
+
+    def _within_stroke(self, position: float) -> float:
+        """``position`` (m or rad) clipped to the gripper's range."""
+        robot = self.world.config.robot
+        low, high = sorted((robot.gripper_open, robot.gripper_closed))
+        return min(max(position, low), high)
+
+    def _end_gripper_goal(self, how: str, why: str) -> None:
+        """End the running gripper goal (if any) ``how`` (succeeded, aborted, canceled) with
+        the gripper's state now; its result goes out at the next spin."""
+        if self._gripper_goal is None:
+            return
+        handle, goal, _ = self._gripper_goal
+        self._gripper_goal = None
+        goal.update(self.world.time, *self.world.gripper_state())
+        outcome = goal.outcome
+        self._gripper_outcomes[bytes(handle.goal_id.uuid)] = (how, outcome)
+        handle.execute()  # runs _gripper_result
+        state = "reached its goal" if outcome.reached_goal else (
+            "stalled" if outcome.stalled else "stopped")  # fmt: skip
+        self.get_logger().info(
+            f"gripper goal {how}{f' ({why})' if why else ''}: {state} at "
+            f"{outcome.position:.4f}, effort {outcome.effort:.2f} N"
+        )
+
+    def _gripper_result(self, goal_handle: ServerGoalHandle) -> GripperCommand.Result:
+        """The ended goal's terminal state and result (``_end_gripper_goal``)."""
+        how, outcome = self._gripper_outcomes.pop(bytes(goal_handle.goal_id.uuid))
+        ends = {"succeeded": goal_handle.succeed, "aborted": goal_handle.abort,
+                "canceled": goal_handle.canceled}  # fmt: skip
+        ends[how]()
+        return _gripper_message(GripperCommand.Result(), outcome)
 
     def push_callback(self, msg: WrenchStamped) -> None:
         """Push the held object from the header stamp (sim time; zero or past: now) for
@@ -337,6 +448,8 @@ class SimNode(Node):
                         self._publish_applied(now)
             if publish and steps % self._joint_state_every == 0:
                 self._publish_joint_state(now)
+            if self._gripper_goal is not None and steps % _GRIPPER_EVERY == 0:
+                self._track_gripper()
             if steps % _REPORT_EVERY == 0:
                 self._report()
             if steps % _SPIN_EVERY == 0:
@@ -460,6 +573,16 @@ def _filled(msg: WrenchStamped, now: int, wrench: np.ndarray) -> WrenchStamped:
     force, torque = msg.wrench.force, msg.wrench.torque
     force.x, force.y, force.z = fx, fy, fz
     torque.x, torque.y, torque.z = tx, ty, tz
+    return msg
+
+
+def _gripper_message(
+    msg: GripperCommand.Result | GripperCommand.Feedback, outcome: GripperOutcome
+) -> GripperCommand.Result | GripperCommand.Feedback:
+    """``msg`` filled with ``outcome``: position (m or rad), effort (N), stalled,
+    reached_goal."""
+    msg.position, msg.effort = float(outcome.position), float(outcome.effort)
+    msg.stalled, msg.reached_goal = bool(outcome.stalled), bool(outcome.reached_goal)
     return msg
 
 

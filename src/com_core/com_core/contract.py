@@ -32,6 +32,7 @@ __all__ = [
     "ESTIMATOR_SET_PARAMETERS_SERVICE",
     "ESTIMATOR_SOLVE_SERVICE",
     "EXPLORE_SERVICE",
+    "GRIPPER_SENT_TOPIC",
     "HAND_COMMAND_TOPIC",
     "HAND_TRUTH_TOPIC",
     "INPUT_STATUS_NAME",
@@ -92,7 +93,13 @@ ARM_COMMAND_TOPIC = "/arm_controller/joint_trajectory"
 ``arm_joints``); remap to the arm's controller (``--ros-args -r``)."""
 HAND_COMMAND_TOPIC = "/gripper_controller/commands"
 """std_msgs/Float64MultiArray: one value, the gripper's command (the robot configuration's
-``gripper_open`` .. ``gripper_closed``; m per finger on the Panda, rad on the xArm)."""
+``gripper_open`` .. ``gripper_closed``; m per finger on the Panda, rad on the xArm): the
+gripper's topic interface, beside its GripperCommand action (the configuration's
+``gripper_action``)."""
+GRIPPER_SENT_TOPIC = "/exploration_sequencer/gripper_command"
+"""control_msgs/GripperCommand: each gripper command the sequencer sends, as sent (position in
+the units of ``gripper_open``, max_effort N), whether through the action or the topic: the
+bag keeps what a recorder of topics does not see of an action."""
 POSE_TOPIC = "/exploration_sequencer/pose"
 """std_msgs/Header: frame_id the label, stamp the sensor time from which it applies."""
 ESTIMATE_TOPIC = "/com_estimator/estimate"
@@ -112,6 +119,7 @@ TOPIC_TYPES = {
     OBJECT_TOPIC: "std_msgs/msg/String",
     ARM_COMMAND_TOPIC: "trajectory_msgs/msg/JointTrajectory",
     HAND_COMMAND_TOPIC: "std_msgs/msg/Float64MultiArray",
+    GRIPPER_SENT_TOPIC: "control_msgs/msg/GripperCommand",
     POSE_TOPIC: "std_msgs/msg/Header",
     ESTIMATE_TOPIC: "geometry_msgs/msg/InertiaStamped",
     DIAGNOSTICS_TOPIC: "diagnostic_msgs/msg/DiagnosticArray",

@@ -34,7 +34,13 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any
 
-__all__ = ["BagWriteError", "CrashSafeBagWriter"]
+__all__ = ["MESSAGE_DEFINITIONS", "BagWriteError", "CrashSafeBagWriter"]
+
+MESSAGE_DEFINITIONS = {
+    "control_msgs/msg/GripperCommand": "float64 position\nfloat64 max_effort\n",
+}
+"""The definitions (.msg text) of recorded message types that rosbags' Jazzy type store
+lacks (``com_core.contract.TOPIC_TYPES``): their schema in a bag."""
 
 MAGIC = b"\x89MCAP0\r\n"
 PAGE = 4096
@@ -70,9 +76,12 @@ def _trailer() -> bytes:
 
 @functools.cache
 def _typestore() -> Any:
-    from rosbags.typesys import Stores, get_typestore
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-    return get_typestore(Stores.ROS2_JAZZY)
+    store = get_typestore(Stores.ROS2_JAZZY)
+    for msgtype, text in MESSAGE_DEFINITIONS.items():  # types the store lacks
+        store.register(get_types_from_msg(text, msgtype))
+    return store
 
 
 def _yaml_text(data: Any) -> str:

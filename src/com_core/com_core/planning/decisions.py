@@ -46,6 +46,7 @@ __all__ = [
     "BAG_BYTES_PER_S",
     "BIAS_AFTER_SUFFIX",
     "BIAS_WINDOW_SUFFIX",
+    "GRIPPER_CLOSED_FULLY",
     "GRIPPER_HOLDING",
     "GRIPPER_TIME",
     "PlanInfeasible",
@@ -57,6 +58,7 @@ __all__ = [
     "bag_bytes",
     "bag_room_refusal",
     "cached_tare",
+    "closing_problem",
     "complete_tare_pass",
     "estimator_calibration",
     "free_room",
@@ -488,6 +490,29 @@ def held_mass(
         return None
     gravity = tare / np.linalg.norm(tare)
     return float((held.mean(axis=0) - tare) @ gravity) / STANDARD_GRAVITY
+
+
+GRIPPER_CLOSED_FULLY = 0.98
+"""Fingers closed beyond this fraction of their stroke have closed on nothing."""
+
+
+def closing_problem(
+    stalled: bool | None, reached_goal: bool | None, closed: float, what: str
+) -> str:
+    """Why a closing of the gripper on the object did not grasp it, or '' when it did:
+    the gripper's answer (``stalled``, ``reached_goal``; None: a command without one) and
+    its finger joint states (``closed``, the fraction of the stroke) must both show the
+    fingers stopped on something short of closed. ``what`` names the gripper's command."""
+    if reached_goal and not stalled:
+        return f"{what} reached its closed goal: the fingers closed on nothing"
+    if stalled is not None and not stalled:
+        return f"{what} neither stalled on the object nor reached its goal"
+    if closed >= GRIPPER_CLOSED_FULLY:
+        return (
+            f"the finger joint states show the gripper {closed:.0%} closed: the fingers "
+            "closed on nothing"
+        )
+    return ""
 
 
 def grasp_holds(mass: float, min_load: float) -> bool:

@@ -20,6 +20,9 @@ holds, under ``/**: ros__parameters:`` so that every node reads the keys it uses
   centre at open and at closed (the sim's virtual fingers, linear between).
 - ``joint_state_rate``: Hz, how often the arm publishes /joint_states (Franka's FCI 1 kHz,
   UR's RTDE 500 Hz), at most the sim's 1 kHz; optional, 100 Hz when a file lacks it.
+- ``gripper_action``: the gripper's control_msgs/action/GripperCommand action (its position
+  in the units of ``gripper_open``: m per finger on the Panda, as franka_gripper's, rad on
+  the xArm); optional, ``/gripper_controller/gripper_cmd`` when a file lacks it.
 
 ``robot_problems`` checks a configuration against a robot model (every frame and joint
 in its URDF, home and pick within the joint limits) and says what is wrong by name.
@@ -43,6 +46,7 @@ from com_core.robot.model import RobotModel
 __all__ = [
     "BAG_ROBOT_FILE",
     "CONFIG_DIR",
+    "DEFAULT_GRIPPER_ACTION",
     "ROBOTS",
     "RobotConfig",
     "RobotConfigError",
@@ -62,6 +66,9 @@ ROBOTS = tuple(sorted(path.stem for path in CONFIG_DIR.glob("*.yaml")))
 """The arms whose files ship in CONFIG_DIR."""
 DEFAULT_ROBOT = "panda"
 """Every node's arm when no configuration file is given."""
+DEFAULT_GRIPPER_ACTION = "/gripper_controller/gripper_cmd"
+"""The gripper's GripperCommand action when a configuration names none (the name a
+ros2_control gripper action controller called ``gripper_controller`` serves)."""
 
 
 class RobotConfigError(ValueError):
@@ -87,9 +94,11 @@ class RobotConfig:
     pick_joints: tuple[float, ...]
     hand_id: str
     joint_state_rate: float = 100.0
+    gripper_action: str = DEFAULT_GRIPPER_ACTION
 
     def __post_init__(self) -> None:
-        for key in ("robot", "urdf", "base_frame", "sensor_frame", "grasp_frame", "hand_id"):
+        for key in ("robot", "urdf", "base_frame", "sensor_frame", "grasp_frame", "hand_id",
+                    "gripper_action"):  # fmt: skip
             if not (isinstance(getattr(self, key), str) and getattr(self, key)):
                 raise RobotConfigError(f"{key} must be a non-empty string")
         for key in ("arm_joints", "gripper_joints"):
@@ -157,7 +166,7 @@ class RobotConfig:
 
 KEYS = tuple(RobotConfig.__dataclass_fields__)
 """Every key of a robot configuration, in the file's order."""
-OPTIONAL_KEYS = frozenset({"joint_state_rate"})
+OPTIONAL_KEYS = frozenset({"joint_state_rate", "gripper_action"})
 """Keys a file may leave out (added after files were written): their defaults stand."""
 
 
