@@ -13,6 +13,7 @@ the recorder's CPU share. The headroom is the highest rate recorded whole.
 from __future__ import annotations
 
 import argparse
+import re
 import subprocess
 import sys
 import tempfile
@@ -25,8 +26,9 @@ from com_core.runtime.processes import executable
 from com_core.runtime.rosenv import keep_dds_local
 
 
-def record_once(rate: int, work: Path) -> tuple[int, int, int]:
-    """(wrenches published, recorded, reported lost) of one synthetic run at ``rate``."""
+def record_once(rate: int, work: Path) -> tuple[int, int, int, float]:
+    """(wrenches published, recorded, reported lost, the rate achieved msg/s) of one
+    synthetic run asked for at ``rate``."""
     from exploration_sequencer.recorder_process import RecorderProcess
 
     recorder = RecorderProcess()
@@ -37,7 +39,9 @@ def record_once(rate: int, work: Path) -> tuple[int, int, int]:
         command = [str(executable("com_estimator", "synthetic_exploration")),
                    "--speed", str(rate), "--dwell", "1.0", "--bag", str(sent),
                    "--estimator-timeout", "0"]  # fmt: skip
-        subprocess.run(command, check=True, capture_output=True, timeout=300)
+        out = subprocess.run(command, check=True, capture_output=True, text=True, timeout=300)
+        done = re.search(r"published (\d+) wrenches .* in ([\d.]+) s", out.stdout + out.stderr)
+        achieved = int(done[1]) / float(done[2]) if done else float("nan")
         time.sleep(1.0)  # the last messages through the recorder
         recorder.stop()
         lost = recorder.lost.get(WRENCH_TOPIC, 0)
@@ -45,7 +49,7 @@ def record_once(rate: int, work: Path) -> tuple[int, int, int]:
         recorder.close()
     published = sum(1 for _ in read_raw(sent, [WRENCH_TOPIC]))
     recorded = sum(1 for _ in read_raw(bag, [WRENCH_TOPIC]))
-    return published, recorded, lost
+    return published, recorded, lost, achieved
 
 
 def main() -> int:
@@ -60,11 +64,12 @@ def main() -> int:
     try:
         with tempfile.TemporaryDirectory() as work:
             for rate in (int(r) for r in args.rates.split(",")):
-                published, recorded, lost = record_once(rate, Path(work))
-                print(f"{rate:6d} msg/s: recorded {recorded} of {published} "
-                      f"({recorded / published:.4f}), DDS lost {lost}", flush=True)  # fmt: skip
+                published, recorded, lost, achieved = record_once(rate, Path(work))
+                print(f"{rate:6d} msg/s asked, {achieved:6.0f} published: recorded {recorded} "
+                      f"of {published} ({recorded / published:.4f}), DDS lost {lost}",
+                      flush=True)  # fmt: skip
                 if recorded == published:
-                    headroom = rate
+                    headroom = max(headroom, round(achieved))
     finally:
         for process in busy:
             process.kill()

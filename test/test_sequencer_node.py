@@ -19,6 +19,7 @@ from conftest import PANDA, UNCLEAN_EXIT, replay_json, spin_until
 from com_core.bags.cdr import decode_header
 from com_core.bags.reader import read_raw
 from com_core.contract import (
+    CLOCK_TOPIC,
     ESTIMATE_TOPIC,
     EXPLORE_SERVICE,
     JOINT_STATES_TOPIC,
@@ -732,7 +733,7 @@ class ActionUser:
         self.feedback: list = []
         self.timed: list[tuple[float, float, object]] = []
         self.sim = 0.0  # s, the latest /clock
-        node.create_subscription(Clock, "/clock", self._clock, 10)
+        node.create_subscription(Clock, CLOCK_TOPIC, self._clock, 10)
 
     def _clock(self, msg) -> None:
         self.sim = msg.clock.sec + msg.clock.nanosec * 1e-9

@@ -56,7 +56,6 @@ from com_core.bags.reader import RECORDER_LOST_KEY
 from com_core.bags.writer import CrashSafeBagWriter
 from com_core.contract import (
     BEST_EFFORT_TOPICS,
-    CLOCK_TOPIC,
     JOINT_STATES_TOPIC,
     LATCHED_TOPICS,
     WRENCH_TOPIC,
@@ -69,7 +68,7 @@ __all__ = ["RUN_TOPICS", "Recorder"]
 RELIABLE_DEPTH = 100
 PREROLL = 2000  # stream messages before a start that go into the bag: ~0.5 s at 4 kHz
 FLUSH_INTERVAL = 0.1  # s: the most a crash loses
-AWAITED = (WRENCH_TOPIC, JOINT_STATES_TOPIC, CLOCK_TOPIC)  # the streams a run's windows need
+AWAITED = (WRENCH_TOPIC, JOINT_STATES_TOPIC)  # the streams a run's windows need
 STREAM_WAIT = 5.0  # s (wall) a start waits for an awaited stream's first message
 PUMP_TIMEOUT = 20.0  # s (wall) a start or stop waits for the pump (a stop writes a backlog)
 _IDLE_WAIT = 0.01  # s the pump sleeps when nothing came
@@ -148,8 +147,8 @@ class Recorder:
 
     def start(self, bag_dir: Path) -> None:
         """Begin recording to ``bag_dir`` (which must not exist), once each ``AWAITED``
-        stream that has a publisher is heard (``STREAM_WAIT`` s at most: a stream's
-        subscription is made when its publisher is discovered, and matched after that)."""
+        stream is heard (``STREAM_WAIT`` s at most: a stream's subscription is made when
+        this process discovers its publisher, and matched after that)."""
         if self._writer is not None:
             raise RuntimeError(f"already recording to {self._writer.path}")
         bag_dir = Path(bag_dir)
@@ -176,19 +175,17 @@ class Recorder:
         self._node.get_logger().info(f"recording {len(self._topics)} topics to {bag_dir}")
 
     def _wait_for_streams(self) -> None:
-        """Wait until each ``AWAITED`` stream with a publisher has delivered a message; log
-        the ones that did not within ``STREAM_WAIT`` s."""
+        """Wait until each ``AWAITED`` stream has delivered a message; log the ones that did
+        not within ``STREAM_WAIT`` s."""
         deadline = time.monotonic() + STREAM_WAIT
         while True:
-            silent = [topic for topic in AWAITED
-                      if topic in self._topics and topic not in self._heard
-                      and self._node.get_publishers_info_by_topic(topic)]  # fmt: skip
+            silent = [t for t in AWAITED if t in self._topics and t not in self._heard]
             if not silent:
                 return
             if time.monotonic() > deadline:
                 self._node.get_logger().warning(
-                    f"recording without a message yet of {', '.join(silent)} (published, "
-                    f"not heard within {STREAM_WAIT:g} s)"
+                    f"recording without a message yet of {', '.join(silent)} (none heard "
+                    f"within {STREAM_WAIT:g} s)"
                 )
                 return
             time.sleep(0.02)
