@@ -56,9 +56,7 @@ from com_core.bags.reader import RECORDER_LOST_KEY
 from com_core.bags.writer import CrashSafeBagWriter
 from com_core.contract import (
     BEST_EFFORT_TOPICS,
-    JOINT_STATES_TOPIC,
     LATCHED_TOPICS,
-    WRENCH_TOPIC,
 )
 from com_core.contract import TOPIC_TYPES as RUN_TOPICS
 from com_estimator.stream_qos import stream_qos, subscribe_adapted
@@ -68,7 +66,6 @@ __all__ = ["RUN_TOPICS", "Recorder"]
 RELIABLE_DEPTH = 100
 PREROLL = 2000  # stream messages before a start that go into the bag: ~0.5 s at 4 kHz
 FLUSH_INTERVAL = 0.1  # s: the most a crash loses
-AWAITED = (WRENCH_TOPIC, JOINT_STATES_TOPIC)  # the streams a run's windows need
 STREAM_WAIT = 5.0  # s (wall) a start waits for an awaited stream's first message
 PUMP_TIMEOUT = 20.0  # s (wall) a start or stop waits for the pump (a stop writes a backlog)
 _IDLE_WAIT = 0.01  # s the pump sleeps when nothing came
@@ -86,6 +83,7 @@ class Recorder:
         topics: Mapping[str, str] = RUN_TOPICS,
         latched: Collection[str] = LATCHED_TOPICS,
         on_capture: Callable[[bytes], None] | None = None,
+        awaited: Collection[str] = (),
     ) -> None:
         self._node = node
         self._on_capture = on_capture  # called with each message ``capture`` keeps
@@ -101,7 +99,8 @@ class Recorder:
         self._requested: dict[str, QoSProfile] = {}
         self._lost: dict[str, int] = {}  # messages DDS says this recording lost, per topic
         self._wake = threading.Event()
-        self._heard: set[str] = set()  # the streams a message of which came
+        self._heard: set[str] = set()  # the topics a message of which came
+        self._awaited = tuple(awaited)  # the topics a start waits to hear
         for topic, msgtype in self._topics.items():
             if topic in BEST_EFFORT_TOPICS:  # the streams: as their publishers offer
                 events = SubscriptionEventCallbacks(message_lost=self._lost_callback(topic))
@@ -146,9 +145,10 @@ class Recorder:
         return "" if self._error is None else f"recording to {self.path} stopped: {self._error}"
 
     def start(self, bag_dir: Path) -> None:
-        """Begin recording to ``bag_dir`` (which must not exist), once each ``AWAITED``
-        stream is heard (``STREAM_WAIT`` s at most: a stream's subscription is made when
-        this process discovers its publisher, and matched after that)."""
+        """Begin recording to ``bag_dir`` (which must not exist), once each ``awaited``
+        topic is heard (``STREAM_WAIT`` s at most: a stream's subscription is made when
+        this process discovers its publisher, and any subscription is matched some time
+        after its publisher's)."""
         if self._writer is not None:
             raise RuntimeError(f"already recording to {self._writer.path}")
         bag_dir = Path(bag_dir)
@@ -175,11 +175,11 @@ class Recorder:
         self._node.get_logger().info(f"recording {len(self._topics)} topics to {bag_dir}")
 
     def _wait_for_streams(self) -> None:
-        """Wait until each ``AWAITED`` stream has delivered a message; log the ones that did
-        not within ``STREAM_WAIT`` s."""
+        """Wait until each ``awaited`` topic has delivered a message (a latched one's
+        latest counts); log the ones that did not within ``STREAM_WAIT`` s."""
         deadline = time.monotonic() + STREAM_WAIT
         while True:
-            silent = [t for t in AWAITED if t in self._topics and t not in self._heard]
+            silent = [t for t in self._awaited if t not in self._heard]
             if not silent:
                 return
             if time.monotonic() > deadline:
@@ -321,11 +321,12 @@ class Recorder:
         return record
 
     def _latched_callback(self, topic: str) -> Callable[[bytes], None]:
-        append, latest = self._incoming.append, self._latest
+        append, latest, heard = self._incoming.append, self._latest, self._heard
 
         def record(raw: bytes) -> None:
             latest[topic] = raw
             append((topic, time.time_ns(), raw))
+            heard.add(topic)
 
         return record
 

@@ -33,10 +33,16 @@ from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
 
+from com_core.contract import JOINT_STATES_TOPIC, POSE_TOPIC, WRENCH_TOPIC
+
 __all__ = ["RecorderProcess"]
 
 NODE_NAME = "exploration_sequencer_recorder"
 START_TIMEOUT = 60.0  # s (wall) the child has to import rclpy and subscribe
+AWAITED = (WRENCH_TOPIC, JOINT_STATES_TOPIC, POSE_TOPIC)
+"""What a recording of a run waits to hear before it starts: the streams its windows
+need, and the sequencer's pose labels (latched: its latest, the handshake's): a label
+published before the recorder's subscription matched the sequencer's would be missing."""
 CALL_TIMEOUT = 30.0  # s (wall) for an answer; a stop flushes and closes the bag
 
 
@@ -149,7 +155,11 @@ def _serve(conn: Connection, latest: Any) -> None:
     keep_dds_local()
     rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
     node = Node(NODE_NAME)
-    recorder = Recorder(node, on_capture=lambda raw: _newest(latest, decode_header(raw)[0]))
+    recorder = Recorder(
+        node,
+        on_capture=lambda raw: _newest(latest, decode_header(raw)[0]),
+        awaited=AWAITED,
+    )
     executor = EventsExecutor()
     executor.add_node(node)
     thread = threading.Thread(
