@@ -154,6 +154,7 @@ class Recorder:
         bag_dir = Path(bag_dir)
         if bag_dir.exists():
             raise FileExistsError(f"{bag_dir} exists already, not overwriting")
+        self._wait_for_streams()  # then their publishers' QoS is known too
         writer = CrashSafeBagWriter(
             bag_dir,
             self._topics,
@@ -170,7 +171,6 @@ class Recorder:
             self._write([*items, *self._recent])
             self._recent.clear()
 
-        self._wait_for_streams()
         self._run(begin)
         self._node.get_logger().info(f"recording {len(self._topics)} topics to {bag_dir}")
 
