@@ -375,7 +375,8 @@ def test_a_push_changes_the_wrench_by_what_the_sim_reports_it_applied(start_node
         start_ns = round((client.sim_time + 0.3) * 1e9)
         client.send_push("ft_sensor", *SENSOR_PUSH, start_ns=start_ns)
         assert client.spin_until(lambda: zeros() == 2, 20.0), log_tail(process.log_path)
-        client.wait_sim(0.3)
+        last = applied[-1][0] + round(0.3e9)  # the wrenches to 0.3 s after, whenever they come
+        assert client.spin_until(lambda: client.wrenches[-1][0] > last, 20.0)
 
         wrenches = dict(client.wrenches)
         period = round(1e9 / RATE)
