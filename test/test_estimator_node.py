@@ -27,6 +27,7 @@ from com_core.contract import (
     ROBOT_DESCRIPTION_TOPIC,
     WRENCH_TOPIC,
 )
+from com_core.estimation.solution import window_counts
 from com_core.payload.files import (
     GRAVITY_COMPENSATION_FILE,
     PAYLOAD_FILE,
@@ -140,9 +141,7 @@ def test_estimate_is_within_its_sigma_band_and_replay_matches_to_the_bit(
 
     offline = replay_json(bag, ros_env, "--information", "wrenches", "--accuracy", "0.0")
     assert offline["status"] == "OK" and offline["messages"] == 8050  # 1 s lead-in + run
-    node_windows = {
-        k.split(" ", 1)[1]: int(v) for k, v in values.items() if k.startswith("samples ")
-    }
+    node_windows = window_counts(values)
     assert node_windows == offline["window_samples"], "the node lost messages in a window"
     assert set(node_windows.values()) == {500}
     assert offline["mass"] == estimate.m  # bit for bit

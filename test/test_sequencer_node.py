@@ -28,6 +28,7 @@ from com_core.contract import (
     TRUTH_TOPIC,
     WRENCH_TOPIC,
 )
+from com_core.estimation.solution import window_counts
 from com_core.report.run import read_run
 from com_core.robot.config import BAG_ROBOT_FILE, read_robot_config, robot_config_path
 from com_core.runtime.processes import stop
@@ -181,7 +182,7 @@ def assert_replays_to_node(bag: Path, offline: dict) -> None:
     that the other kept, and then the COM may differ by what those samples carry, sigma *
     sqrt(the fraction of a window lost)."""
     values = read_run(bag).diagnostic["values"]
-    node = {k.split(" ", 1)[1]: int(v) for k, v in values.items() if k.startswith("samples ")}
+    node = window_counts(values)
     replayed = offline["window_samples"]
     assert node.keys() == replayed.keys(), (node, replayed)
     lost = max(abs(replayed[k] - n) / max(replayed[k], n) for k, n in node.items())

@@ -179,7 +179,11 @@ def read_metadata(bag: Path | str) -> tuple[dict[str, int], bool | None, list[st
     ``complete`` is ``custom_data.complete`` (None when absent); the files are the
     relative paths it names. A missing or unreadable metadata.yaml gives ({}, None, []).
     """
-    info = _bag_information(bag)
+    return _metadata_of(_bag_information(bag))
+
+
+def _metadata_of(info: dict[str, Any]) -> tuple[dict[str, int], bool | None, list[str]]:
+    """``read_metadata`` of metadata.yaml's parsed ``info``."""
     counts: dict[str, int] = {}
     for entry in info.get("topics_with_message_count") or []:
         try:
@@ -197,7 +201,12 @@ def recorder_lost(bag: Path | str) -> dict[str, int]:
     """Messages per topic that the recorder was told it lost (DDS's message-lost
     events), from metadata.yaml's ``custom_data`` (``RECORDER_LOST_KEY``); {} when the
     bag does not say."""
-    custom = _bag_information(bag).get("custom_data") or {}
+    return _lost_of(_bag_information(bag))
+
+
+def _lost_of(info: dict[str, Any]) -> dict[str, int]:
+    """``recorder_lost`` of metadata.yaml's parsed ``info``."""
+    custom = info.get("custom_data") or {}
     text = custom.get(RECORDER_LOST_KEY, "") if isinstance(custom, dict) else ""
     try:
         lost = json.loads(text) if text else {}
@@ -220,9 +229,10 @@ def read_raw(
     bag = Path(bag)
     wanted = set(topics)
     reading = BagReading() if reading is None else reading
-    counts, reading.complete, files = read_metadata(bag)
+    info = _bag_information(bag)  # metadata.yaml parsed once
+    counts, reading.complete, files = _metadata_of(info)
     reading.listed = {t: n for t, n in counts.items() if t in wanted}
-    reading.recorder_lost = {t: n for t, n in recorder_lost(bag).items() if t in wanted}
+    reading.recorder_lost = {t: n for t, n in _lost_of(info).items() if t in wanted}
     try:
         reader = Reader(bag)
         reader.open()
