@@ -172,15 +172,17 @@ def test_a_motion_of_motion_time_is_one_the_sim_accepts_and_no_faster(arm):
     n = len(home)
     velocity = np.array(motion.velocity_limits())
     limits = JointLimits(motion.arm_joints, np.full(n, -10.0), np.full(n, 10.0), velocity)
-    rest = (home, np.zeros(n), np.zeros(n))
+    still, rest = (home, np.zeros(n)), [np.zeros(n)] * 2
+
+    def move(goal, duration):  # two points at rest: one quintic
+        return trajectory_from_command(motion.arm_joints, [0.0, duration], [home, goal],
+                                       limits, 0.0, 0.0, still, rest, rest)  # fmt: skip
+
     for _ in range(20):
         goal = home + rng.uniform(-1.5, 1.5, n)
         duration = motion.motion_time(home, goal, speed=10.0)  # every joint at its cap
-        trajectory = trajectory_from_command(
-            motion.arm_joints, [duration], [goal], limits, 0.0, rest
-        )
-        peak = trajectory.peak_speed()
+        peak = move(goal, duration).peak_speed()
         slowest = int(np.argmax(np.abs(goal - home) / velocity))
         assert peak[slowest] == pytest.approx(velocity[slowest], rel=2e-3)
         with pytest.raises(ValueError, match="velocity limit"):
-            trajectory_from_command(motion.arm_joints, [0.9 * duration], [goal], limits, 0.0, rest)
+            move(goal, 0.9 * duration)

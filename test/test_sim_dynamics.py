@@ -37,9 +37,11 @@ def follow(world: ArmWorld, swings: list[np.ndarray]) -> tuple[np.ndarray, ...]:
     """Swing the arm by each of ``swings`` (rad, about home) in turn, SEGMENT s each, and
     home; ``record_until`` its end."""
     home = np.array(world.config.robot.home_joints)
-    waypoints = [home + swing for swing in swings] + [home]
-    times = [SEGMENT * (k + 1) for k in range(len(waypoints))]
-    return record_until(world, world.command_arm(world.config.robot.arm_joints, times, waypoints))
+    waypoints = [home] + [home + swing for swing in swings] + [home]
+    times = [SEGMENT * k for k in range(len(waypoints))]
+    rest = [np.zeros(len(home))] * len(waypoints)  # each waypoint at rest: quintics
+    names = world.config.robot.arm_joints
+    return record_until(world, world.command_arm(names, times, waypoints, 0.0, rest, rest))
 
 
 def record_until(world: ArmWorld, end: float) -> tuple[np.ndarray, ...]:
@@ -178,7 +180,7 @@ def test_the_designed_excitation_is_followed_and_gives_the_load(held_box):
     home = np.array(robot.home_joints)
     excitation = design_excitation(model, home, robot.arm_joints[-3:], period=3.0,
                                    iterations=60, seed=0)  # fmt: skip
-    times = np.arange(1, 61) * 0.05
+    times = np.arange(0, 61) * 0.05  # from its start, at rest at home
     q, dq, ddq = excitation.at(times)
     start = world.time
     end = world.command_arm(robot.arm_joints, times, q, 0.0, dq, ddq)

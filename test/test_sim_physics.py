@@ -282,7 +282,7 @@ def test_a_friction_grasp_too_weak_for_a_tilt_slips_and_the_ground_truth_shows_i
         world.run(0.9)
         still = world.object_ground_truth()[1]
         assert np.abs(still - before).max() < 1e-5  # at rest it holds
-        world.command_arm(ARM_JOINTS, [0.4], [POSES["j6+0.5"]])
+        world.command_move(POSES["j6+0.5"], 0.4)
         world.run(0.7)
         slid = np.linalg.norm(world.object_ground_truth()[1] - before)
         assert 0.01 < slid < 0.05, slid
@@ -315,7 +315,7 @@ def run_readings(seed: int, com_offset=None) -> tuple[np.ndarray, tuple]:
     world = ArmWorld(SimConfig(seed=seed, object_com_offset=com_offset))
     sensor = WrenchSensor(SensorModel.from_scalars(0.1, 0.005), random_streams(seed)["sensor"])
     try:
-        world.command_arm(ARM_JOINTS, [0.5], [POSES["j6+0.5"]])
+        world.command_move(POSES["j6+0.5"], 0.5)
         readings = []
         for _ in range(600):
             world.step()
@@ -382,33 +382,38 @@ def test_sensor_reads_exactly_what_sensor_model_measure_gives():
 def test_malformed_arm_commands_are_refused(rigid_world, names, times, positions, message):
     with pytest.raises(ValueError, match=message):
         rigid_world.command_arm(names, times, positions)
-    assert rigid_world.arm_idle
+    assert rigid_world.arm_trajectory_end is None
     rigid_world.step()
 
 
-def test_a_trajectory_with_a_later_start_waits_for_it(rigid_world):
-    """The JointTrajectory header stamp's meaning: the running motion (or the hold) goes
-    on until the start time, then the new trajectory runs its full duration from there."""
+def test_a_trajectory_stamped_ahead_moves_the_arm_at_once(rigid_world):
+    """As the joint_trajectory_controller: a trajectory replaces the running one when it
+    arrives, and the arm runs from its state then to the first point, due at stamp +
+    time_from_start; it does not wait for the stamp. A first point where the arm rests,
+    at rest, holds it still until then."""
     world = rigid_world
     world.move_arm(HOME_JOINTS, 2.0)
     q0 = np.array(world.joint_state()[1][:7])
-    start = world.time + 0.3
-    end = world.command_arm(ARM_JOINTS, [0.5], [POSES["j6+0.5"]], start_time=start)
-    assert end == pytest.approx(start + 0.5)
-    assert not world.arm_idle  # queued
-    world.run(0.29)
-    assert_allclose(world.joint_state()[1][:7], q0, atol=1e-4)  # still holding
-    world.run(0.11)
+    goal = np.array(POSES["j6+0.5"])
+    rest = [np.zeros(7)] * 2
+    stamp = world.time + 0.3
+    end = world.command_arm(ARM_JOINTS, [0.2, 0.7], [goal, goal], stamp, rest, rest)
+    assert end == pytest.approx(stamp + 0.7)
+    world.run(0.1)
     moved = np.abs(np.array(world.joint_state()[1][:7]) - q0).max()
-    assert 1e-3 < moved < 0.25  # on its way: 0.1 s into a 0.5 s move of 0.5 rad
-    world.run(end - world.time)
-    assert_allclose(world.joint_state()[1][:7], POSES["j6+0.5"], atol=5e-3)
-    # a start in the past means now, and a new command replaces a queued one
-    world.command_arm(ARM_JOINTS, [0.4], [HOME_JOINTS], start_time=world.time + 1.0)
-    end = world.command_arm(ARM_JOINTS, [0.4], [HOME_JOINTS], start_time=1e-3)
-    assert end == pytest.approx(world.time + 0.4)
-    world.move_arm(HOME_JOINTS, 0.4)
-    assert world.arm_idle
+    assert moved > 0.02  # under way 0.2 s before the stamp: cubic to 0.5 rad in 0.5 s
+    world.run(end - world.time + 0.2)
+    assert_allclose(world.joint_state()[1][:7], goal, atol=5e-3)
+    # sent ahead as a move must be: its first point where the arm rests, at its start
+    stamp = world.time + 0.3
+    world.command_arm(ARM_JOINTS, [0.0, 0.5], [goal, q0], stamp, rest, rest)
+    world.run(0.29)
+    assert_allclose(world.joint_state()[1][:7], goal, atol=1e-4)  # held still until then
+    world.run(0.61)
+    assert_allclose(world.joint_state()[1][:7], q0, atol=5e-3)
+    while not world.arm_settled:
+        world.step()
+    assert world.arm_trajectory_end is None
 
 
 def test_bad_gripper_commands_are_refused(rigid_world):

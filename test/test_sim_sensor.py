@@ -136,7 +136,7 @@ def ringing(
                 assert world.object_held, world.events
                 world.move_arm(PANDA.home_joints, 3.0)
             world.run(3.0)  # every earlier move's ringing gone
-            world.command_arm(PANDA.arm_joints, [duration], [goal])
+            world.command_move(goal, duration)
         rested = None
         difference = []
         for step in range(round((duration + 3.0) / TIME_STEP)):

@@ -1,5 +1,5 @@
-"""wrench_sim.trajectory (no ROS, no pybullet): the quintic joint trajectories the sim's
-arm follows, and the checks a command must pass first."""
+"""wrench_sim.trajectory (no ROS, no pybullet): joint trajectories as the Jazzy
+joint_trajectory_controller follows them, and the checks a command must pass first."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from wrench_sim.trajectory import JointLimits, QuinticTrajectory, trajectory_from_command
+from wrench_sim.trajectory import JUMP_TOLERANCE, JointLimits, trajectory_from_command
 
 NAMES = ("j1", "j2", "j3")
 LIMITS = JointLimits(
@@ -18,7 +18,8 @@ LIMITS = JointLimits(
 )
 HOLD = np.array([0.1, -0.2, 0.3])
 ZERO = np.zeros(3)
-REST = (HOLD, ZERO, ZERO)
+STILL = (HOLD, ZERO)  # measured: at rest at HOLD
+AT_REST = [ZERO, ZERO]  # two points' velocities (or accelerations), zero
 
 
 def minimum_jerk(tau: float) -> float:
@@ -26,17 +27,25 @@ def minimum_jerk(tau: float) -> float:
     return 10 * tau**3 - 15 * tau**4 + 6 * tau**5
 
 
-def test_a_rest_to_rest_segment_is_the_minimum_jerk_quintic_in_absolute_time():
-    t0, duration = 12.5, 2.0
+def rest_to_rest(goal, duration, now=0.0, stamp=0.0, measured=STILL):
+    """Two points at rest, from where the arm is to ``goal``: one quintic."""
+    return trajectory_from_command(
+        NAMES, [0.0, duration], [measured[0], goal], LIMITS, stamp, now, measured,
+        AT_REST, AT_REST,
+    )  # fmt: skip
+
+
+def test_two_points_at_rest_are_the_minimum_jerk_quintic_in_absolute_time():
+    now, duration = 12.5, 2.0
     goal = np.array([1.1, 0.3, -0.7])
-    trajectory = trajectory_from_command(NAMES, [duration], [goal], LIMITS, t0, REST)
-    assert (trajectory.start_time, trajectory.end_time) == (t0, t0 + duration)
-    p, v, a = trajectory.sample(t0)  # starts at the set point, at rest, at t0
+    trajectory = rest_to_rest(goal, duration, now)
+    assert (trajectory.arrival_time, trajectory.end_time) == (now, now + duration)
+    p, v, a = trajectory.sample(now)
     assert_allclose(p, HOLD, atol=1e-15)
     assert_allclose(v, ZERO, atol=1e-15)
     assert_allclose(a, ZERO, atol=1e-15)
     for tau in (0.25, 0.5, 0.8):
-        p, v, _ = trajectory.sample(t0 + tau * duration)
+        p, v, _ = trajectory.sample(now + tau * duration)
         assert_allclose(p, HOLD + minimum_jerk(tau) * (goal - HOLD), rtol=1e-12, atol=1e-12)
         speed = 30 * tau**2 * (1 - tau) ** 2 * (goal - HOLD) / duration
         assert_allclose(v, speed, rtol=1e-12, atol=1e-12)
@@ -45,52 +54,86 @@ def test_a_rest_to_rest_segment_is_the_minimum_jerk_quintic_in_absolute_time():
     mean = np.abs(goal - HOLD) / duration
     assert np.all(trajectory.peak_speed() <= 1.875 * mean + 1e-12)
     assert_allclose(trajectory.peak_speed(), 1.875 * mean, rtol=1e-3)
-    # at and after the end: the goal, at rest
-    for t in (t0 + duration, t0 + duration + 5.0):
+    for t in (now + duration, now + duration + 5.0):  # at and after the end: held, at rest
         p, v, a = trajectory.sample(t)
         assert p.tolist() == goal.tolist() and not v.any() and not a.any()
 
 
-def test_every_waypoint_is_reached_at_its_time_and_at_rest():
-    times = [0.5, 1.5, 2.5]
-    points = [[0.5, 0.0, 0.3], [-0.5, 0.5, 0.3], [0.0, 0.0, 0.0]]
-    trajectory = trajectory_from_command(NAMES, times, points, LIMITS, 3.0, REST)
-    for t, point in zip(times, points, strict=True):
-        p, v, _ = trajectory.sample(3.0 + t - 1e-9)  # the end of the segment into it
-        assert_allclose(p, point, atol=1e-7)
-        assert_allclose(v, ZERO, atol=1e-6)
-    # j3 stays at 0.3 through the first two waypoints: no overshoot between equal points
-    for t in np.linspace(3.0 + 0.5, 3.0 + 1.5, 11):
-        assert trajectory.sample(t)[0][2] == pytest.approx(0.3, abs=1e-12)
+def test_a_positions_only_point_is_reached_linearly_with_a_velocity_step():
+    """The controller's linear interpolation: the mean speed from the first sample on
+    (what a one-point, positions-only command gives a real arm)."""
+    goal = np.array([0.5, -0.2, 0.3])
+    trajectory = trajectory_from_command(["j1"], [2.0], [[0.5]], LIMITS, 0.0, 1.0, STILL)
+    for t in (1.0, 1.5, 2.9):
+        p, v, a = trajectory.sample(t)
+        assert_allclose(v, [0.2, 0.0, 0.0], atol=1e-15)  # 0.4 rad in 2 s, at once
+        assert_allclose(p, HOLD + (t - 1.0) * np.array([0.2, 0.0, 0.0]), atol=1e-15)
+        assert not a.any()
+    assert trajectory.sample(3.0)[0].tolist() == goal.tolist()
 
 
-def test_a_command_that_replaces_a_running_one_continues_from_its_state():
-    """The first segment starts from the current set point, velocity and acceleration:
-    replacing a trajectory mid-motion neither jumps nor kinks."""
-    first = trajectory_from_command(NAMES, [2.0], [[1.0, 0.5, -0.5]], LIMITS, 0.0, REST)
+def test_points_with_velocities_are_joined_by_cubics():
+    """Positions and velocities: a cubic per segment, each point's velocity matched."""
+    times, q = [1.0, 2.0], [[0.3, -0.2, 0.3], [0.5, -0.2, 0.3]]
+    dq = [[0.4, 0.0, 0.0], ZERO]
+    trajectory = trajectory_from_command(NAMES, times, q, LIMITS, 0.0, 0.0, STILL, dq)
+    for t, point, speed in zip(times, q, dq, strict=True):
+        p, v, _ = trajectory.sample(t - 1e-9)
+        assert_allclose(p, point, atol=1e-8)
+        assert_allclose(v, speed, atol=1e-7)
+    # the cubic from rest at 0.1 to 0.3 at 0.4 rad/s in 1 s: c2 = 0.2, c3 = 0.0 -> mid 0.15
+    assert trajectory.sample(0.5)[0][0] == pytest.approx(0.15, abs=1e-12)
+    assert trajectory.sample(0.5)[2][0] == pytest.approx(0.4, abs=1e-12)  # 2 c2 + 6 c3 s
+
+
+def test_a_trajectory_stamped_ahead_moves_the_arm_at_once():
+    """Stamped 3 s ahead with its first point 1 s after the stamp: the controller runs from
+    the state at arrival to that point over the 4 s, starting now (a real arm creeps)."""
+    goal = np.array([0.5, -0.2, 0.3])
+    trajectory = trajectory_from_command(
+        NAMES, [1.0, 2.0], [goal, goal], LIMITS, 13.0, 10.0, STILL, AT_REST, AT_REST
+    )
+    assert trajectory.arrival_time == 10.0 and trajectory.end_time == 15.0
+    p, v, _ = trajectory.sample(10.5)
+    assert p[0] > HOLD[0] + 1e-4 and v[0] > 0.0  # under way before the stamp
+    assert_allclose(trajectory.sample(14.0)[0], goal, atol=1e-12)  # at the first point's time
+
+
+def test_a_trajectory_whose_first_point_is_where_the_arm_rests_holds_it_until_then():
+    """How a move may be sent ahead: its first point, at rest where the arm rests, at the
+    time the move is to start."""
+    goal = np.array([0.5, -0.2, 0.3])
+    trajectory = trajectory_from_command(
+        NAMES, [3.0, 4.0], [HOLD, goal], LIMITS, 0.0, 10.0, STILL, AT_REST, AT_REST
+    )
+    for t in np.linspace(10.0, 13.0, 31):
+        p, v, _ = trajectory.sample(t)
+        assert_allclose(p, HOLD, atol=1e-15)
+        assert_allclose(v, ZERO, atol=1e-15)
+    assert trajectory.sample(13.5)[0][0] == pytest.approx(0.1 + 0.4 * 0.5, abs=1e-12)
+
+
+def test_a_new_command_replaces_the_running_one_from_the_measured_state():
+    first = rest_to_rest(np.array([1.0, 0.5, -0.5]), 2.0)
     now = 0.7
-    state = first.sample(now)
-    assert np.abs(state[1]).min() > 0.05  # really moving
-    second = trajectory_from_command(NAMES, [2.0], [[0.0, 0.0, 0.0]], LIMITS, now, state)
-    for expected, got in zip(state, second.sample(now), strict=True):
+    p, v, _ = first.sample(now)
+    assert np.abs(v).min() > 0.05  # really moving
+    second = trajectory_from_command(
+        NAMES, [2.0], [ZERO], LIMITS, 0.0, now, (p, v), [ZERO], [ZERO]
+    )  # cubic from the measured state (no acceleration), then held
+    for expected, got in zip((p, v), second.sample(now)[:2], strict=True):
         assert_allclose(got, expected, rtol=1e-12, atol=1e-12)
     p, v, _ = second.sample(now + 2.0)
     assert_allclose(p, ZERO, atol=1e-12)
     assert_allclose(v, ZERO, atol=1e-12)
 
 
-def test_a_subset_of_joints_in_any_order_and_a_point_at_time_zero():
+def test_a_subset_of_joints_in_any_order_holds_the_others_where_they_are():
     trajectory = trajectory_from_command(
-        ["j3", "j1"], [0.0, 1.0], [[0.3, 0.1], [0.0, 1.0]], LIMITS, 0.0, REST
+        ["j3", "j1"], [0.0, 1.0], [[0.3, 0.1], [0.0, 1.0]], LIMITS, 0.0, 0.0, STILL
     )
-    p, _, _ = trajectory.sample(1.0)
-    assert p.tolist() == [1.0, -0.2, 0.0]  # j2 holds its set point
-    assert trajectory.end_time == 1.0  # the time-0 point (the set point) is dropped
-    with pytest.raises(ValueError, match="time 0 must equal the current position"):
-        trajectory_from_command(["j1"], [0.0, 1.0], [[0.2], [0.5]], LIMITS, 0.0, REST)
-    only_now = trajectory_from_command(["j1"], [0.0], [[0.1]], LIMITS, 4.0, REST)
-    assert only_now.end_time == pytest.approx(4.001)
-    assert only_now.sample(4.001)[0].tolist() == HOLD.tolist()
+    assert trajectory.sample(1.0)[0].tolist() == [1.0, -0.2, 0.0]  # j2 holds
+    assert trajectory.end_time == 1.0
 
 
 @pytest.mark.parametrize(
@@ -100,45 +143,44 @@ def test_a_subset_of_joints_in_any_order_and_a_point_at_time_zero():
         (["j1", "elbow"], [1.0], [[0.0, 0.0]], r"unknown joint names \['elbow'\]"),
         (["j1", "j1"], [1.0], [[0.0, 0.0]], "repeated joint names"),
         (["j1"], [], [], "no points"),
-        (["j1"], [1.0, 2.0], [[0.0]], "2 times but 1 position rows"),
+        (["j1"], [1.0, 2.0], [[0.0]], "2 times but 1 rows of positions"),
         (["j1", "j2"], [1.0], [[0.0]], "point 0 has 1 positions for 2 joint names"),
         (["j1"], [float("nan")], [[0.0]], "NaN or inf"),
         (["j1"], [1.0], [[float("inf")]], "NaN or inf"),
         (["j1"], [-0.5], [[0.0]], "must be >= 0 and strictly increasing"),
         (["j1"], [1.0, 1.0], [[0.0], [0.1]], "must be >= 0 and strictly increasing"),
         (["j2"], [1.0], [[1.5]], r"j2 = 1.5000 rad at point 0 is outside its limits \[-1"),
-        (["j3"], [1.0], [[2.0]], "j3 would need more than its velocity limit 1.000 rad/s"),
+        (["j1"], [0.0, 1.0], [[0.2], [0.5]], "would jump 0.1000 rad on j1 at arrival"),
+        (["j3"], [1.0], [[1.5]], "j3 would need more than its velocity limit 1.000 rad/s"),
     ],
 )
 def test_malformed_or_unreachable_commands_are_refused(names, times, positions, message):
     with pytest.raises(ValueError, match=message):
-        trajectory_from_command(names, times, positions, LIMITS, 0.0, REST)
+        trajectory_from_command(names, times, positions, LIMITS, 0.0, 0.0, STILL)
+
+
+def test_old_stamps_are_refused_or_joined_where_the_trajectory_is_now():
+    with pytest.raises(ValueError, match="before it arrived at t = 5.000 s"):
+        trajectory_from_command(["j1"], [1.0], [[0.2]], LIMITS, 3.0, 5.0, STILL)
+    with pytest.raises(ValueError, match="would jump"):  # half-way through, far away
+        trajectory_from_command(["j1"], [0.0, 4.0], [[0.1], [1.1]], LIMITS, 3.0, 5.0, STILL)
+    small = JUMP_TOLERANCE / 2  # within the tolerance: joined where it is
+    trajectory_from_command(["j1"], [0.0, 4.0], [[0.1], [0.1 + 2 * small]], LIMITS, 3.0, 5.0,
+                            STILL)  # fmt: skip
 
 
 def test_the_velocity_limit_is_the_quintics_peak_not_its_mean():
-    """j3 (1 rad/s) moving 1 rad: 1.875 s is the least time (peak 15/8 of the mean)."""
-    trajectory_from_command(["j3"], [1.9], [[HOLD[2] + 1.0]], LIMITS, 0.0, REST)
+    rest_to_rest(HOLD + [0.0, 0.0, 1.0], 1.9)
     with pytest.raises(ValueError, match="velocity limit"):
-        trajectory_from_command(["j3"], [1.8], [[HOLD[2] + 1.0]], LIMITS, 0.0, REST)
-
-
-def test_a_trajectory_built_directly_samples_its_segments():
-    trajectory = QuinticTrajectory(
-        1.0, REST, np.array([1.0, 3.0]), np.array([[1.0, 0.0, 0.0], [1.0, 1.0, 0.0]])
-    )
-    assert (trajectory.start_time, trajectory.end_time) == (1.0, 4.0)
-    assert trajectory.sample(2.0)[0].tolist() == pytest.approx([1.0, 0.0, 0.0])
-    p = trajectory.sample(3.0)[0]  # half-way through the second segment
-    assert p.tolist() == pytest.approx([1.0, 0.5, 0.0], abs=1e-12)
+        rest_to_rest(HOLD + [0.0, 0.0, 1.0], 1.8)
 
 
 def test_waypoints_with_velocities_and_accelerations_follow_a_smooth_motion():
-    """A smooth motion sampled at 20 Hz with its velocity and acceleration: the quintics
-    through the samples are the motion to 1e-5 rad between them (a designed excitation's
-    path)."""
-    rest = (np.zeros(3), np.zeros(3), np.zeros(3))
+    """A smooth motion sampled at 20 Hz from its start with its velocity and acceleration:
+    the quintics through the samples are the motion to 1e-5 rad between them (a designed
+    excitation's path)."""
     w = np.pi / 2.0  # rad/s: 0.3 (1 - cos w t)^2 / 4, at rest at 0 and at 4 s
-    times = np.arange(1, 81) * 0.05
+    times = np.arange(0, 81) * 0.05
     share = np.array([1.0, 0.5, 0.0])
 
     def motion(t):
@@ -149,7 +191,8 @@ def test_waypoints_with_velocities_and_accelerations_follow_a_smooth_motion():
         return q, dq, ddq
 
     q, dq, ddq = motion(times)
-    trajectory = trajectory_from_command(LIMITS.names, times, q, LIMITS, 0.0, rest, dq, ddq)
+    still = (np.zeros(3), np.zeros(3))
+    trajectory = trajectory_from_command(NAMES, times, q, LIMITS, 0.0, 0.0, still, dq, ddq)
     between = np.arange(0.0, 4.0, 0.013)
     sampled = np.array([trajectory.sample(t)[0] for t in between])
     assert_allclose(sampled, motion(between)[0], atol=1e-5)
@@ -158,14 +201,13 @@ def test_waypoints_with_velocities_and_accelerations_follow_a_smooth_motion():
 @pytest.mark.parametrize(
     ("velocities", "message"),
     [
-        ([[0.0] * 3, [np.nan, 0.0, 0.0]], "NaN or inf in velocities"),
-        ([[0.0] * 3], r"velocities: \(1, 3\) values for \(2, 3\) positions"),
-        ([[0.0] * 3, [0.1, 0.0, 0.0]], "velocities at the last point must be 0"),
+        ([ZERO, [np.nan, 0.0, 0.0]], "NaN or inf in velocities"),
+        ([ZERO], "velocities: 1 rows for 2 points"),
+        ([ZERO, [0.1, 0.0, 0.0]], "velocities at the last point must be 0"),
     ],
 )
 def test_malformed_waypoint_velocities_are_refused(velocities, message):
-    rest = (np.zeros(3), np.zeros(3), np.zeros(3))
     with pytest.raises(ValueError, match=message):
         trajectory_from_command(
-            LIMITS.names, [1.0, 2.0], [[0.1] * 3, [0.2] * 3], LIMITS, 0.0, rest, velocities
+            NAMES, [1.0, 2.0], [[0.1] * 3, [0.2] * 3], LIMITS, 0.0, 0.0, STILL, velocities
         )

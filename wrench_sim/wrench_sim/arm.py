@@ -1,5 +1,6 @@
-"""The arm's joints: position control along quintic joint trajectories
-(``wrench_sim.trajectory``), and whether the arm has come to rest."""
+"""The arm's joints: position control along joint trajectories as ros2_control's
+joint_trajectory_controller runs them (``wrench_sim.trajectory``), and whether the arm has
+come to rest."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import pybullet
 from numpy.typing import NDArray
 
 from wrench_sim.scene import Scene
-from wrench_sim.trajectory import JointLimits, QuinticTrajectory, trajectory_from_command
+from wrench_sim.trajectory import JointLimits, SplineTrajectory, trajectory_from_command
 
 __all__ = ["ArmDriver"]
 
@@ -39,8 +40,7 @@ class ArmDriver:
             np.array([c.getJointInfo(body, j)[11] for j in arm]),
         )
         self._efforts = [c.getJointInfo(body, j)[10] for j in arm]
-        self._trajectory: QuinticTrajectory | None = None
-        self._queued: QuinticTrajectory | None = None  # starts later (command)
+        self._trajectory: SplineTrajectory | None = None
         zeros = np.zeros(len(arm))
         self._set_point = (home.copy(), zeros, zeros)
         self._still_steps = 0
@@ -53,35 +53,39 @@ class ArmDriver:
         joint_names: Sequence[str],
         times: Sequence[float],
         positions: Sequence[Sequence[float]],
-        start_time: float,
+        stamp: float,
         now: float,
-        velocities: Sequence[Sequence[float]] | None = None,
-        accelerations: Sequence[Sequence[float]] | None = None,
+        velocities: Sequence[Sequence[float] | None] | None = None,
+        accelerations: Sequence[Sequence[float] | None] | None = None,
     ) -> float:
-        """Follow a joint trajectory from ``start_time`` (s, simulated; ``now`` if earlier),
-        replacing any running or queued one; a running one goes on until then. Returns the
-        simulated time (s) at which the last waypoint is reached; raises ValueError for a
-        malformed or unreachable command (see ``ArmWorld.command_arm``)."""
-        start = max(start_time, now)
-        running = self._trajectory
-        state = running.sample(start) if running and start > now else self._set_point
-        trajectory = trajectory_from_command(
-            joint_names, times, positions, self.limits, start, state, velocities, accelerations
-        )
-        if start > now:
-            self._queued = trajectory
-        else:
-            self._trajectory, self._queued = trajectory, None
+        """Follow a joint trajectory stamped ``stamp`` (s, simulated; 0: now) from ``now``,
+        replacing any running one at once, from the measured state (see
+        ``wrench_sim.trajectory``). Returns the simulated time (s) at which the last
+        waypoint is reached; raises ValueError for a malformed or unreachable command (see
+        ``ArmWorld.command_arm``), and the running one goes on."""
+        positions_now, velocities_now, _ = self.joint_state()
+        self._trajectory = trajectory_from_command(
+            joint_names, times, positions, self.limits, stamp, now,
+            (positions_now, velocities_now), velocities, accelerations,
+        )  # fmt: skip
         self._still_steps = 0
-        return trajectory.end_time
+        return self._trajectory.end_time
 
     def update(self, now: float) -> None:
-        """Before the step starting at ``now`` (s): start a queued trajectory that is due and
-        set the motors to the running one's point."""
-        if self._queued is not None and now >= self._queued.start_time:
-            self._trajectory, self._queued = self._queued, None
+        """Before the step starting at ``now`` (s): set the motors to the running
+        trajectory's point."""
         if self._trajectory is not None:
             self._follow(now)
+
+    @property
+    def set_point(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The controller's desired positions (rad) and velocities (rad/s) now."""
+        return self._set_point[0].copy(), self._set_point[1].copy()
+
+    @property
+    def end_time(self) -> float | None:
+        """s; when the running trajectory's last waypoint is due (None: none runs)."""
+        return None if self._trajectory is None else self._trajectory.end_time
 
     @property
     def moving(self) -> bool:
@@ -89,14 +93,9 @@ class ArmDriver:
         return self._trajectory is not None
 
     @property
-    def idle(self) -> bool:
-        """No trajectory is running or queued."""
-        return self._trajectory is None and self._queued is None
-
-    @property
     def settled(self) -> bool:
         """No trajectory is running and the joints have been still for 20 ms."""
-        return self.idle and self._still_steps >= _SETTLE_STEPS
+        return self._trajectory is None and self._still_steps >= _SETTLE_STEPS
 
     def track_rest(self, steps: int) -> None:
         """Count the ``steps`` since the last call as still if no trajectory runs and every

@@ -196,22 +196,21 @@ class ArmWorld:
         joint_names: Sequence[str],
         times: Sequence[float],
         positions: Sequence[Sequence[float]],
-        start_time: float = 0.0,
-        velocities: Sequence[Sequence[float]] | None = None,
-        accelerations: Sequence[Sequence[float]] | None = None,
+        stamp: float = 0.0,
+        velocities: Sequence[Sequence[float] | None] | None = None,
+        accelerations: Sequence[Sequence[float] | None] | None = None,
     ) -> float:
-        """Follow a joint trajectory from ``start_time`` (replacing any running or queued
-        one; a running one goes on until then).
+        """Follow a joint trajectory as ros2_control's joint_trajectory_controller does: it
+        replaces any running one now, from the measured state (``wrench_sim.trajectory``).
 
         Parameters
         ----------
         joint_names : a subset of the robot's ``arm_joints``, any order.
-        times : s from the start, strictly increasing.
+        times : s from the start (time_from_start), >= 0, strictly increasing.
         positions : rad, one row per time, one value per name.
-        start_time : s, simulated; now if earlier than now (the JointTrajectory header
-            stamp's convention, with 0 for now).
-        velocities, accelerations : rad/s, rad/s^2 at each waypoint, like ``positions``
-            (None: each waypoint at rest; the last one must be).
+        stamp : s, simulated; the header stamp: when ``times`` count from (0: now).
+        velocities, accelerations : rad/s, rad/s^2 per point, like a row of ``positions``,
+            or None where a point carries none (None: no point does).
 
         Returns
         -------
@@ -223,21 +222,34 @@ class ArmWorld:
         current motion.
         """
         return self._arm.command(
-            joint_names, times, positions, start_time, self.time, velocities, accelerations
+            joint_names, times, positions, stamp, self.time, velocities, accelerations
         )
 
+    def command_move(self, positions: Sequence[float], duration: float) -> float:
+        """Move every arm joint from where it is to ``positions`` (rad, ``arm_joints`` order)
+        in ``duration`` s, rest to rest: two points with zero velocities and accelerations,
+        one quintic. Returns the simulated time (s) it ends."""
+        names = self.config.robot.arm_joints
+        here = self._arm.joint_state()[0]
+        rest = [[0.0] * len(names)] * 2
+        return self.command_arm(names, [0.0, duration], [here, positions], 0.0, rest, rest)
+
     def move_arm(self, positions: Sequence[float], duration: float) -> None:
-        """Move every arm joint to ``positions`` (rad, ``arm_joints`` order) in ``duration`` s
-        and wait until settled."""
-        self.command_arm(self.config.robot.arm_joints, [duration], [positions])
+        """``command_move`` and wait until settled."""
+        self.command_move(positions, duration)
         self.run(duration)
         while not self.arm_settled:
             self.step()
 
     @property
-    def arm_idle(self) -> bool:
-        """No trajectory is running or queued."""
-        return self._arm.idle
+    def arm_set_point(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The arm controller's desired positions (rad) and velocities (rad/s) now."""
+        return self._arm.set_point
+
+    @property
+    def arm_trajectory_end(self) -> float | None:
+        """s; when the running trajectory's last waypoint is due (None: none runs)."""
+        return self._arm.end_time
 
     @property
     def arm_settled(self) -> bool:

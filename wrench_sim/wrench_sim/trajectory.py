@@ -1,12 +1,23 @@
-"""Smooth joint trajectories for the position-controlled arm: validation and interpolation.
+"""Joint trajectories as ros2_control's joint_trajectory_controller (Jazzy) follows them:
+validation and interpolation.
 
-A command is a list of waypoints with times from its start, as in
-trajectory_msgs/JointTrajectory. It is followed by one quintic polynomial per segment: the
-first segment starts from the controller's current set point, velocity and acceleration (so
-replacing a running trajectory is continuous), every later waypoint is reached at rest (zero
-velocity and acceleration). Rest-to-rest segments keep the jerk bounded, which keeps the
-dynamic part of the sensed wrench small (an abrupt velocity step gives 37-50 N spikes on the
-wrist sensor; a 0.5 rad/s quintic tilt stays below ~0.7 N).
+A command is a trajectory_msgs/JointTrajectory: waypoints with times from its start
+(``header.stamp``; 0: when it arrives) and, per point, positions and optionally velocities
+and accelerations. As in the controller (``Trajectory::sample``):
+
+- a new command replaces the running one **when it arrives**; the state at arrival (the
+  measured positions and velocities: no acceleration interface) is kept;
+- until the first point's time (stamp + time_from_start), the set point runs from the
+  state at arrival to the first point: a command stamped in the future moves the arm at
+  once, slowly, unless its first point is where the arm rests;
+- between two points the interpolation is what both carry: positions only, linear (a
+  velocity step at each point); with velocities, cubic; with velocities and
+  accelerations, quintic (continuous acceleration);
+- after the last point, the set point holds it.
+
+A positions-only point therefore jolts the arm (a velocity step gives 37-50 N spikes on the
+wrist sensor); a rest-to-rest move of two points with zero velocities and accelerations is
+one quintic (a 0.5 rad/s tilt stays below ~0.7 N).
 """
 
 from __future__ import annotations
@@ -17,10 +28,18 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["JointLimits", "QuinticTrajectory", "trajectory_from_command"]
+__all__ = ["JointLimits", "SplineTrajectory", "State", "trajectory_from_command"]
 
 _SAMPLES_PER_SEGMENT = 64
-_AT_REST = 1e-9  # rad/s, rad/s^2: a last point's rates taken as zero (a period's rounding)
+_AT_REST = 1e-9  # rad/s: a last point's velocity taken as zero (a period's rounding)
+JUMP_TOLERANCE = 1e-3
+"""rad: how far the set point may start from the measured position; a command whose set
+point at arrival lies farther (a point at time 0, or a stamp in the past) is refused: the
+controller would jump there."""
+
+State = tuple[NDArray[np.float64], NDArray[np.float64] | None, NDArray[np.float64] | None]
+"""(positions, velocities or None, accelerations or None), each shape (n,): a point of a
+trajectory, with what it carries."""
 
 
 @dataclass(frozen=True)
@@ -33,99 +52,102 @@ class JointLimits:
     velocity: NDArray[np.float64]
 
 
-def _quintic_coefficients(
-    p0: NDArray[np.float64],
-    v0: NDArray[np.float64],
-    a0: NDArray[np.float64],
-    p1: NDArray[np.float64],
-    duration: float,
-    v1: NDArray[np.float64] | float = 0.0,
-    a1: NDArray[np.float64] | float = 0.0,
-) -> NDArray[np.float64]:
-    """Coefficients (6, n) of p(s) = sum c_k s^k reaching p1 with velocity v1 and
-    acceleration a1 (at rest by default) after ``duration`` s."""
+def interpolate(
+    a: State, b: State, duration: float, s: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Position, velocity and acceleration ``s`` s after point ``a`` on the way to point
+    ``b`` reached ``duration`` s after it: linear, cubic or quintic by what both points
+    carry (the controller's ``interpolate_between_points``); ``s`` outside [0, duration]
+    clamps to an end, linearly."""
+    p0, v0, a0 = a
+    p1, v1, a1 = b
+    has_velocity = v0 is not None and v1 is not None
+    has_acceleration = has_velocity and a0 is not None and a1 is not None
+    if s < 0.0 or s > duration:
+        s = min(max(s, 0.0), duration)
+        has_velocity = has_acceleration = False
     T = duration
-    # p(s) = p0 + v0 s + a0 s^2 / 2 + c3 s^3 + c4 s^4 + c5 s^5; solve p(T) = p1, p'(T) = v1,
-    # p''(T) = a1 for (c3, c4, c5).
-    A = np.array(
-        [
-            [T**3, T**4, T**5],
-            [3.0 * T**2, 4.0 * T**3, 5.0 * T**4],
-            [6.0 * T, 12.0 * T**2, 20.0 * T**3],
+    if not has_velocity:
+        slope = (p1 - p0) / T if T > 0.0 else np.zeros_like(p0)
+        return p0 + slope * s, slope, np.zeros_like(p0)
+    if not has_acceleration:
+        c = [p0, v0, (3 * (p1 - p0) - (2 * v0 + v1) * T) / T**2,
+             (2 * (p0 - p1) + (v0 + v1) * T) / T**3]  # fmt: skip
+    else:
+        c = [
+            p0,
+            v0,
+            0.5 * a0,
+            (20 * (p1 - p0) - (12 * v0 + 8 * v1) * T - (3 * a0 - a1) * T**2) / (2 * T**3),
+            (30 * (p0 - p1) + (16 * v0 + 14 * v1) * T + (3 * a0 - 2 * a1) * T**2) / (2 * T**4),
+            (12 * (p1 - p0) - 6 * (v0 + v1) * T - (a0 - a1) * T**2) / (2 * T**5),
         ]
-    )
-    rhs = np.stack([p1 - p0 - v0 * T - 0.5 * a0 * T**2, v1 - v0 - a0 * T, a1 - a0 + 0.0 * p0])
-    c345 = np.linalg.solve(A, rhs)
-    return np.vstack([p0, v0, 0.5 * a0, c345])
+    k = np.arange(len(c))
+    position = sum(c[i] * s**i for i in k)
+    velocity = sum(i * c[i] * s ** (i - 1) for i in k[1:])
+    acceleration = sum(i * (i - 1) * c[i] * s ** (i - 2) for i in k[2:])
+    return position, velocity, acceleration
 
 
-class QuinticTrajectory:
-    """Piecewise-quintic joint trajectory in absolute time.
+class SplineTrajectory:
+    """A joint trajectory over all n joints in absolute time (see module).
 
     Parameters
     ----------
-    t0 : s; start time.
-    start : (position, velocity, acceleration), each shape (n,); rad, rad/s, rad/s^2.
-    times : shape (k,); s from ``t0``; strictly increasing, > 0.
-    positions : shape (k, n); rad; the waypoints.
-    velocities, accelerations : shape (k, n); rad/s, rad/s^2 at each waypoint (None: at
-        rest; the last waypoint is always reached at rest).
+    start_time : s; the trajectory's start (its header stamp, or its arrival for 0).
+    arrival : (s, State); when it arrived and the state then (positions, velocities).
+    times : shape (k,); s from ``start_time``; strictly increasing, >= 0.
+    points : k States, each over the n joints.
     """
 
     def __init__(
         self,
-        t0: float,
-        start: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
+        start_time: float,
+        arrival: tuple[float, State],
         times: NDArray[np.float64],
-        positions: NDArray[np.float64],
-        velocities: NDArray[np.float64] | None = None,
-        accelerations: NDArray[np.float64] | None = None,
+        points: Sequence[State],
     ) -> None:
-        p, v, a = (np.asarray(x, dtype=np.float64) for x in start)
-        rest = np.zeros_like(np.asarray(positions, dtype=np.float64))
-        velocities = rest if velocities is None else velocities
-        accelerations = rest if accelerations is None else accelerations
-        self._knots = t0 + np.concatenate([[0.0], times])
-        self._coefficients = []
-        for i, target in enumerate(positions):
-            duration = self._knots[i + 1] - self._knots[i]
-            v1, a1 = velocities[i], accelerations[i]
-            self._coefficients.append(_quintic_coefficients(p, v, a, target, duration, v1, a1))
-            p, v, a = target, v1, a1
-        self._final = np.asarray(positions[-1], dtype=np.float64)
+        self._arrival_time, self._arrival = arrival
+        self._knots = start_time + np.asarray(times, dtype=np.float64)
+        self._points = list(points)
+        self._final = np.asarray(points[-1][0], dtype=np.float64)
 
     @property
-    def start_time(self) -> float:
-        """s; when the trajectory starts."""
-        return float(self._knots[0])
+    def arrival_time(self) -> float:
+        """s; when the trajectory arrived (and started to move the arm)."""
+        return self._arrival_time
 
     @property
     def end_time(self) -> float:
         """s; when the last waypoint is reached."""
         return float(self._knots[-1])
 
+    @property
+    def final(self) -> NDArray[np.float64]:
+        """rad, shape (n,); the last waypoint."""
+        return self._final.copy()
+
     def sample(
         self, t: float
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """Position, velocity and acceleration (each shape (n,)) at absolute time ``t`` (s)."""
+        """Position, velocity and acceleration (each shape (n,)) of the set point at
+        absolute time ``t`` (s)."""
         if t >= self._knots[-1]:
             zero = np.zeros_like(self._final)
             return self._final.copy(), zero, zero.copy()
-        i = max(int(np.searchsorted(self._knots, t, side="right")) - 1, 0)
-        s = t - self._knots[i]
-        c = self._coefficients[i]
-        powers = s ** np.arange(6)
-        position = powers @ c
-        velocity = (np.arange(1, 6) * powers[:5]) @ c[1:]
-        acceleration = (np.array([2.0, 6.0, 12.0, 20.0]) * powers[:4]) @ c[2:]
-        return position, velocity, acceleration
+        if t < self._knots[0]:
+            duration = self._knots[0] - self._arrival_time
+            return interpolate(self._arrival, self._points[0], duration, t - self._arrival_time)
+        i = int(np.searchsorted(self._knots, t, side="right")) - 1
+        duration = self._knots[i + 1] - self._knots[i]
+        return interpolate(self._points[i], self._points[i + 1], duration, t - self._knots[i])
 
     def peak_speed(self) -> NDArray[np.float64]:
-        """Largest |velocity| of each joint over the trajectory, rad/s, shape (n,)."""
+        """Largest |velocity| of each joint from arrival to the end, rad/s, shape (n,)."""
         peak = np.zeros_like(self._final)
-        for i in range(len(self._coefficients)):
-            ts = np.linspace(self._knots[i], self._knots[i + 1], _SAMPLES_PER_SEGMENT)
-            for t in ts[:-1]:
+        knots = np.concatenate([[self._arrival_time], self._knots])
+        for t0, t1 in zip(knots[:-1], knots[1:], strict=True):
+            for t in np.linspace(t0, t1, _SAMPLES_PER_SEGMENT)[:-1]:
                 peak = np.maximum(peak, np.abs(self.sample(t)[1]))
         return peak
 
@@ -135,26 +157,28 @@ def trajectory_from_command(
     times: ArrayLike,
     positions: ArrayLike,
     limits: JointLimits,
-    t_now: float,
-    start: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
-    velocities: ArrayLike | None = None,
-    accelerations: ArrayLike | None = None,
-) -> QuinticTrajectory:
-    """Check a joint trajectory command and build the trajectory that follows it.
+    stamp: float,
+    now: float,
+    measured: tuple[ArrayLike, ArrayLike],
+    velocities: Sequence[ArrayLike | None] | None = None,
+    accelerations: Sequence[ArrayLike | None] | None = None,
+) -> SplineTrajectory:
+    """Check a joint trajectory command arriving at ``now`` and build the trajectory that
+    follows it (see module).
 
     Parameters
     ----------
     joint_names : names of the commanded joints, any subset of ``limits.names`` in any order.
-    times : shape (k,); s from now; strictly increasing, the first >= 0 (0 only for a
-        waypoint at the current set point).
+    times : shape (k,); s from the start (time_from_start); >= 0, strictly increasing.
     positions : shape (k, len(joint_names)); rad.
-    limits : the arm's joints, in the order of ``start``.
-    t_now : s; current time.
-    start : current set point (position, velocity, acceleration), each shape (n,), in the
-        order of ``limits.names``. Joints not commanded hold their set point.
-    velocities, accelerations : like ``positions``, rad/s and rad/s^2 at each waypoint
-        (JointTrajectoryPoint's; None or empty: each waypoint at rest); the last waypoint
-        must be at rest.
+    limits : the arm's joints, in the order of ``measured``.
+    stamp : s; the header stamp (0: start now).
+    now : s; the arrival time.
+    measured : (positions rad, velocities rad/s) of the n joints now, in the order of
+        ``limits.names``. Joints not commanded hold their position at arrival.
+    velocities, accelerations : per point, like a row of ``positions`` (rad/s, rad/s^2),
+        or None / empty where the point carries none (JointTrajectoryPoint's); None: no
+        point carries any.
 
     Returns
     -------
@@ -163,8 +187,10 @@ def trajectory_from_command(
     Raises
     ------
     ValueError with a message saying what is wrong: unknown or repeated joint names, no
-    waypoints, wrong lengths, NaN/inf, non-monotonic times, positions outside the joint
-    limits, or a speed above the joint's velocity limit.
+    points, wrong lengths, NaN/inf, times not increasing, a trajectory that ends before
+    ``now``, a last point not at rest, positions outside the joint limits, a set point at
+    arrival more than JUMP_TOLERANCE from the measured position, or a speed above a joint's
+    velocity limit.
     """
     names = list(joint_names)
     if not names:
@@ -177,19 +203,18 @@ def trajectory_from_command(
     times = np.asarray(times, dtype=np.float64)
     if times.ndim != 1 or times.size == 0:
         raise ValueError("the trajectory has no points")
-    rows = [np.asarray(row, dtype=np.float64) for row in positions]
-    if len(rows) != times.size:
-        raise ValueError(f"{times.size} times but {len(rows)} position rows")
-    for i, row in enumerate(rows):
-        if row.shape != (len(names),):
-            raise ValueError(
-                f"point {i} has {row.size} positions for {len(names)} joint names {names}"
-            )
-    commanded = np.array(rows)
+    commanded = _rows("positions", positions, times.size, len(names))
+    assert commanded is not None
     if not (np.all(np.isfinite(times)) and np.all(np.isfinite(commanded))):
         raise ValueError("NaN or inf in times or positions")
     if times[0] < 0.0 or np.any(np.diff(times) <= 0.0):
         raise ValueError(f"time_from_start must be >= 0 and strictly increasing, got {times}")
+    start_time = stamp if stamp > 0.0 else now
+    if start_time + times[-1] < now:
+        raise ValueError(
+            f"the trajectory ends at t = {start_time + times[-1]:.3f} s, before it arrived at "
+            f"t = {now:.3f} s (its header stamp is old)"
+        )
     index = [limits.names.index(name) for name in names]
     lower, upper = limits.lower[index], limits.upper[index]
     outside = (commanded < lower) | (commanded > upper)
@@ -199,46 +224,74 @@ def trajectory_from_command(
             f"{names[joint]} = {commanded[point, joint]:.4f} rad at point {point} is outside "
             f"its limits [{lower[joint]:.4f}, {upper[joint]:.4f}] rad"
         )
-    full = np.tile(np.asarray(start[0], dtype=np.float64), (times.size, 1))
-    full[:, index] = commanded
+    here = np.asarray(measured[0], dtype=np.float64)
     rates = [
-        _waypoint_rates(name, x, commanded.shape, index, len(limits.names))
-        for name, x in (("velocities", velocities), ("accelerations", accelerations))
+        _rates(kind, given, times.size, len(names))
+        for kind, given in (("velocities", velocities), ("accelerations", accelerations))
     ]
-    if times[0] == 0.0:
-        if np.max(np.abs(full[0] - start[0])) > 1e-3:
-            raise ValueError("a point at time 0 must equal the current position (within 1 mrad)")
-        full, times, rates = full[1:], times[1:], [r[1:] for r in rates]
-        if times.size == 0:
-            times, full = np.array([1e-3]), np.asarray(start[0], dtype=np.float64)[None, :]
-            rates = [np.zeros_like(full), np.zeros_like(full)]
-    trajectory = QuinticTrajectory(t_now, start, times, full, *rates)
+    last_velocity = rates[0][-1]
+    if last_velocity is not None and np.any(np.abs(last_velocity) > _AT_REST):
+        raise ValueError("velocities at the last point must be 0 (the arm ends at rest)")
+    points = []
+    for k in range(times.size):
+        full = here.copy()
+        full[index] = commanded[k]
+        point = [full]
+        for rate in rates:
+            if rate[k] is None:
+                point.append(None)
+            else:
+                point.append(np.zeros_like(here))
+                point[-1][index] = rate[k]
+        points.append(tuple(point))
+    arrival = (now, (here, np.asarray(measured[1], dtype=np.float64), None))
+    trajectory = SplineTrajectory(start_time, arrival, times, points)
+    jump = np.abs(trajectory.sample(now)[0] - here)
+    if np.max(jump) > JUMP_TOLERANCE:
+        joint = limits.names[int(np.argmax(jump))]
+        raise ValueError(
+            f"the set point would jump {np.max(jump):.4f} rad on {joint} at arrival (a point "
+            "due now, or a stamp in the past, away from where the arm is)"
+        )
     too_fast = trajectory.peak_speed() > limits.velocity
     if np.any(too_fast):
-        joint = limits.names[int(np.argmax(too_fast))]
+        joint = int(np.argmax(too_fast))
         raise ValueError(
-            f"unreachable: {joint} would need more than its velocity limit "
-            f"{limits.velocity[int(np.argmax(too_fast))]:.3f} rad/s; give it more time"
+            f"unreachable: {limits.names[joint]} would need more than its velocity limit "
+            f"{limits.velocity[joint]:.3f} rad/s; give it more time"
         )
     return trajectory
 
 
-def _waypoint_rates(
-    name: str, rates: ArrayLike | None, shape: tuple[int, int], index: list[int], n: int
-) -> NDArray[np.float64]:
-    """The waypoints' ``name`` (velocities or accelerations) over all n joints, shape (k, n):
-    zero when None or empty; ValueError unless ``shape`` (k, joints), finite and zero at
-    the last waypoint."""
-    out = np.zeros((shape[0], n))
-    if rates is None or np.size(rates) == 0:
-        return out
-    given = np.asarray(rates, dtype=np.float64)
-    if given.shape != shape:
-        raise ValueError(f"{name}: {given.shape} values for {shape} positions")
-    if not np.all(np.isfinite(given)):
-        raise ValueError(f"NaN or inf in {name}")
-    if np.any(np.abs(given[-1]) > _AT_REST):
-        raise ValueError(f"{name} at the last point must be 0 (the arm ends at rest)")
-    out[:, index] = given
-    out[-1] = 0.0
+def _rows(name: str, rows: ArrayLike | None, k: int, m: int) -> NDArray[np.float64] | None:
+    """``rows`` as shape (k, m); ValueError naming ``name`` when the shape differs."""
+    rows = [np.asarray(row, dtype=np.float64) for row in rows]  # type: ignore[union-attr]
+    if len(rows) != k:
+        raise ValueError(f"{k} times but {len(rows)} rows of {name}")
+    for i, row in enumerate(rows):
+        if row.shape != (m,):
+            raise ValueError(f"point {i} has {row.size} {name} for {m} joint names")
+    return np.array(rows)
+
+
+def _rates(
+    name: str, given: Sequence[ArrayLike | None] | None, k: int, m: int
+) -> list[NDArray[np.float64] | None]:
+    """Per point, its ``name`` (velocities or accelerations) shape (m,), or None where it
+    carries none; ValueError for a wrong length or a non-finite value."""
+    if given is None:
+        return [None] * k
+    if len(given) != k:
+        raise ValueError(f"{name}: {len(given)} rows for {k} points")
+    out: list[NDArray[np.float64] | None] = []
+    for i, row in enumerate(given):
+        if row is None or np.size(row) == 0:
+            out.append(None)
+            continue
+        row = np.asarray(row, dtype=np.float64)
+        if row.shape != (m,):
+            raise ValueError(f"point {i} has {row.size} {name} for {m} joint names")
+        if not np.all(np.isfinite(row)):
+            raise ValueError(f"NaN or inf in {name}")
+        out.append(row)
     return out

@@ -91,8 +91,9 @@ class Excitation:
     ) -> tuple[NDArray[np.float64], ...]:
         """(times s after the start, positions, velocities, accelerations) of ``joints``
         (names, any order; rad, rad/s, rad/s^2) every 1 / ``rate`` s over one period, the
-        last at its end, at rest at home."""
-        times = np.arange(1, round(rate * self.period) + 1) / rate
+        first at its start and the last at its end, both at rest at home: a trajectory of
+        these points holds the arm still until its first point's time."""
+        times = np.arange(0, round(rate * self.period) + 1) / rate
         index = [self.joint_names.index(name) for name in joints]
         return (times, *(x[:, index] for x in self.at(times)))
 

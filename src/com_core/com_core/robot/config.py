@@ -23,6 +23,16 @@ holds, under ``/**: ros__parameters:`` so that every node reads the keys it uses
 - ``gripper_action``: the gripper's control_msgs/action/GripperCommand action (its position
   in the units of ``gripper_open``: m per finger on the Panda, as franka_gripper's, rad on
   the xArm); optional, ``/gripper_controller/gripper_cmd`` when a file lacks it.
+- ``gripper_joint_state_rate``: Hz, how often the gripper's own publisher sends its joints'
+  states on /joint_states (a second publisher beside the arm's, as real grippers' drivers
+  are; franka_ros2 merges both at 30 Hz); optional, 30 Hz.
+- ``arm_action``: the arm's control_msgs/action/FollowJointTrajectory action (a
+  joint_trajectory_controller's ``<controller>/follow_joint_trajectory``); optional,
+  ``/arm_controller/follow_joint_trajectory``.
+- ``goal_tolerance`` (rad) and ``stopped_velocity_tolerance`` (rad/s): when the arm has
+  arrived and rests, for every arm joint: the controller's goal tolerance, which the
+  sequencer sends with each trajectory and waits for before a window; optional, 5 mrad and
+  5 mrad/s.
 
 ``robot_problems`` checks a configuration against a robot model (every frame and joint
 in its URDF, home and pick within the joint limits) and says what is wrong by name.
@@ -46,6 +56,7 @@ from com_core.robot.model import RobotModel
 __all__ = [
     "BAG_ROBOT_FILE",
     "CONFIG_DIR",
+    "DEFAULT_ARM_ACTION",
     "DEFAULT_GRIPPER_ACTION",
     "ROBOTS",
     "RobotConfig",
@@ -69,6 +80,9 @@ DEFAULT_ROBOT = "panda"
 DEFAULT_GRIPPER_ACTION = "/gripper_controller/gripper_cmd"
 """The gripper's GripperCommand action when a configuration names none (the name a
 ros2_control gripper action controller called ``gripper_controller`` serves)."""
+DEFAULT_ARM_ACTION = "/arm_controller/follow_joint_trajectory"
+"""The arm's FollowJointTrajectory action when a configuration names none (the name a
+joint_trajectory_controller called ``arm_controller`` serves)."""
 
 
 class RobotConfigError(ValueError):
@@ -95,10 +109,14 @@ class RobotConfig:
     hand_id: str
     joint_state_rate: float = 100.0
     gripper_action: str = DEFAULT_GRIPPER_ACTION
+    gripper_joint_state_rate: float = 30.0
+    arm_action: str = DEFAULT_ARM_ACTION
+    goal_tolerance: float = 5e-3
+    stopped_velocity_tolerance: float = 5e-3
 
     def __post_init__(self) -> None:
         for key in ("robot", "urdf", "base_frame", "sensor_frame", "grasp_frame", "hand_id",
-                    "gripper_action"):  # fmt: skip
+                    "gripper_action", "arm_action"):  # fmt: skip
             if not (isinstance(getattr(self, key), str) and getattr(self, key)):
                 raise RobotConfigError(f"{key} must be a non-empty string")
         for key in ("arm_joints", "gripper_joints"):
@@ -126,11 +144,15 @@ class RobotConfig:
             raise RobotConfigError("gripper_open and gripper_closed must differ")
         if not 0.0 <= self.finger_gap[1] < self.finger_gap[0]:
             raise RobotConfigError("finger_gap must be [open, closed] m with open > closed >= 0")
-        if not (_finite(self.joint_state_rate) and 0.0 < self.joint_state_rate <= 1000.0):
-            raise RobotConfigError(
-                f"joint_state_rate must be in (0, 1000] Hz (the sim steps at 1 kHz), got "
-                f"{self.joint_state_rate!r}"
-            )
+        for key in ("joint_state_rate", "gripper_joint_state_rate"):
+            rate = getattr(self, key)
+            if not (_finite(rate) and 0.0 < rate <= 1000.0):
+                raise RobotConfigError(
+                    f"{key} must be in (0, 1000] Hz (the sim steps at 1 kHz), got {rate!r}"
+                )
+        for key in ("goal_tolerance", "stopped_velocity_tolerance"):
+            if not (_finite(getattr(self, key)) and getattr(self, key) > 0.0):
+                raise RobotConfigError(f"{key} must be > 0, got {getattr(self, key)!r}")
 
     @classmethod
     def from_parameters(cls, values: Mapping[str, Any]) -> RobotConfig:
@@ -166,7 +188,10 @@ class RobotConfig:
 
 KEYS = tuple(RobotConfig.__dataclass_fields__)
 """Every key of a robot configuration, in the file's order."""
-OPTIONAL_KEYS = frozenset({"joint_state_rate", "gripper_action"})
+OPTIONAL_KEYS = frozenset(
+    {"joint_state_rate", "gripper_action", "gripper_joint_state_rate", "arm_action",
+     "goal_tolerance", "stopped_velocity_tolerance"}
+)  # fmt: skip
 """Keys a file may leave out (added after files were written): their defaults stand."""
 
 
