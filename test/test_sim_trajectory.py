@@ -160,7 +160,7 @@ def test_malformed_or_unreachable_commands_are_refused(names, times, positions, 
 
 
 def test_old_stamps_are_refused_or_joined_where_the_trajectory_is_now():
-    with pytest.raises(ValueError, match="before it arrived at t = 5.000 s"):
+    with pytest.raises(ValueError, match=r"before it arrived at t = 5\.000 s"):
         trajectory_from_command(["j1"], [1.0], [[0.2]], LIMITS, 3.0, 5.0, STILL)
     with pytest.raises(ValueError, match="would jump"):  # half-way through, far away
         trajectory_from_command(["j1"], [0.0, 4.0], [[0.1], [1.1]], LIMITS, 3.0, 5.0, STILL)
@@ -170,9 +170,9 @@ def test_old_stamps_are_refused_or_joined_where_the_trajectory_is_now():
 
 
 def test_the_velocity_limit_is_the_quintics_peak_not_its_mean():
-    rest_to_rest(HOLD + [0.0, 0.0, 1.0], 1.9)
+    rest_to_rest(HOLD + np.array([0.0, 0.0, 1.0]), 1.9)
     with pytest.raises(ValueError, match="velocity limit"):
-        rest_to_rest(HOLD + [0.0, 0.0, 1.0], 1.8)
+        rest_to_rest(HOLD + np.array([0.0, 0.0, 1.0]), 1.8)
 
 
 def test_waypoints_with_velocities_and_accelerations_follow_a_smooth_motion():

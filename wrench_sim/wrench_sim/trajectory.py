@@ -22,6 +22,7 @@ one quintic (a 0.5 rad/s tilt stays below ~0.7 N).
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -146,7 +147,7 @@ class SplineTrajectory:
         """Largest |velocity| of each joint from arrival to the end, rad/s, shape (n,)."""
         peak = np.zeros_like(self._final)
         knots = np.concatenate([[self._arrival_time], self._knots])
-        for t0, t1 in zip(knots[:-1], knots[1:], strict=True):
+        for t0, t1 in itertools.pairwise(knots):
             for t in np.linspace(t0, t1, _SAMPLES_PER_SEGMENT)[:-1]:
                 peak = np.maximum(peak, np.abs(self.sample(t)[1]))
         return peak
