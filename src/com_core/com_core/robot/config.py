@@ -5,8 +5,9 @@ holds, under ``/**: ros__parameters:`` so that every node reads the keys it uses
 
 - ``robot``: the arm's name; ``hand_id``: names the hand (a cached tare and a payload
   file serve this hand only).
-- ``urdf``: the URDF the sim loads (a file, or ``pybullet_data:<path>``); a real arm's
-  nodes take it from /robot_description instead.
+- ``urdf``: the URDF the sim loads (a file, ``pybullet_data:<path>`` in pybullet_data, or
+  ``com_core:<path>`` in CONFIG_DIR, where the URDFs written for shipped arms lie beside
+  their files); a real arm's nodes take it from /robot_description instead.
 - ``base_frame``, ``sensor_frame``: URDF frames; the sensor frame is the F/T sensor's,
   the link after the flange's fixed joint. ``grasp_frame`` and ``grasp_offset`` (m, in
   grasp_frame): the grasp centre, where a grasped object's centre sits and the point the
@@ -77,6 +78,8 @@ ROBOTS = tuple(sorted(path.stem for path in CONFIG_DIR.glob("*.yaml")))
 """The arms whose files ship in CONFIG_DIR."""
 DEFAULT_ROBOT = "panda"
 """Every node's arm when no configuration file is given."""
+SHIPPED_URDF = "com_core:"
+"""A ``urdf`` of ``com_core:<path>`` names a file in CONFIG_DIR (``urdf_file``)."""
 DEFAULT_GRIPPER_ACTION = "/gripper_controller/gripper_cmd"
 """The gripper's GripperCommand action when a configuration names none (the name a
 ros2_control gripper action controller called ``gripper_controller`` serves)."""
@@ -243,13 +246,15 @@ def write_robot_config(config: RobotConfig, path: Path) -> None:
 
 
 def urdf_file(config: RobotConfig) -> Path:
-    """The file of the configuration's ``urdf``: a path, or ``pybullet_data:<path>``
-    inside the pybullet_data package."""
+    """The file of the configuration's ``urdf``: a path, ``pybullet_data:<path>`` inside
+    the pybullet_data package, or ``com_core:<path>`` inside CONFIG_DIR."""
     prefix = "pybullet_data:"
     if config.urdf.startswith(prefix):
         import pybullet_data
 
         return Path(pybullet_data.getDataPath()) / config.urdf[len(prefix) :]
+    if config.urdf.startswith(SHIPPED_URDF):
+        return CONFIG_DIR / config.urdf[len(SHIPPED_URDF) :]
     return Path(config.urdf)
 
 
