@@ -35,14 +35,18 @@ class GripperClient:
     def __init__(self, context: Any) -> None:
         self.node = rclpy.create_node("gripper_action_test", context=context)
         self.action = ActionClient(self.node, GripperCommand, PANDA.gripper_action)
-        self.joint_state: JointState | None = None
+        self.joint_state: JointState | None = None  # the arm's publisher's latest
+        self.fingers: JointState | None = None  # the gripper's publisher's latest
         self.objects: list[str] = []
         self.node.create_subscription(JointState, JOINT_STATES_TOPIC, self._joints, 10)
         self.node.create_subscription(String, OBJECT_TOPIC, self._object, LATCHED)
         self.arm = self.node.create_publisher(JointTrajectory, ARM_COMMAND_TOPIC, 10)
 
     def _joints(self, msg: JointState) -> None:
-        self.joint_state = msg
+        if msg.name[0] == PANDA.arm_joints[0]:
+            self.joint_state = msg
+        else:
+            self.fingers = msg
 
     def _object(self, msg: String) -> None:
         self.objects.append(msg.data)
@@ -62,9 +66,11 @@ class GripperClient:
         return True, result.result().result, feedback
 
     def move(self, goal: tuple[float, ...], duration: float = 2.0) -> None:
+        zeros = [0.0] * len(goal)  # at rest: a cubic from where the arm is
         point = JointTrajectoryPoint(
-            positions=list(goal), time_from_start=Duration(sec=int(duration))
-        )
+            positions=list(goal), velocities=zeros, accelerations=zeros,
+            time_from_start=Duration(sec=int(duration)),
+        )  # fmt: skip
         self.arm.publish(JointTrajectory(joint_names=list(PANDA.arm_joints), points=[point]))
 
         def arrived() -> bool:
@@ -115,7 +121,10 @@ def test_the_gripper_action_reaches_its_goal_or_stalls_on_the_object(
         assert result.position > closed + 0.005  # the pads on the box (half width 0.025 m)
         assert result.effort > 1.0, result
         assert spin_until(client.node, lambda: "state=held" in client.objects[-1], 5.0)
-        fingers = client.joint_state.position[7:]
+        client.fingers = None
+        assert spin_until(client.node, lambda: client.fingers is not None, 5.0)
+        fingers = client.fingers.position
+        assert tuple(client.fingers.name) == PANDA.gripper_joints
         assert min(fingers) > closed + 0.005, fingers
         assert process.poll() is None
     finally:

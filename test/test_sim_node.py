@@ -97,7 +97,8 @@ class Client:
         self.truth: list[InertiaStamped] = []
         self.hand_truth: list[InertiaStamped] = []
         self.objects: list[str] = []
-        self.joint_state: JointState | None = None
+        self.joint_state: JointState | None = None  # the arm's publisher's latest
+        self.gripper_state: JointState | None = None  # the gripper's publisher's latest
         self.wrenches: list[tuple[int, np.ndarray]] = []
         node = self.node
         node.create_subscription(InertiaStamped, TRUTH_TOPIC, self.truth.append, LATCHED)
@@ -112,7 +113,10 @@ class Client:
         self.push = node.create_publisher(WrenchStamped, APPLY_WRENCH_TOPIC, 10)
 
     def _joint_state_callback(self, msg: JointState) -> None:
-        self.joint_state = msg
+        if msg.name[0] == ARM_JOINTS[0] or msg.name[0] == "joint1":  # the Panda's, the xArm's
+            self.joint_state = msg
+        else:
+            self.gripper_state = msg
 
     def _wrench_callback(self, msg: WrenchStamped) -> None:
         f, t = msg.wrench.force, msg.wrench.torque
@@ -129,20 +133,27 @@ class Client:
     def arm_positions(self) -> np.ndarray:
         return np.array(self.joint_state.position[:7])
 
-    def send_trajectory(self, names, points: list[tuple[float, list[float]]]) -> None:
+    def send_trajectory(
+        self, names, points: list[tuple[float, list[float]]], at_rest: bool = False
+    ) -> None:
+        """Points (s from now, positions); ``at_rest``: each with zero velocities and
+        accelerations (else positions only: linear)."""
         msg = JointTrajectory(joint_names=list(names))
         for t, positions in points:
             sec = math.floor(t)
+            zeros = [0.0] * len(positions) if at_rest else []
             msg.points.append(
                 JointTrajectoryPoint(
                     positions=positions,
+                    velocities=zeros,
+                    accelerations=zeros,
                     time_from_start=Duration(sec=sec, nanosec=round((t - sec) * 1e9)),
                 )
             )
         self.arm.publish(msg)
 
     def move(self, goal: list[float], duration: float, timeout: float = 20.0) -> None:
-        self.send_trajectory(ARM_JOINTS, [(duration, list(goal))])
+        self.send_trajectory(ARM_JOINTS, [(duration, list(goal))], at_rest=True)
 
         def arrived() -> bool:
             state = self.joint_state
@@ -450,12 +461,14 @@ def test_the_xarm6_runs_from_its_parameters_file(start_node, rclpy_context):
     )
     try:
         ready = client.spin_until(
-            lambda: texts and client.hand_truth and client.joint_state, timeout=40.0
+            lambda: texts and client.hand_truth and client.joint_state and client.gripper_state,
+            timeout=40.0,
         )
         assert ready, f"sim did not come up:\n{log_tail(process.log_path)}"
-        assert tuple(client.joint_state.name) == xarm.arm_joints + xarm.gripper_joints
-        assert_allclose(client.joint_state.position[:6], xarm.home_joints, atol=1e-3)
-        assert client.joint_state.position[6] == xarm.gripper_open
+        assert tuple(client.joint_state.name) == xarm.arm_joints
+        assert_allclose(client.joint_state.position, xarm.home_joints, atol=1e-3)
+        assert tuple(client.gripper_state.name) == xarm.gripper_joints
+        assert client.gripper_state.position[0] == xarm.gripper_open
         robot = RobotModel(texts[0], xarm.sensor_frame, xarm.base_frame)
         assert robot.joint_names == xarm.arm_joints  # rigid mode: the gripper's joints fixed
         client.wait_sim(0.3)

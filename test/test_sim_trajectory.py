@@ -1,5 +1,6 @@
-"""wrench_sim.trajectory (no ROS, no pybullet): joint trajectories as the Jazzy
-joint_trajectory_controller follows them, and the checks a command must pass first."""
+"""wrench_sim.trajectory and trajectory_goal (no ROS, no pybullet): joint trajectories as
+the Jazzy joint_trajectory_controller follows them, the checks a command must pass first,
+and how a goal ends."""
 
 from __future__ import annotations
 
@@ -8,6 +9,14 @@ import pytest
 from numpy.testing import assert_allclose
 
 from wrench_sim.trajectory import JUMP_TOLERANCE, JointLimits, trajectory_from_command
+from wrench_sim.trajectory_goal import (
+    GOAL_TOLERANCE_VIOLATED,
+    PATH_TOLERANCE_VIOLATED,
+    SUCCESSFUL,
+    Tolerance,
+    TrajectoryGoal,
+    tolerances,
+)
 
 NAMES = ("j1", "j2", "j3")
 LIMITS = JointLimits(
@@ -211,3 +220,28 @@ def test_malformed_waypoint_velocities_are_refused(velocities, message):
         trajectory_from_command(
             NAMES, [1.0, 2.0], [[0.1] * 3, [0.2] * 3], LIMITS, 0.0, 0.0, STILL, velocities
         )
+
+
+def test_a_goal_ends_as_the_controller_judges_its_tolerances():
+    """Path tolerance while it runs; goal tolerance (position and speed) from its end, with
+    goal_time_tolerance of leeway; 0 takes the default, negative is unchecked."""
+    names = ("a", "b")
+    default = Tolerance(0.01, 0.02)
+    goal_tolerances = tolerances(names, {"b": (-1.0, 0.0)}, default)
+    assert goal_tolerances == [default, Tolerance(-1.0, 0.02)]
+    path = tolerances(names, {"a": (0.05, 0.0)}, Tolerance())
+    goal = TrajectoryGoal(names, 2.0, path, goal_tolerances, 0.5)
+    final, desired, zero = np.array([1.0, 1.0]), np.array([0.5, 0.5]), np.zeros(2)
+    assert goal.check(1.0, desired, desired + np.array([0.04, 9.0]), zero, final) is None
+    code, text = goal.check(1.0, desired, desired + np.array([-0.06, 0.0]), zero, final)
+    assert code == PATH_TOLERANCE_VIOLATED
+    assert text == "path tolerance: a is -0.06 rad from where it should be (tolerance 0.05)"
+    assert goal.check(2.0, desired, final + np.array([0.0, 5.0]), zero, final) == (SUCCESSFUL, "")
+    moving = np.array([0.03, 0.0])
+    assert goal.check(2.4, desired, final, moving, final) is None  # within the leeway
+    code, text = goal.check(2.6, desired, final, moving, final)
+    assert code == GOAL_TOLERANCE_VIOLATED
+    assert text == ("goal tolerance, 0.600 s after the end: a still moves at +0.03 rad/s "
+                    "(tolerance 0.02)")  # fmt: skip
+    waiting = TrajectoryGoal(names, 2.0, path, goal_tolerances, 0.0)
+    assert waiting.check(100.0, desired, final + np.array([0.02, 0.0]), zero, final) is None

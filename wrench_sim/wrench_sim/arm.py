@@ -48,7 +48,7 @@ class ArmDriver:
             c.resetJointState(body, joint, q)
         self._hold(home, zeros)
 
-    def command(
+    def plan(
         self,
         joint_names: Sequence[str],
         times: Sequence[float],
@@ -57,19 +57,39 @@ class ArmDriver:
         now: float,
         velocities: Sequence[Sequence[float] | None] | None = None,
         accelerations: Sequence[Sequence[float] | None] | None = None,
-    ) -> float:
-        """Follow a joint trajectory stamped ``stamp`` (s, simulated; 0: now) from ``now``,
-        replacing any running one at once, from the measured state (see
-        ``wrench_sim.trajectory``). Returns the simulated time (s) at which the last
-        waypoint is reached; raises ValueError for a malformed or unreachable command (see
-        ``ArmWorld.command_arm``), and the running one goes on."""
+    ) -> SplineTrajectory:
+        """The trajectory a command stamped ``stamp`` (s, simulated; 0: now) arriving at
+        ``now`` would run, from the measured state (``wrench_sim.trajectory``); ValueError
+        for a malformed or unreachable command (see ``ArmWorld.command_arm``)."""
         positions_now, velocities_now, _ = self.joint_state()
-        self._trajectory = trajectory_from_command(
+        return trajectory_from_command(
             joint_names, times, positions, self.limits, stamp, now,
             (positions_now, velocities_now), velocities, accelerations,
         )  # fmt: skip
+
+    def command(self, *args, **kwargs) -> float:
+        """Follow the trajectory ``plan`` gives for these arguments, replacing any running
+        one at once; returns the simulated time (s) at which its last waypoint is reached.
+        On ValueError the running one goes on."""
+        self._trajectory = self.plan(*args, **kwargs)
         self._still_steps = 0
         return self._trajectory.end_time
+
+    def hold(self) -> None:
+        """Stop where the arm is: the running trajectory ends, the measured positions are
+        held (the controller's ``set_hold_position``)."""
+        here = np.array(self.joint_state()[0])
+        zeros = np.zeros_like(here)
+        self._trajectory = None
+        self._set_point = (here, zeros, zeros)
+        self._hold(here, zeros)
+
+    @property
+    def final(self) -> NDArray[np.float64]:
+        """rad; where the running trajectory ends (else the held set point)."""
+        if self._trajectory is not None:
+            return self._trajectory.final
+        return self._set_point[0].copy()
 
     def update(self, now: float) -> None:
         """Before the step starting at ``now`` (s): set the motors to the running

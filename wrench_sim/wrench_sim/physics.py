@@ -225,6 +225,21 @@ class ArmWorld:
             joint_names, times, positions, stamp, self.time, velocities, accelerations
         )
 
+    def plan_arm(self, **command) -> None:
+        """Check a command of ``command_arm``'s keyword arguments as if it arrived now,
+        without running it: ValueError says what is wrong."""
+        self._arm.plan(now=self.time, **command)
+
+    def hold_arm(self) -> None:
+        """Stop the arm where it is (the running trajectory ends)."""
+        self._arm.hold()
+
+    @property
+    def arm_final(self) -> NDArray[np.float64]:
+        """rad (``arm_joints`` order); where the running trajectory ends, else the held
+        position."""
+        return self._arm.final
+
     def command_move(self, positions: Sequence[float], duration: float) -> float:
         """Move every arm joint from where it is to ``positions`` (rad, ``arm_joints`` order)
         in ``duration`` s, rest to rest: two points with zero velocities and accelerations,

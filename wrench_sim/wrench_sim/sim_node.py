@@ -20,8 +20,9 @@ Publishes (names in ``com_core.contract``; stamps in sim time):
   sensor reads it (``ArmWorld.applied_wrench``, about the sensor origin, frame
   ``ft_sensor`` as the readings), one per wrench sample with the same stamp; then one zero
   wrench, at the first wrench sample after the last push ended.
-- JOINT_STATES_TOPIC (sensor_msgs/JointState): the configuration's ``arm_joints`` and
-  ``gripper_joints``, at its ``joint_state_rate`` (the Panda's 1 kHz).
+- JOINT_STATES_TOPIC (sensor_msgs/JointState) from two publishers, as a real arm and its
+  gripper's driver: the configuration's ``arm_joints`` at its ``joint_state_rate`` and its
+  ``gripper_joints`` at its ``gripper_joint_state_rate``, each stamped when it is sent.
 - TRUTH_TOPIC, HAND_TRUTH_TOPIC (geometry_msgs/InertiaStamped, latched): the object's and the
   hand's mass and COM in ``ft_sensor``, republished when they change.
 - OBJECT_TOPIC (std_msgs/String, latched): shape, mass, grasp mode and held state.
@@ -29,8 +30,11 @@ Publishes (names in ``com_core.contract``; stamps in sim time):
 
 Subscribes:
 
-- ARM_COMMAND_TOPIC (trajectory_msgs/JointTrajectory): a move of the configuration's
-  ``arm_joints`` (any subset, any order) from ``header.stamp``.
+- ARM_COMMAND_TOPIC (trajectory_msgs/JointTrajectory): a trajectory of the configuration's
+  ``arm_joints`` (any subset, any order), followed as the Jazzy joint_trajectory_controller
+  does (``wrench_sim.trajectory``): it replaces the running one on arrival, runs from the
+  measured state to its first point at ``header.stamp`` + time_from_start, and interpolates
+  linearly, cubically or quintically by what its points carry.
 - HAND_COMMAND_TOPIC (std_msgs/Float64MultiArray): one value, the gripper's position from
   ``gripper_open`` to ``gripper_closed`` (m per finger on the Panda, rad on the xArm6); it
   aborts a running gripper goal.
@@ -39,6 +43,11 @@ Subscribes:
   mounted sensor's axes; the push then turns with the hand), from ``header.stamp`` (sim
   time; zero or past: now) for ``push_duration`` s. Pushes add up. Refused with an ERROR log
   for another frame, a non-finite value or no object held; the start and end are logged.
+
+Serves the configuration's ``arm_action`` (control_msgs/action/FollowJointTrajectory, as a
+joint_trajectory_controller does; ``wrench_sim.arm_action``): the same trajectories, checked
+in the goal callback, with path and goal tolerances (the configuration's ``goal_tolerance``
+and ``stopped_velocity_tolerance`` by default) and the controller's result codes.
 
 Serves the configuration's ``gripper_action`` (control_msgs/action/GripperCommand, as a
 real gripper's driver does): ``command.position`` from ``gripper_open`` to
@@ -79,12 +88,10 @@ from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
-from trajectory_msgs.msg import JointTrajectory
 
 from com_core.contract import (
     APPLIED_WRENCH_TOPIC,
     APPLY_WRENCH_TOPIC,
-    ARM_COMMAND_TOPIC,
     CLOCK_TOPIC,
     HAND_COMMAND_TOPIC,
     HAND_TRUTH_TOPIC,
@@ -102,6 +109,7 @@ from com_core.runtime.lifeline import stop_with_parent
 from com_core.runtime.rosenv import discovery_line, keep_dds_local, start_refusal
 from com_core.sensing.sensor_profiles import SensorProfile
 from com_core.sensing.wrench_model import SensorModel, rotation_about
+from wrench_sim.arm_action import ArmController
 from wrench_sim.gripper import GripperGoal, GripperOutcome
 from wrench_sim.parameters import (
     SENSOR_PARAMETERS,
@@ -114,7 +122,7 @@ from wrench_sim.sensor import WrenchSensor, profile_calibration, profile_drift, 
 
 _SPIN_EVERY = 50  # steps between spin_once calls (50 ms of sim time; one costs ~0.2 ms)
 _REPORT_EVERY = 50  # steps between checks of events, saturation and ground truth
-_GRIPPER_EVERY = 10  # steps between checks of a gripper goal (10 ms)
+_GOALS_EVERY = 10  # steps between checks of the arm's and the gripper's goals (10 ms)
 _GRIPPER_FEEDBACK_EVERY = 5  # checks between a gripper goal's feedback messages (50 ms)
 STREAM_HISTORY = 10_000  # messages: 2 s (wall) of a 1 kHz stream at 5x real time
 _LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -164,6 +172,7 @@ class SimNode(Node):
         self._real_time_factor = parameter("real_time_factor").value
         self._publish_every = round(1000.0 / parameter("rate").value)
         self._joint_state_every = round(1000.0 / robot.joint_state_rate)  # steps
+        self._finger_state_every = round(1000.0 / robot.gripper_joint_state_rate)
         self._clock_every = round(1000.0 / parameter("clock_rate").value)
         self._pace_origin: tuple[float, float] | None = None
 
@@ -173,9 +182,9 @@ class SimNode(Node):
         self.clock_publisher = self.create_publisher(Clock, CLOCK_TOPIC, stream // 4)
         self.wrench_publisher = self.create_publisher(WrenchStamped, WRENCH_TOPIC, stream)
         self.applied_publisher = self.create_publisher(WrenchStamped, APPLIED_WRENCH_TOPIC, stream)
-        self.joint_state_publisher = self.create_publisher(
-            JointState, JOINT_STATES_TOPIC, stream // 5
-        )
+        self.joint_state_publishers = [  # the arm's and the gripper's drivers
+            self.create_publisher(JointState, JOINT_STATES_TOPIC, stream // 5) for _ in "ag"
+        ]
         self.truth_publisher = self.create_publisher(InertiaStamped, TRUTH_TOPIC, _LATCHED)
         self.hand_truth_publisher = self.create_publisher(
             InertiaStamped, HAND_TRUTH_TOPIC, _LATCHED
@@ -183,7 +192,7 @@ class SimNode(Node):
         self.object_publisher = self.create_publisher(String, OBJECT_TOPIC, _LATCHED)
         description = self.create_publisher(String, ROBOT_DESCRIPTION_TOPIC, _LATCHED)
         description.publish(String(data=self.world.urdf_text))  # the URDF loaded, as is
-        self.create_subscription(JointTrajectory, ARM_COMMAND_TOPIC, self.trajectory_callback, 10)
+        self.arm_controller = ArmController(self, self.world)
         self.create_subscription(Float64MultiArray, HAND_COMMAND_TOPIC, self.gripper_callback, 10)
         self.create_subscription(WrenchStamped, APPLY_WRENCH_TOPIC, self.push_callback, 10)
         # the running gripper goal, its progress and checks so far; finished goals' outcomes
@@ -208,7 +217,7 @@ class SimNode(Node):
         self._push_scheduled = False  # a push was accepted and its zero not yet published
         self._push_published = False  # the last applied wrench published was not zero
         self._clock_msg = Clock()
-        self._joint_state = JointState()
+        self._joint_states = (JointState(), JointState())
         self._saturated = False  # in a saturation episode
         self._saturated_readings = 0  # since the last report
         self._published_object: tuple[bool, np.ndarray] | None = None
@@ -280,30 +289,6 @@ class SimNode(Node):
         return SetParametersResult(successful=True)
 
     # ------------------------------------------------------------------ commands
-    def trajectory_callback(self, msg: JointTrajectory) -> None:
-        """Follow a joint trajectory from its header stamp (sim time; zero or past: now);
-        a malformed or unreachable one is logged and ignored."""
-        try:
-            times = [p.time_from_start.sec + 1e-9 * p.time_from_start.nanosec for p in msg.points]
-            positions = [list(p.positions) for p in msg.points]
-            velocities = [list(p.velocities) for p in msg.points]
-            accelerations = [list(p.accelerations) for p in msg.points]
-            start = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
-            end = self.world.command_arm(
-                list(msg.joint_names),
-                times,
-                positions,
-                start,
-                velocities if any(velocities) else None,
-                accelerations if any(accelerations) else None,
-            )
-        except ValueError as error:  # a bad command is refused; the sim goes on
-            self.get_logger().error(f"rejected joint trajectory: {error}")
-            return
-        self.get_logger().info(
-            f"following a {len(msg.points)}-point trajectory until t = {end:.3f} s (sim)"
-        )
-
     def gripper_callback(self, msg: Float64MultiArray) -> None:
         """Move the gripper: one value, its position from ``gripper_open`` to
         ``gripper_closed`` (m or rad); a running gripper goal is aborted."""
@@ -447,9 +432,13 @@ class SimNode(Node):
                     if self._push_scheduled:
                         self._publish_applied(now)
             if publish and steps % self._joint_state_every == 0:
-                self._publish_joint_state(now)
-            if self._gripper_goal is not None and steps % _GRIPPER_EVERY == 0:
-                self._track_gripper()
+                self._publish_joint_state(now, 0)
+            if publish and steps % self._finger_state_every == 0:
+                self._publish_joint_state(now, 1)
+            if steps % _GOALS_EVERY == 0:
+                self.arm_controller.track()
+                if self._gripper_goal is not None:
+                    self._track_gripper()
             if steps % _REPORT_EVERY == 0:
                 self._report()
             if steps % _SPIN_EVERY == 0:
@@ -496,11 +485,16 @@ class SimNode(Node):
         self._push_scheduled = world.push_scheduled or self._push_published
         self.applied_publisher.publish(_filled(self._applied, now, wrench))
 
-    def _publish_joint_state(self, now: int) -> None:
-        msg = self._joint_state
+    def _publish_joint_state(self, now: int, part: int) -> None:
+        """The arm's joints (``part`` 0) or the gripper's (1), from their own publisher."""
+        msg = self._joint_states[part]
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(now, 1_000_000_000)
-        msg.name, msg.position, msg.velocity, msg.effort = self.world.joint_state()
-        self.joint_state_publisher.publish(msg)
+        names, *values = self.world.joint_state()
+        arm = len(self.world.config.robot.arm_joints)
+        cut = slice(0, arm) if part == 0 else slice(arm, None)
+        msg.name = list(names[cut])
+        msg.position, msg.velocity, msg.effort = (list(v[cut]) for v in values)
+        self.joint_state_publishers[part].publish(msg)
 
     def _report(self) -> None:
         """Log the world's events and saturation; republish ground truth that moved."""
