@@ -197,7 +197,9 @@ class Bench:
         goal[6] += turn[1]
         for publisher in (self.arm, self.pusher):  # a message before the match is lost
             self.spin_until(lambda p=publisher: p.get_subscription_count() > 0, 10.0, "sim")
-        point = JointTrajectoryPoint(positions=goal, time_from_start=Duration(sec=3))
+        rest = [0.0] * len(goal)  # at rest: a cubic from the arm's state
+        point = JointTrajectoryPoint(positions=goal, velocities=rest, accelerations=rest,
+                                     time_from_start=Duration(sec=3))  # fmt: skip
         for stream in self.streams.values():
             stream.clear()
         self.arm.publish(JointTrajectory(joint_names=list(ARM_JOINTS), points=[point]))

@@ -33,7 +33,11 @@ for _tree in ("exploration_sequencer", "com_estimator", "wrench_sim", "src/com_c
 from com_core import contract as c  # noqa: E402
 from com_core.estimation.settings import SETTINGS  # noqa: E402
 from com_core.inputs import Input  # noqa: E402
-from com_core.robot.config import DEFAULT_GRIPPER_ACTION, default_robot_config  # noqa: E402
+from com_core.robot.config import (  # noqa: E402
+    DEFAULT_ARM_ACTION,
+    DEFAULT_GRIPPER_ACTION,
+    default_robot_config,
+)
 from com_estimator.estimator_node import PARAMETERS as ESTIMATOR_PARAMETERS  # noqa: E402
 from exploration_sequencer.parameters import PARAMETERS as SEQUENCER_PARAMETERS  # noqa: E402
 from wrench_sim.parameters import PARAMETERS as SIM_PARAMETERS  # noqa: E402
@@ -78,6 +82,16 @@ def gripper_action(kind: str, notes: str) -> tuple[str, ...]:
     return (
         f"`{DEFAULT_GRIPPER_ACTION}` (the configuration's `gripper_action`)",
         "`control_msgs/action/GripperCommand`",
+        kind,
+        notes,
+    )
+
+
+def arm_action(kind: str, notes: str) -> tuple[str, ...]:
+    """A row of the arm's action: its default name and the configuration's key."""
+    return (
+        f"`{DEFAULT_ARM_ACTION}` (the configuration's `arm_action`)",
+        "`control_msgs/action/FollowJointTrajectory`",
         kind,
         notes,
     )
@@ -140,8 +154,10 @@ def sim_node() -> list[str]:
         interface(
             c.ARM_COMMAND_TOPIC,
             "in",
-            "the configuration's `arm_joints`; quintic interpolation, position control; "
-            "starts at `header.stamp` (sim time; 0 or past: now)",
+            "the configuration's `arm_joints`, as the Jazzy joint_trajectory_controller: "
+            "replaces the running trajectory on arrival, runs from the measured state to the "
+            "first point at `header.stamp` + time_from_start (0: now), linear, cubic or "
+            "quintic by what the points carry; position control",
         ),
         interface(
             c.HAND_COMMAND_TOPIC,
@@ -165,6 +181,16 @@ def sim_node() -> list[str]:
         ),
     ]
     services = [
+        arm_action(
+            "action server",
+            "the arm as a Jazzy joint_trajectory_controller serves it: the trajectory of the "
+            "topic, checked in the goal callback (rejected with an ERROR log naming what is "
+            "wrong); path and goal tolerances per joint (0: the configuration's "
+            "`goal_tolerance` and `stopped_velocity_tolerance`), `goal_time_tolerance`; "
+            "result codes SUCCESSFUL, PATH_TOLERANCE_VIOLATED, GOAL_TOLERANCE_VIOLATED, "
+            "INVALID_GOAL (replaced by a newer goal or a topic trajectory); cancel holds the "
+            "arm where it is; feedback every 50 ms",
+        ),
         gripper_action(
             "action server",
             "the gripper as real grippers' drivers serve it: `command.position` in "
@@ -370,8 +396,11 @@ def sequencer_node() -> list[str]:
     rows = [
         interface(c.POSE_TOPIC, "out", "the pose labels: latched, depth 1, each waiting for "
                   "every reader's acknowledgement (up to 10 s) before the next"),
-        interface(c.ARM_COMMAND_TOPIC, "out", "the poses' joint trajectories, each stamped "
-                  "to start at the previous window's end"),
+        interface(c.ARM_COMMAND_TOPIC, "out", "the arm's trajectories, with `arm_interface` "
+                  "`topic`"),
+        interface(c.ARM_SENT_TOPIC, "out", "each arm trajectory as sent, through the action "
+                  "or the topic (stamp, points with velocities and accelerations): the bag's "
+                  "record of them"),
         interface(c.HAND_COMMAND_TOPIC, "out", "open and close, with `gripper_interface` "
                   "`topic` (then 0.6 s of waiting)"),
         interface(c.GRIPPER_SENT_TOPIC, "out", "each gripper command as sent, through the "
@@ -398,6 +427,10 @@ def sequencer_node() -> list[str]:
         interface(c.EXPLORE_SERVICE, "server", "the same exploration with the parameters, "
                   "for scripts; answers with the one-line summary, `success` only for OK",
                   TRIGGER),
+        arm_action("action client", "every move and excitation (`arm_interface` `action`, "
+                   "the default), with the configuration's tolerances and 2 s of "
+                   "`goal_time_tolerance`; a result other than SUCCESSFUL fails the run "
+                   "naming the controller's error"),
         gripper_action("action client", "open and close (`gripper_interface` `action`, the "
                        "default): the goal's result within `gripper_timeout` s or the run "
                        "fails naming the action; a closing on the object must end stalled, "

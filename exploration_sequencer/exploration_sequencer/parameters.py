@@ -90,6 +90,11 @@ PARAMETERS = table_of([
           unit="kg", low=0.0, high=100.0),
     Input("grasp_check_dwell", 0.2, "samples at home after lifting that check the grasp",
           unit="s", low=0.05, high=300.0),
+    Input("arm_interface", "action", "how the arm is commanded: 'action' (the "
+          "control_msgs/action/FollowJointTrajectory of its trajectory controller, the robot "
+          "configuration's arm_action; each result is checked) or 'topic' (its "
+          "JointTrajectory topic /arm_controller/joint_trajectory; no result)", kind="str",
+          choices=("action", "topic")),
     Input("gripper_interface", "action", "how the gripper is commanded: 'action' (its "
           "control_msgs/action/GripperCommand, the robot configuration's gripper_action; the "
           "result confirms the grasp) or 'topic' (one Float64MultiArray value on "

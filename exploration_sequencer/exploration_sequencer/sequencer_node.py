@@ -582,6 +582,7 @@ class SequencerNode(Node):
                 raise RunError(why)  # before anything moves
         self.io.sim_timeout = self.p("sim_timeout")
         self.arm.speed, self.arm.settle = self.p("speed"), self.p("settle")
+        self.arm.arm_interface = self.p("arm_interface")
         self.arm.gripper_interface = self.p("gripper_interface")
         self.arm.max_effort, self.arm.gripper_timeout = (
             self.p("gripper_max_effort"),
@@ -838,10 +839,11 @@ class SequencerNode(Node):
         wrench the fit takes); returns that end, sim time, ns."""
         self.arm.move(list(self.config.home_joints), "home")
         start = self.io.now_ns() + round(EXCITATION_LEAD * 1e9)
-        end = self.arm.follow(excitation, start) + round(EXCITATION_REST * 1e9)
+        end = self.arm.follow(excitation, start, label) + round(EXCITATION_REST * 1e9)
         self._label(start, label)
         self.get_logger().info(f"span {label} from t={start * 1e-9:.3f} s")
         self.io.sleep_until(end, f"recording {label}")
+        self.arm.finished(wall_timeout=10.0)
         self._label(end, MOVING)
         return end
 
@@ -1014,25 +1016,21 @@ class SequencerNode(Node):
         return raws, end
 
     def _pass(self, prefix: str, poses: list[tuple[str, list[float]]], dwell: float) -> None:
-        """A window at each pose. Each move after the first is sent ahead, to start at the
-        previous window's end (sim time), and each window starts ``settle`` s after the
-        joint states first show the arm resting, so the pass's timing in sim time does
-        not depend on how soon this node reacts."""
+        """A window at each pose. Each window starts ``settle`` s after the joint states
+        first show the arm resting at its pose; the move to the next pose is sent once the
+        window has ended (a trajectory controller starts a trajectory when it arrives)."""
         dwell_ns = round(dwell * 1e9)
         # an arm at rest all along rests from before the recording: the bag starts there
         start = max(self.arm.move(poses[0][1], poses[0][0]), self._recording_ns)
         for k, (name, _) in enumerate(poses):
             end = start + dwell_ns
             self._label(start, prefix + name)
-            following = poses[k + 1] if k + 1 < len(poses) else None
-            if following is not None:
-                arrival = self.arm.command(following[1], start_ns=end)
             self.io.sleep_until(end, f"recording {prefix}{name}")
             joints = self.io.joints_over(start, end)
             self._window_seen[prefix + name] = ((start + end) * 0.5e-9, joints)
             self._label(end, MOVING)
-            if following is not None:
-                start = self.arm.arrive(following[1], following[0], arrival)
+            if k + 1 < len(poses):
+                start = self.arm.move(poses[k + 1][1], poses[k + 1][0])
 
     def _label(self, stamp_ns: int, label: str) -> None:
         header = Header(frame_id=label)

@@ -16,6 +16,7 @@ __all__ = [
     "APPLIED_WRENCH_TOPIC",
     "APPLY_WRENCH_TOPIC",
     "ARM_COMMAND_TOPIC",
+    "ARM_SENT_TOPIC",
     "BEST_EFFORT_TOPICS",
     "CANCELLED",
     "CLOCK_TOPIC",
@@ -90,7 +91,13 @@ OBJECT_TOPIC = "/wrench_sim/object"
 """std_msgs/String: ``shape=box mass=0.1000 grasp_mode=rigid state=held`` (latched)."""
 ARM_COMMAND_TOPIC = "/arm_controller/joint_trajectory"
 """trajectory_msgs/JointTrajectory: the arm's joints (its robot configuration's
-``arm_joints``); remap to the arm's controller (``--ros-args -r``)."""
+``arm_joints``): the arm controller's topic interface, beside its FollowJointTrajectory
+action (the configuration's ``arm_action``); remap to the arm's controller
+(``--ros-args -r``)."""
+ARM_SENT_TOPIC = "/exploration_sequencer/arm_trajectory"
+"""trajectory_msgs/JointTrajectory: each trajectory the sequencer sends the arm, as sent
+(stamp and points), whether through the action or the topic: the bag keeps what a recorder
+of topics does not see of an action."""
 HAND_COMMAND_TOPIC = "/gripper_controller/commands"
 """std_msgs/Float64MultiArray: one value, the gripper's command (the robot configuration's
 ``gripper_open`` .. ``gripper_closed``; m per finger on the Panda, rad on the xArm): the
@@ -118,6 +125,7 @@ TOPIC_TYPES = {
     HAND_TRUTH_TOPIC: "geometry_msgs/msg/InertiaStamped",
     OBJECT_TOPIC: "std_msgs/msg/String",
     ARM_COMMAND_TOPIC: "trajectory_msgs/msg/JointTrajectory",
+    ARM_SENT_TOPIC: "trajectory_msgs/msg/JointTrajectory",
     HAND_COMMAND_TOPIC: "std_msgs/msg/Float64MultiArray",
     GRIPPER_SENT_TOPIC: "control_msgs/msg/GripperCommand",
     POSE_TOPIC: "std_msgs/msg/Header",
