@@ -37,6 +37,7 @@ from com_core.estimation.exploration import Exploration
 from com_core.estimation.solution import Solution, missing_samples
 from com_core.paper.synthetic import Load, exploration_stream
 from com_core.planning.planner import Plan
+from com_core.report.commands import SentTrajectory, trajectory_problems
 from com_core.report.figure import write_report
 from com_core.report.run import read_run
 
@@ -343,3 +344,38 @@ def test_a_bag_that_lacks_samples_the_estimator_used_says_which_window(tmp_path)
         f"the bag holds {used - 7} of the {used} samples the estimator used in {first}",
     ]
     assert missing_samples({first: used}, {first: used + 1}) == []  # more is not less
+
+
+def test_trajectories_that_would_move_the_arm_in_a_window_or_jolt_it_are_named():
+    """A trajectory controller starts a trajectory on arrival: one recorded while a static
+    window is open moves the arm through it, unless its first point holds the arm at rest
+    until the window's end; a point without velocities is interpolated linearly."""
+    s = 1_000_000_000
+    labels = [(1 * s, "tare/home"), (6 * s, MOVING), (8 * s, "motion/tare"), (11 * s, MOVING)]
+
+    def sent(labels_before, stamp=0, first=0, at_rest=True, positions_only=False):
+        return SentTrajectory(labels_before, stamp, first, at_rest, positions_only)
+
+    fine = [
+        sent(0),  # before any window
+        sent(2),  # after the window closed
+        sent(1, stamp=5 * s, first=s, at_rest=True),  # holds still until the window's end
+        sent(2, stamp=8 * s),  # an excitation sent ahead of its span
+    ]
+    assert trajectory_problems(fine, labels) == []
+    bad = [
+        sent(1),  # runs on arrival: to its first point inside the window
+        sent(1, stamp=4 * s, first=s),  # its first point due before the window's end
+        sent(1, stamp=5 * s, first=s, at_rest=False),
+        sent(2, positions_only=True),
+    ]
+    problems = trajectory_problems(bad, labels)
+    assert problems[:3] == [
+        f"arm trajectory {k}: arrived while the window tare/home (from t = 1.000 s) was open; "
+        "a trajectory controller moves the arm on arrival"
+        for k in (1, 2, 3)
+    ]
+    assert problems[3:] == [
+        "arm trajectory 4: a point with positions only (the controller interpolates it "
+        "linearly: a velocity step)"
+    ]

@@ -14,6 +14,7 @@ import pytest
 import yaml
 from conftest import UNCLEAN_EXIT, replay_json
 
+from com_core.contract import ARM_SENT_TOPIC
 from com_core.estimation.solution import window_counts
 from com_core.report.run import read_run
 
@@ -87,6 +88,9 @@ def test_the_demo_in_motion_gives_the_inertia_within_its_error_bars_and_replays(
     printed = numbers(re.search(r"truth \(.*?\)", out).group(0))
     np.testing.assert_allclose(1e4 * run.truth.inertia, printed, atol=0.0051)
     assert (bag / "report.png").is_file()
+    # every trajectory as a trajectory controller runs it as planned: sent between windows,
+    # every point with velocities and accelerations (the excitations sent ahead hold still)
+    assert run.counts[ARM_SENT_TOPIC] >= 5 and run.commands == [], run.commands
     values = run.diagnostic["values"]
     offline = replay_json(bag, ros_env)
     assert offline["excitation"] == "motion" and offline["status"] == "OK", offline

@@ -19,6 +19,7 @@ from conftest import PANDA, UNCLEAN_EXIT, replay_json, spin_until
 from com_core.bags.cdr import decode_header
 from com_core.bags.reader import read_raw
 from com_core.contract import (
+    ARM_SENT_TOPIC,
     CLOCK_TOPIC,
     ESTIMATE_TOPIC,
     EXPLORE_SERVICE,
@@ -714,6 +715,10 @@ def test_the_three_nodes_with_their_defaults_give_an_estimate(start_node, client
     np.testing.assert_allclose(
         com, [truth.com.x, truth.com.y, truth.com.z], atol=float(4.5 * sigma.max())
     )
+    # every trajectory as a trajectory controller runs it as planned: none arrives while a
+    # static window is open, every point carries velocities and accelerations
+    run = read_run(Path(re.search(r"; bag (\S+)", result.message).group(1)))
+    assert run.counts[ARM_SENT_TOPIC] >= 12 and run.commands == [], run.commands
 
 
 # --- the Explore action -------------------------------------------------------------------

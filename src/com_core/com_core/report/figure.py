@@ -645,7 +645,7 @@ def _draw_summary(fig, run: RunData, rows: list[_Row], left: float, top: float) 
     problems = []
     if run.missing:
         problems.append("missing topics: " + ", ".join(run.missing))
-    problems += run.notes + run.incomplete
+    problems += run.notes + run.incomplete + run.commands
     if problems:
         text = "\n".join(textwrap.fill(p, 72, subsequent_indent="    ") for p in problems)
         fig.text(

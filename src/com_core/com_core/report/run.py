@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from com_core.bags.cdr import decode_header, decode_wrench_batch
 from com_core.bags.reader import read_raw, recorder_lost, recorder_lost_text
 from com_core.contract import (
+    ARM_SENT_TOPIC,
     DIAGNOSTIC_NAME,
     DIAGNOSTICS_TOPIC,
     ESTIMATE_TOPIC,
@@ -39,6 +40,7 @@ from com_core.contract import (
 )
 from com_core.estimation.cutting import window_sample_counts
 from com_core.estimation.solution import missing_samples, window_counts
+from com_core.report.commands import SentTrajectory, trajectory_problems
 from com_core.robot.dynamics import INERTIA_ELEMENTS
 
 __all__ = ["RUN_BAG_TOPICS", "Inertia", "RunData", "motion_fitted", "read_run"]
@@ -94,6 +96,9 @@ class RunData:
     notes : problems met while reading (unreadable bag, undecodable messages).
     incomplete : what the bag lacks of the run: messages the recorder was told it lost,
         and each window of which it holds fewer samples than the estimator used.
+    commands : what in the arm's trajectories as sent (ARM_SENT_TOPIC) a trajectory
+        controller would run through a static window or as a velocity step
+        (``report.commands``).
     """
 
     name: str
@@ -110,6 +115,7 @@ class RunData:
     counts: dict[str, int] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     incomplete: list[str] = field(default_factory=list)
+    commands: list[str] = field(default_factory=list)
 
     @property
     def missing(self) -> list[str]:
@@ -141,6 +147,7 @@ def read_run(bag: Path | str) -> RunData:
     other_frames: dict[str, int] = {}
     truths: list[Inertia] = []
     states: list[tuple[int, bool]] = []  # (log ns, held) from /wrench_sim/object
+    trajectories: list[SentTrajectory] = []
 
     def flush() -> None:
         if not raws:
@@ -164,7 +171,7 @@ def read_run(bag: Path | str) -> RunData:
         return Inertia(stamp, log_ns, float(msg.inertia.m), np.array([c.x, c.y, c.z]), elements)
 
     try:
-        for topic, msgtype, log_ns, raw in read_raw(bag, RUN_BAG_TOPICS):
+        for topic, msgtype, log_ns, raw in read_raw(bag, (*RUN_BAG_TOPICS, ARM_SENT_TOPIC)):
             run.counts[topic] = run.counts.get(topic, 0) + 1
             try:
                 if topic == WRENCH_TOPIC:
@@ -176,6 +183,9 @@ def read_run(bag: Path | str) -> RunData:
                         run.notes.append(f"labels of type {msgtype} ignored")
                         continue
                     run.labels.append(decode_header(raw))
+                elif topic == ARM_SENT_TOPIC:
+                    trajectories.append(_sent(typestore.deserialize_cdr(raw, msgtype),
+                                              len(run.labels)))  # fmt: skip
                 elif topic == ESTIMATE_TOPIC:
                     run.estimate = inertia(raw, log_ns)
                 elif topic == TRUTH_TOPIC:
@@ -210,6 +220,7 @@ def read_run(bag: Path | str) -> RunData:
     for name, n in other_frames.items():
         run.notes.append(f"{n} wrench samples in frame {name!r}, not 'ft_sensor'")
     run.done_ns = done_stamp(run.labels)  # in recorded order, before sorting by stamp
+    run.commands = trajectory_problems(trajectories, run.labels)
     if lost := recorder_lost_text(recorder_lost(bag)):
         run.incomplete.append(lost)
     if run.diagnostic is not None:  # the windows the bag holds fewer samples of than used
@@ -225,6 +236,21 @@ def read_run(bag: Path | str) -> RunData:
         until = run.estimate.stamp_ns
     run.truth, run.truth_note = _choose_truth(truths, states, until)
     return run
+
+
+def _sent(msg, labels_before: int) -> SentTrajectory:
+    """A trajectory_msgs/JointTrajectory as ``report.commands`` reads it."""
+    first = msg.points[0] if len(msg.points) else None
+    tfs = first.time_from_start if first is not None else None
+    return SentTrajectory(
+        labels_before=labels_before,
+        stamp_ns=msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec,
+        first_ns=0 if tfs is None else tfs.sec * 1_000_000_000 + tfs.nanosec,
+        first_at_rest=first is not None
+        and len(first.velocities) > 0
+        and not any(first.velocities),
+        positions_only=any(len(p.velocities) == 0 for p in msg.points),
+    )
 
 
 def _choose_truth(
