@@ -181,6 +181,22 @@ def test_the_profiles_hold_their_figures():
     assert realistic.resolution_tau < realistic.sigma_tau
 
 
+def test_the_ur_e_series_figures_follow_from_the_ur5e_datasheet():
+    """Range 50 N, 10 N m; precision 3.5 N, 0.2 N m as 2 sigma of a reading; the accuracy
+    the precision leaves (root-sum-square of 4.0 N, 0.3 N m) between its force and torque
+    shares of full scale; the rest the realistic profile's."""
+    ur, realistic = PROFILES["ur_e_series"], PROFILES["realistic"]
+    assert (ur.limit_f, ur.limit_tau) == (50.0, 10.0)
+    assert (ur.sigma_f, ur.sigma_tau) == (3.5 / 2, 0.2 / 2)
+    shares = (math.sqrt(4.0**2 - 3.5**2) / 50.0, math.sqrt(0.3**2 - 0.2**2) / 10.0)
+    assert min(shares) < ur.calibration_accuracy < max(shares)
+    assert ur.problems() == []
+    assert (ur.resolution_f, ur.resolution_tau) == (0.0, 0.0)
+    same = ("correlation_time", "warmup_f", "warmup_tau", "warmup_time", "random_walk_f",
+            "random_walk_tau", "vibration_hz", "vibration_damping", "vibration_gain")  # fmt: skip
+    assert all(getattr(ur, name) == getattr(realistic, name) for name in same)
+
+
 def test_the_realistic_counts_below_the_noise_leave_the_mean_unbiased():
     """A count below the noise is dithered by it: the mean reading of a wrench anywhere
     between two counts is the wrench, and the spread per sample is sigma^2 + q^2 / 12

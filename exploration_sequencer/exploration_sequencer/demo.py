@@ -56,7 +56,7 @@ from com_core.robot.dynamics import INERTIA_ELEMENTS, inertia_matrix
 from com_core.runtime.lifeline import Lifeline
 from com_core.runtime.processes import executable, last_error_line, ros_args, stop
 from com_core.runtime.rosenv import keep_dds_local
-from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES
+from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES, file_profile
 from exploration_sequencer.parameters import PARAMETERS as SEQUENCER
 
 CANCEL_WAIT = 8.0  # s for a cancelled goal's result before the nodes are stopped
@@ -104,8 +104,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--sensor-profile",
         choices=sorted(PROFILES),
-        default=DEFAULT_PROFILE,
-        help="the simulated sensor's parts (com_core.sensing.sensor_profiles)",
+        default=None,
+        help="the simulated sensor's parts (com_core.sensing.sensor_profiles; default: the "
+        f"robot file's sensor_profile, else {DEFAULT_PROFILE})",
     )
     p.add_argument("--sigma-f", type=float, help="N per published sample (default: the profile's)")
     p.add_argument("--sigma-tau", type=float, help="N m per published sample (as --sigma-f)")
@@ -182,7 +183,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"demo: {error}", file=sys.stderr)
         return 2
     params_file = robot_config_path(args.robot)
-    print(f"robot: {robot.robot} ({params_file})", flush=True)
+    print(f"robot: {robot.robot} ({params_file}); sensor: {simulated_sensor(args)}", flush=True)
     keep_dds_local(own_domain=True)
     sim_params, estimator_params, sequencer_params = node_parameters(args)
     refused = flag_refusals(args, sim_params, estimator_params, sequencer_params)
@@ -224,6 +225,12 @@ def main(argv: list[str] | None = None) -> int:
         last.close()
 
 
+def simulated_sensor(args: argparse.Namespace) -> str:
+    """The simulated sensor's profile: ``--sensor-profile``, else the one the robot's file
+    names (an arm with a sensor of its own, the UR5e's), else DEFAULT_PROFILE."""
+    return args.sensor_profile or file_profile(robot_config_path(args.robot)) or DEFAULT_PROFILE
+
+
 def node_parameters(
     args: argparse.Namespace,
 ) -> tuple[dict[str, object], dict[str, object], dict[str, object]]:
@@ -240,7 +247,7 @@ def node_parameters(
         "seed": args.seed,
         "grasp_mode": args.grasp_mode,
         "slip_sigma": args.slip_sigma,
-        "sensor_profile": args.sensor_profile,
+        "sensor_profile": simulated_sensor(args),
         "real_time_factor": args.real_time_factor,
     } | noise
     tare_cache = str((args.bag_dir / "tare_cache.json").resolve())  # shared by both nodes
@@ -277,6 +284,7 @@ FLAGS = {
     "mass_guess": "--mass",
     "seed": "--seed",
     "slip_sigma": "--slip-sigma",
+    "sensor_profile": "--sensor-profile",
     "sigma_f": "--sigma-f",
     "sigma_tau": "--sigma-tau",
     "real_time_factor": "--real-time-factor",
@@ -315,7 +323,8 @@ def flag_refusals(
             if name in table and not out.get(flag := FLAGS.get(name, name)):
                 out[flag] = table[name].problem(value, FLAGS.get(name, ""))
     try:
-        sensor_profile({"sensor_profile": args.sensor_profile} | sim)
+        if sim["sensor_profile"] in PROFILES:  # else refused by its name above
+            sensor_profile(sim)
     except InputError as error:  # its parts named by the flags that set them
         text = str(error)
         for name in ("sigma_f", "sigma_tau"):
