@@ -58,9 +58,13 @@ def test_a_missing_frame_or_joint_is_named():
     with pytest.raises(KinematicsError, match="base_frame 'world'"):
         RobotModel(PANDA, "panda_hand", base_frame="world")
     robot = RobotModel(PANDA, "panda_hand")
-    assert robot.missing_joints(HOME) == ["panda_finger_joint1", "panda_finger_joint2"]
-    with pytest.raises(KinematicsError, match=r"no position for joint.*panda_finger_joint1"):
-        robot.gravity_in_sensor(HOME)
+    # the fingers, beyond the sensor, need no position (a gripper's own driver sends them)
+    assert robot.chain_names == tuple(HOME) and robot.missing_joints(HOME) == []
+    assert_allclose(robot.gravity_in_sensor(HOME), robot.gravity_in_sensor(HOME | FINGERS))
+    arm = {k: v for k, v in HOME.items() if k != "panda_joint7"}
+    assert robot.missing_joints(arm | FINGERS) == ["panda_joint7"]
+    with pytest.raises(KinematicsError, match=r"no position for joint\(s\) panda_joint7$"):
+        robot.gravity_in_sensor(arm)
 
 
 def test_a_urdf_that_does_not_parse_gives_the_parsers_message():

@@ -145,7 +145,7 @@ def window_rotation(
     inside = np.flatnonzero(distance == 0).tolist()
     near = np.flatnonzero(distance <= gap).tolist()
     positions, moved = {}, 0.0
-    for name in robot.joint_names:
+    for name in robot.chain_names:  # what moves the sensor
         own = sorted(naming(name, inside))
         if not own:  # none inside: the nearest that names it
             nearest = naming(name, near)

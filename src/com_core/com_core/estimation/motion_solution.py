@@ -141,19 +141,20 @@ def joint_arrays(
     inbox: Inbox, robot: RobotModel, start_ns: int, stop_ns: int
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(stamps s (n,), positions (n, ``robot.joint_names``)) of the inbox's joint states
-    in [start_ns, stop_ns), in time order, one per stamp; a state without every joint of
-    the model (another publisher's: a gripper's) is left out. EstimationError when fewer
-    than ``_MIN_JOINT_STATES`` are left."""
-    names = robot.joint_names
+    in [start_ns, stop_ns), in time order, one per stamp; a state without every joint that
+    moves the sensor (``robot.chain_names``; another publisher's: a gripper's) is left out,
+    and the joints beyond the sensor hold 0. EstimationError when fewer than
+    ``_MIN_JOINT_STATES`` are left."""
+    names, chain = robot.joint_names, robot.chain_names
     rows = {
-        t: [joints[n] for n in names]
+        t: [joints.get(n, 0.0) for n in names]
         for t, joints in inbox.joint_states
-        if start_ns <= t < stop_ns and all(n in joints for n in names)
+        if start_ns <= t < stop_ns and all(n in joints for n in chain)
     }
     if len(rows) < _MIN_JOINT_STATES:
         raise EstimationError(
-            f"{len(rows)} joint states with every joint of the robot model "
-            f"({', '.join(names)}) from {start_ns * 1e-9:.3f} to {stop_ns * 1e-9:.3f} s"
+            f"{len(rows)} joint states with every joint that moves the sensor "
+            f"({', '.join(chain)}) from {start_ns * 1e-9:.3f} to {stop_ns * 1e-9:.3f} s"
         )
     stamps = sorted(rows)
     return np.array(stamps, dtype=np.float64) * 1e-9, np.array([rows[t] for t in stamps])

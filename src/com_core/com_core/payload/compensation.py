@@ -88,23 +88,26 @@ class Compensator:
         positions: Sequence[float],
         velocities: Sequence[float] = (),
     ) -> bool:
-        """Keep a joint state; False (and nothing kept) when it lacks a joint of the
-        robot model, or its positions are not one finite number per name. Velocities of
-        another length, or not finite, count as absent. A state stamped less than
-        ``min_spacing`` s after the latest kept (or as it: a republished one) is not kept."""
+        """Keep a joint state; False (and nothing kept) when it lacks a joint that moves
+        the sensor (``RobotModel.chain_names``; the others hold 0), or its positions are
+        not one finite number per name. Velocities of another length, or not finite, count
+        as absent. A state stamped less than ``min_spacing`` s after the latest kept (or
+        as it: a republished one) is not kept."""
         names = tuple(names)
         if len(positions) != len(names) or not all(map(math.isfinite, positions)):
             return False
         if names != self._order[0]:
             index = {name: k for k, name in enumerate(names)}
-            order = [index[n] for n in self.robot.joint_names if n in index]
-            self._order = (names, order if len(order) == len(self.robot.joint_names) else None)
+            chain = all(n in index for n in self.robot.chain_names)
+            # each model joint's index in the message; len(names): not in it (holds 0)
+            order = [index.get(n, len(names)) for n in self.robot.joint_names]
+            self._order = (names, order if chain else None)
         order = self._order[1]
         if order is None:
             return False
-        q = np.asarray(positions, dtype=np.float64)[order]
+        q = np.append(np.asarray(positions, dtype=np.float64), 0.0)[order]
         usable = len(velocities) == len(names) and all(map(math.isfinite, velocities))
-        v = np.asarray(velocities, dtype=np.float64)[order] if usable else None
+        v = np.append(np.asarray(velocities, dtype=np.float64), 0.0)[order] if usable else None
         if self._track and 0 <= int(stamp_ns) - self._track[-1][0] < self.min_spacing * 1e9:
             return True
         self._add(int(stamp_ns), q, v)

@@ -34,9 +34,13 @@ class KinematicsError(ValueError):
 class RobotModel:
     """Forward kinematics of one URDF from its base frame to its sensor frame.
 
-    urdf : the URDF text. sensor_frame, base_frame : frames (links or joints) of the URDF;
-    base_frame None is the URDF's root link. gravity : m/s^2 in the base frame (a tilted or
-    wall-mounted base gives its own).
+    ``joint_names`` are every joint with a position; ``chain_names`` those of them that move
+    the sensor or the base frame, which joint positions must give (a gripper's fingers beyond
+    the sensor do not change its kinematics; their driver publishes them on its own).
+
+        urdf : the URDF text. sensor_frame, base_frame : frames (links or joints) of the URDF;
+        base_frame None is the URDF's root link. gravity : m/s^2 in the base frame (a tilted or
+        wall-mounted base gives its own).
     """
 
     def __init__(
@@ -74,6 +78,11 @@ class RobotModel:
         self.joint_names = tuple(
             self.model.names[j] for j in range(1, self.model.njoints) if self.model.nqs[j] > 0
         )
+        # the joints that move the sensor or the base frame: what a joint state must give
+        model = self.model
+        chain = {j for frame in (self._sensor_id, self._base_id)
+                 for j in model.supports[model.frames[frame].parentJoint]}  # fmt: skip
+        self.chain_names = tuple(n for n in self.joint_names if model.getJointId(n) in chain)
         # (index in q, 1 or 2 coordinates) per joint of joint_names
         self._slots = [
             (self.model.idx_qs[jid], self.model.nqs[jid])
@@ -85,17 +94,20 @@ class RobotModel:
         )
 
     def missing_joints(self, names: Iterable[str]) -> list[str]:
-        """The model's joints that ``names`` (e.g. a JointState's) lacks, in model order."""
+        """The joints of ``chain_names`` (those that move the sensor or the base frame)
+        that ``names`` (e.g. a JointState's) lacks, in model order. The others (a gripper's
+        fingers beyond the sensor) may be missing: they hold 0."""
         given = set(names)
-        return [name for name in self.joint_names if name not in given]
+        return [name for name in self.chain_names if name not in given]
 
     def configuration(self, joints: Mapping[str, float]) -> NDArray[np.float64]:
         """The pinocchio configuration q for joint positions by name (rad, m); a revolute
-        joint without limits (continuous) is set by its angle as (cos, sin)."""
+        joint without limits (continuous) is set by its angle as (cos, sin). Every joint of
+        ``chain_names`` must be given; the others hold 0 when not."""
         missing = self.missing_joints(joints)
         if missing:
             raise KinematicsError(f"no position for joint(s) {', '.join(missing)}")
-        return self._configuration([joints[name] for name in self.joint_names])
+        return self._configuration([joints.get(name, 0.0) for name in self.joint_names])
 
     def _configuration(self, positions: Sequence[float]) -> NDArray[np.float64]:
         q = self._pin.neutral(self.model)
