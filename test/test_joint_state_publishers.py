@@ -1,16 +1,14 @@
-"""/joint_states from two publishers, as a real set-up has them: the three nodes with a
-gripper's own publisher of its joints at 30 Hz beside the sim's (gripper_joint_states.py)."""
+"""/joint_states from two publishers, as a real set-up has them: the sim publishes the arm's
+joints and, from a publisher of its own at 30 Hz, the gripper's, and the three nodes run on
+them."""
 
 from __future__ import annotations
 
 import re
-import subprocess
-import sys
-from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
-from conftest import PANDA, defect_logged, log_tail, replay_json, unclean_exit
+from conftest import PANDA, replay_json
 from test_sequencer_node import (  # noqa: F401 - client: the fixture
     assert_replays_to_node,
     client,
@@ -22,51 +20,11 @@ from com_core.contract import JOINT_STATES_TOPIC
 from com_core.estimation.cutting import window_sample_counts
 from com_core.estimation.solution import window_counts
 from com_core.report.run import read_run
-from com_core.runtime.processes import stop
 
 pytestmark = pytest.mark.system
 
-HELPER = Path(__file__).with_name("gripper_joint_states.py")
-GRIPPER_RATE = 30.0
-"""Hz (sim time): a gripper's own joint state publisher (franka_ros2 merges at 30 Hz)."""
-
-
-@pytest.fixture
-def gripper_publisher(
-    ros_env: dict[str, str], tmp_path: Path, request: pytest.FixtureRequest
-) -> Iterator[Callable[[tuple[str, ...], float], subprocess.Popen]]:
-    """Starts gripper_joint_states.py (joint names, rate Hz) as a process; stopped at
-    teardown however the test ended (``stop``: SIGINT, then SIGTERM, then SIGKILL); it
-    must run until then and end on SIGINT cleanly, or the test errors."""
-    started: list[tuple[subprocess.Popen, Path]] = []
-
-    def start(names: tuple[str, ...], rate: float) -> subprocess.Popen:
-        log_path = tmp_path / f"gripper_joint_states-{len(started)}.log"
-        with open(log_path, "w") as log:
-            process = subprocess.Popen(
-                [sys.executable, str(HELPER), repr(rate), *names],
-                env=ros_env,
-                stdout=log,
-                stderr=subprocess.STDOUT,
-                cwd=tmp_path,
-            )
-        started.append((process, log_path))
-        return process
-
-    yield start
-    unclean = []
-    for process, log_path in started:
-        sig = stop(process)
-        log = log_path.read_text(errors="replace")
-        why = unclean_exit(process, sig, log) or defect_logged(log)
-        if sig is None:
-            why = why or f"ended before the test did, exit code {process.returncode}"
-        if why:
-            unclean.append(f"{log_path.name}: {why}")
-            print(f"\n----- {log_path.name} -----\n{log_tail(log_path)}")
-    failed = getattr(getattr(request.node, "rep_call", None), "failed", False)
-    if unclean and not failed:
-        pytest.fail("the gripper's publisher did not stop cleanly: " + "; ".join(unclean))
+GRIPPER_RATE = PANDA.gripper_joint_state_rate
+"""Hz (sim time): the sim's gripper publisher, as a gripper's own driver (30 Hz)."""
 
 
 def joint_state_messages(bag: Path) -> list[tuple[int, tuple[str, ...]]]:
@@ -85,7 +43,6 @@ def joint_state_messages(bag: Path) -> list[tuple[int, tuple[str, ...]]]:
 def test_a_grippers_own_joint_state_publisher_beside_the_arms(
     start_node,
     client,  # noqa: F811
-    gripper_publisher,
     tmp_path,
     ros_env,
 ):
@@ -94,7 +51,6 @@ def test_a_grippers_own_joint_state_publisher_beside_the_arms(
     (sim time), and its replay gives the node's estimate to the bit (when the bag holds
     every wrench the node used)."""
     start_system(start_node, tmp_path, {"object": "box", "seed": 6})
-    gripper_publisher(PANDA.gripper_joints, GRIPPER_RATE)
     result = client.wait(client.call())
     assert result.success and result.message.startswith("[OK]"), result.message
 
@@ -107,6 +63,7 @@ def test_a_grippers_own_joint_state_publisher_beside_the_arms(
     messages = joint_state_messages(bag)
     gripper = sorted(stamp for stamp, names in messages if names == PANDA.gripper_joints)
     assert len(gripper) > 100 and len(gripper) < len(messages) / 2, len(gripper)
+    assert all(names in (PANDA.arm_joints, PANDA.gripper_joints) for _, names in messages)
     rate = (len(gripper) - 1) / ((gripper[-1] - gripper[0]) * 1e-9)
     assert 0.8 * GRIPPER_RATE < rate < 1.05 * GRIPPER_RATE, rate
 
