@@ -263,3 +263,29 @@ def test_before_a_window_label_only_the_lead_in_is_kept():
     )
     ex.forget_idle()
     assert ex.sample_count == round(IDLE_KEEP * 1000) + 1 + 20_000  # a window is open
+
+
+def test_a_wrench_of_the_opposite_sign_gives_the_same_estimate_with_wrench_sign():
+    """A driver that publishes the wrench the sensor exerts on the load: with the estimator's
+    ``wrench_sign`` -1 the estimate is the one of the usual sign, to the bit. Without it,
+    the kinematics (gravity known) find the load pulled up: no estimate."""
+    stream, states, robot = kinematic_stream(np.random.default_rng(8))
+
+    def fed_with_kinematics(exploration: Exploration, sign: float) -> Exploration:
+        exploration.add_samples(stream.stamps, sign * stream.wrenches, "ft_sensor")
+        for stamp, label in stream.labels:
+            exploration.add_label(stamp, label)
+        for stamp, _, q in states:
+            exploration.add_joint_state(stamp, list(q), list(q.values()))
+        return exploration
+
+    def kinematic(**options) -> Exploration:
+        return Exploration(information="kinematics", robot=robot, **options)
+
+    usual = fed_with_kinematics(kinematic(), 1.0).solve()
+    opposite = fed_with_kinematics(kinematic(wrench_sign=-1.0), -1.0).solve()
+    assert usual.status == OK and opposite.status == OK, (usual.reason, opposite.reason)
+    assert opposite.estimate.mass == usual.estimate.mass
+    assert opposite.estimate.com.tolist() == usual.estimate.com.tolist()
+    wrong = fed_with_kinematics(kinematic(), -1.0).solve()
+    assert wrong.status != OK, wrong.reason

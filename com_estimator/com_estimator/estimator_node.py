@@ -345,7 +345,10 @@ class EstimatorNode(Node):
             return
         if frame != compensator.payload.frame:
             return
-        contact = compensator.compensate(stamp, wrench)
+        sign = self._param("wrench_sign")  # as the exploration's inbox takes the samples
+        contact = compensator.compensate(
+            stamp, wrench if sign == 1.0 else [sign * v for v in wrench]
+        )
         if contact is not None:
             self._compensated_pub.publish(with_wrench(raw, contact))
 
@@ -400,7 +403,7 @@ class EstimatorNode(Node):
         for the orientation of each sample to compensate. A message may name some joints
         only (another publisher's: a gripper's): the windows take each joint from the
         messages that name it (``cutting.window_rotation``), the compensation the messages
-        that name every joint of the robot model."""
+        that name every joint that moves the sensor (``RobotModel.chain_names``)."""
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
         if len(msg.position) != len(msg.name):  # malformed: not one position per joint
             self.get_logger().warning(

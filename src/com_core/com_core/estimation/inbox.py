@@ -73,6 +73,9 @@ class Inbox:
     Attributes
     ----------
     expected_frame : frame_id the samples must carry ('' accepts any).
+    wrench_sign : 1 for a wrench the load exerts on the sensor (the convention of
+        docs/estimation.md), -1 for a driver that publishes its opposite (what the sensor
+        exerts on the load); each sample is multiplied by it as it comes in.
     max_label_gap : s (sensor time); a label this long after the previous one starts a
         new exploration (0: never).
     dropped, dropped_labels : samples and labels refused, counted by why.
@@ -81,6 +84,7 @@ class Inbox:
     """
 
     expected_frame: str = "ft_sensor"
+    wrench_sign: float = 1.0
     max_label_gap: float = MAX_LABEL_GAP
     _joint_states: list[tuple[int, dict[str, float]]] = field(default_factory=list, repr=False)
     _stamps: list[NDArray[np.int64]] = field(default_factory=list, repr=False)
@@ -122,6 +126,8 @@ class Inbox:
         """
         stamps = np.asarray(stamps_ns, dtype=np.int64).reshape(-1)
         w = np.asarray(wrenches, dtype=np.float64).reshape(-1, 6)
+        if self.wrench_sign != 1.0:
+            w = self.wrench_sign * w
         if len(stamps) != len(w):
             raise ValueError(f"{len(stamps)} stamps for {len(w)} wrenches")
         keep = np.ones(len(stamps), dtype=bool)

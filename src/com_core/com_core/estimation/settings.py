@@ -79,6 +79,9 @@ SETTINGS = table_of([
           high=0.5, low_open=True, high_open=True),
     Input("expected_frame", "ft_sensor", "frame_id wrenches must carry; others are dropped",
           **_TEXT),
+    Input("wrench_sign", 1.0, "1: the wrench topic carries the wrench the load exerts on "
+          "the sensor; -1: its opposite (a driver's other convention; no relay node needed)",
+          choices=(1.0, -1.0), check=lambda v: "" if v in (1.0, -1.0) else "must be 1 or -1"),
     Input("sigma_f", 0.0, "sensor force noise per sample, for windows too few to learn the "
           "noise from (0: unknown; the noise is learnt from the static windows, "
           "com_core.sensing.noise)", unit="N", **_NOISE),
@@ -147,6 +150,7 @@ def exploration_from(settings: Mapping[str, Any], urdf: str = "") -> Exploration
     exploration = Exploration(
         method=value["method"],
         expected_frame=value["expected_frame"],
+        wrench_sign=value["wrench_sign"],
         sensor=sensor,
         alpha=value["alpha"],
         min_tilt_sigmas=value["min_tilt_sigmas"],
