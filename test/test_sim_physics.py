@@ -1,7 +1,7 @@
 """The simulated F/T sensor against the analytic gravity wrench, without ROS.
 
-Drives ``wrench_sim.physics.ArmWorld`` directly, on the Panda and on the xArm6: grasp the
-object from its stand, hold the arm still at several orientations and compare the sensed
+Drives ``wrench_sim.physics.ArmWorld`` directly, on the Panda, the xArm6 and the UR5e: grasp
+the object from its stand, hold the arm still at several orientations and compare the sensed
 wrench with ``com_core.sensing.wrench_model.gravity_wrench`` of hand (+ object) from the ground
 truth, and the change a push on the held object makes with the push as the sensor reads it;
 drive the arm into the ground and read the collision it reports.
@@ -511,13 +511,14 @@ def test_every_seeded_com_offset_is_in_the_holdable_range(shape):
         ("panda", "rigid", "hand_sweep"),
         ("panda", "friction", "friction_sweep"),
         ("xarm6", "rigid", "xarm_hand_sweep"),
+        ("ur5e", "rigid", "ur5e_hand_sweep"),
     ],
-    ids=["panda-rigid", "panda-friction", "xarm6-rigid"],
+    ids=["panda-rigid", "panda-friction", "xarm6-rigid", "ur5e-rigid"],
 )
 def test_the_urdf_the_sim_loads_gives_its_sensor_orientation(robot, grasp_mode, swept, request):
     """com_core.robot.model on the URDF the sim publishes: the sensor frame (``panda_hand``,
-    ``xarm_gripper_base_link``) turns as the simulated sensor does, and the hand's sensed
-    force is m g_s with the g_s it computes (frames and signs checked against the
+    ``xarm_gripper_base_link``, ``tool0``) turns as the simulated sensor does, and the hand's
+    sensed force is m g_s with the g_s it computes (frames and signs checked against the
     measurement itself). At every pose of the sweep of that robot and grasp mode (the
     rigid ones with the hand alone, the friction one holding the box)."""
     from com_core.robot.model import RobotModel
@@ -525,7 +526,7 @@ def test_the_urdf_the_sim_loads_gives_its_sensor_orientation(robot, grasp_mode, 
     config = read_robot_config(robot)
     sweep: Sweep = request.getfixturevalue(swept)
     model = RobotModel(sweep.urdf, config.sensor_frame, config.base_frame)
-    assert set(sweep.poses) == set(POSES if robot == "panda" else XARM_POSES)
+    assert set(sweep.poses) == set({"panda": POSES, "xarm6": XARM_POSES}.get(robot, UR5E_POSES))
     for name, pose in sweep.poses.items():
         g_s = model.gravity_in_sensor(pose.joints)
         # pybullet keeps link orientations and joint positions consistent to ~1e-8 rad
@@ -871,3 +872,126 @@ def test_xarm_configurations_that_do_not_serve_are_refused():
             world.command_gripper(-0.1)
         finally:
             world.close()
+
+
+# ----------------------------------------------------------------- the UR5e
+UR5E = read_robot_config("ur5e")
+UR5E_COM_OFFSET = (0.01, -0.005, 0.02)
+UR5E_GRIPPER_LINKS = [
+    "ur_to_robotiq_link",
+    "gripper_mount_link",
+    "robotiq_85_base_link",
+    *(
+        f"robotiq_85_{side}_{part}_link"
+        for side in ("left", "right")
+        for part in ("knuckle", "finger", "inner_knuckle", "finger_tip")
+    ),
+]
+
+
+def ur5e_tilted(joint: int, angle: float, turn: float = 0.0) -> list[float]:
+    """The UR5e's home joints with wrist 3 turned by ``turn`` and ``joint`` (0-based) moved
+    by ``angle``."""
+    q = np.array(UR5E.home_joints)
+    q[5] += turn
+    q[joint] += angle
+    return q.tolist()
+
+
+# UR5e: gravity along sensor z at home; wrist 2 and wrist 1 tilt about axes in the sensor's
+# x-y plane (turned by the home's wrist 3); wrist 3 at 0 then wrist 2 by +-pi/2 puts gravity
+# along +-x, the finger axis.
+UR5E_POSES = {
+    "home": list(UR5E.home_joints),
+    "w2+0.5": ur5e_tilted(4, 0.5),
+    "w2-0.6": ur5e_tilted(4, -0.6),
+    "w1+0.6": ur5e_tilted(3, 0.6),
+    "fingers-down": ur5e_tilted(4, np.pi / 2, -UR5E.home_joints[5]),
+    "fingers-up": ur5e_tilted(4, -np.pi / 2, -UR5E.home_joints[5]),
+    "mixed": [0.3, -1.4, 1.2, -1.0, -1.0, 0.7],
+}
+
+
+@pytest.fixture(scope="module")
+def ur5e_world():
+    world = ArmWorld(SimConfig(robot=UR5E, object_shape="box", object_com_offset=UR5E_COM_OFFSET))
+    yield world
+    world.close()
+
+
+@pytest.fixture(scope="module")
+def ur5e_hand_sweep() -> Sweep:
+    """The UR5e in rigid mode, the box on its stand: every pose of UR5E_POSES, the hand
+    alone, then home (its collisions and events counted after that)."""
+    world = ArmWorld(SimConfig(robot=UR5E, object_shape="box", object_com_offset=UR5E_COM_OFFSET))
+    try:
+        swept = sweep(world, UR5E_POSES)
+        move(world, UR5E.home_joints)
+        return replace(swept, collisions=world.collisions, events=list(world.events))
+    finally:
+        world.close()
+
+
+def test_ur5e_hand_ground_truth_is_the_coupling_and_gripper_of_the_urdf(ur5e_world):
+    mass, com = ur5e_world.hand_ground_truth()
+    urdf_mass, urdf_com = urdf_load_inertia(
+        ur5e_world.urdf_text, UR5E.sensor_frame, UR5E_GRIPPER_LINKS
+    )
+    assert mass == pytest.approx(0.93086427, abs=1e-6)  # Robotiq's coupling and 2F-85
+    assert mass == pytest.approx(urdf_mass)
+    assert_allclose(com, urdf_com, atol=1e-7)
+
+
+def test_ur5e_hand_only_matches_gravity_wrench_at_every_orientation(ur5e_hand_sweep):
+    assert list(ur5e_hand_sweep.poses) == list(UR5E_POSES)
+    for name, pose in ur5e_hand_sweep.poses.items():
+        assert not pose.held, name
+        assert np.abs(pose.errors[:, :3]).max() < FORCE_TOL, name
+        assert np.abs(pose.errors[:, 3:]).max() < TORQUE_TOL, name
+    assert ur5e_hand_sweep.collisions == 0, ur5e_hand_sweep.events
+    gravity = [pose.gravity / STANDARD_GRAVITY for pose in ur5e_hand_sweep.poses.values()]
+    assert max(g[0] for g in gravity) > 0.999 and min(g[0] for g in gravity) < -0.999
+
+
+def test_ur5e_rigid_grasp_matches_gravity_wrench_at_every_orientation(ur5e_world):
+    grasp(ur5e_world)
+    mass, com = ur5e_world.object_ground_truth()
+    # The box's centre on the grasp centre, 0.141 m from tool0 (the coupling's 11 mm and
+    # 0.13 m from the gripper's base); object frame (x, y, z) = sensor (-y, -x, -z) at home.
+    assert mass == pytest.approx(0.1)
+    x, y, z = UR5E_COM_OFFSET
+    assert_allclose(com, np.array([0.0, 0.0, 0.141]) + np.array([-y, -x, -z]), atol=COM_TOL)
+    for name, q in UR5E_POSES.items():
+        errors = np.abs(hold_and_compare(ur5e_world, q))
+        assert errors[:, :3].max() < FORCE_TOL, name
+        assert errors[:, 3:].max() < TORQUE_TOL, name
+    assert ur5e_world.collisions == 0, ur5e_world.events
+
+
+@pytest.mark.parametrize("shape", sorted(SHAPES))
+def test_ur5e_grasps_every_shape_at_its_grasp_centre(shape):
+    """At pick_joints the object stands between the open pads; closing the gripper holds it
+    (robotiq_85_left_knuckle_joint stops where the pads meet it), its COM is the requested
+    offset from the grasp centre, and opening releases it."""
+    offset = range_corner(shape)
+    world = ArmWorld(SimConfig(robot=UR5E, object_shape=shape, object_com_offset=offset))
+    try:
+        grasp(world)
+        world.run(0.3)
+        mass, com = world.object_ground_truth()
+        assert world.object_held and mass == pytest.approx(0.1)
+        centre = np.array([0.0, 0.0, 0.141 + SHAPES[shape].half_extents[2] - 0.04])
+        x, y, z = offset
+        assert_allclose(com, centre + np.array([-y, -x, -z]), atol=COM_TOL)
+        names, positions, velocities, _ = world.joint_state()
+        assert names == UR5E.arm_joints + UR5E.gripper_joints
+        gap_open, gap_closed = UR5E.finger_gap
+        closed = (gap_open - SHAPES[shape].grasp_half_width) / (gap_open - gap_closed)
+        assert positions[-1] == pytest.approx(closed * UR5E.gripper_closed)
+        assert velocities[-1] == 0.0
+        world.command_gripper(UR5E.gripper_open)
+        world.run(0.5)
+        assert not world.object_held
+        assert world.joint_state()[1][-1] == UR5E.gripper_open
+    finally:
+        world.close()
