@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from com_core.runtime.rosenv import FASTDDS_PROFILES
+from com_core.runtime.rosenv import FASTDDS_PROFILES, topic_remaps
 
 SERVE_ONCE = """
 from com_core.runtime.rosenv import keep_dds_local
@@ -55,3 +55,16 @@ def test_a_node_says_which_discovery_it_uses_and_how_to_widen_it(monkeypatch) ->
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "SUBNET")
     wide = "DDS discovery: ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET, ROS_DOMAIN_ID=7"
     assert discovery_line() == wide
+
+
+def test_the_topic_remaps_of_a_command_line_are_what_a_helper_process_takes():
+    argv = ["sequencer_node", "--ros-args", "-r", "/ft_sensor/wrench:=/fts/wrench",
+            "--params-file", "ur5e.yaml", "--remap", "joint_states:=/merged",
+            "-r", "__node:=other", "-r", "estimator:/a:=/b", "--", "-r", "x:=y",
+            "--ros-args", "-p", "a:=1", "-r", "/clock:=/sim/clock"]  # fmt: skip
+    assert topic_remaps(argv) == [
+        "/ft_sensor/wrench:=/fts/wrench",
+        "joint_states:=/merged",
+        "/clock:=/sim/clock",
+    ]
+    assert topic_remaps(["node"]) == []

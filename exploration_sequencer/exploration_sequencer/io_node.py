@@ -7,6 +7,7 @@ running exploration never stalls them; the run recorder (a process of its own,
 from __future__ import annotations
 
 import math
+import sys
 import threading
 import time
 from collections.abc import Callable, Mapping
@@ -24,6 +25,7 @@ from com_core.contract import (
     heard_stamps,
 )
 from com_core.robot.joint_states import JointStates
+from com_core.runtime.rosenv import topic_remaps
 from exploration_sequencer.recorder_process import RecorderProcess
 
 _NEVER = -(2**62)
@@ -71,7 +73,7 @@ class IoNode(Node):
         self.live: dict[str, str] = {}
         self.create_subscription(JointState, JOINT_STATES_TOPIC, self.joint_state_callback, 100)
         self.create_subscription(DiagnosticArray, DIAGNOSTICS_TOPIC, self.diagnostics_callback, 10)
-        self.recorder = RecorderProcess()
+        self.recorder = RecorderProcess(topic_remaps(sys.argv))  # hears what this node does
 
     def joint_state_callback(self, msg: JointState) -> None:
         """Merge a message of any publisher's joints; one without a position per name is

@@ -53,12 +53,14 @@ class RecorderError(RuntimeError):
 class RecorderProcess:
     """``Recorder``'s calls, answered by a child process; see module."""
 
-    def __init__(self) -> None:
+    def __init__(self, remaps: list[str] | None = None) -> None:
+        """``remaps``: topic remapping rules (``from:=to``) the child's subscriptions take,
+        the sequencer's own (``topic_remaps``): the bag keeps the project's topic names."""
         context = multiprocessing.get_context("spawn")
         self._conn, child = context.Pipe()
         self._latest = context.Value("q", 0, lock=False)
         self._process = context.Process(
-            target=_serve, args=(child, self._latest), name=NODE_NAME, daemon=True
+            target=_serve, args=(child, self._latest, remaps or []), name=NODE_NAME, daemon=True
         )
         self._process.start()
         child.close()
@@ -136,7 +138,7 @@ class RecorderProcess:
         return value
 
 
-def _serve(conn: Connection, latest: Any) -> None:
+def _serve(conn: Connection, latest: Any, remaps: list[str]) -> None:
     """The child: a Recorder on its own node, spun in this process's main thread; the
     pipe's calls answered by a thread of their own."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -153,7 +155,9 @@ def _serve(conn: Connection, latest: Any) -> None:
     from exploration_sequencer.recorder import Recorder
 
     keep_dds_local()
-    rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
+    rules = [arg for rule in remaps for arg in ("-r", rule)]
+    rclpy.init(args=["--ros-args", *rules] if rules else [],
+               signal_handler_options=SignalHandlerOptions.NO)  # fmt: skip
     node = Node(NODE_NAME)
     recorder = Recorder(
         node,

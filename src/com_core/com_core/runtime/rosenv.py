@@ -14,6 +14,7 @@ __all__ = [
     "keep_dds_local",
     "start_refusal",
     "stop_on_signals",
+    "topic_remaps",
 ]
 
 FASTDDS_PROFILES = Path(__file__).with_name("fastdds_profiles.xml")
@@ -82,3 +83,24 @@ def start_refusal(error: Exception) -> str:
     text = str(error)
     match = _REFUSED_AT_START.fullmatch(text)
     return match.group(1) if match else text
+
+
+def topic_remaps(argv: list[str]) -> list[str]:
+    """The topic remapping rules (``from:=to``) of ``argv``'s ``--ros-args`` sections, as a
+    node's command line gives them (``-r`` / ``--remap``): what a helper process of the node
+    takes to hear the same topics. Rules of the node's name or namespace (``__node``,
+    ``__ns``) and rules for another node (``node:from:=to``) are left out."""
+    rules, in_ros_args, take = [], False, False
+    for arg in argv:
+        if take:
+            source = arg.split(":=", 1)[0]
+            if ":=" in arg and not source.startswith("__") and ":" not in source:
+                rules.append(arg)
+            take = False
+        elif arg == "--ros-args":
+            in_ros_args = True
+        elif arg == "--":
+            in_ros_args = False
+        elif in_ros_args and arg in ("-r", "--remap"):
+            take = True
+    return rules
