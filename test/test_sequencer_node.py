@@ -433,6 +433,36 @@ def test_a_configuration_the_urdf_does_not_serve_is_an_error_that_names_it(
     assert not client.labels
 
 
+def test_a_preview_with_the_real_robot_profile_logs_the_moves_and_moves_nothing(
+    start_node, client, tmp_path
+):
+    """The shipped ``config/real_robot.yaml`` after the arm's file (slow moves,
+    ``preview``): the call plans the run, logs every move's joint targets and ends
+    [PREVIEW]; no trajectory is sent, no bag started."""
+    from ament_index_python.packages import get_package_share_directory
+
+    profile = Path(get_package_share_directory("exploration_sequencer")) / "config"
+    bags = tmp_path / "bags"
+    start_node("sim_node", "wrench_sim", params={"real_time_factor": 5.0, **WHITE, **NOISE})
+    start_node("estimator_node", "com_estimator", params={"use_sim_time": True, **NOISE})
+    sequencer = start_node(
+        "sequencer_node",
+        "exploration_sequencer",
+        params={"use_sim_time": True, "bag_dir": str(bags)},
+        args=["--ros-args", "--params-file", str(robot_config_path("panda")),
+              "--params-file", str(profile / "real_robot.yaml")],
+    )  # fmt: skip
+    result = client.wait(client.call(), timeout=60.0)
+    assert result.success and result.message.startswith("[PREVIEW] run "), result.message
+    assert "at speed 0.3 rad/s; nothing moved" in result.message
+    log = sequencer.log_path.read_text()
+    targets = re.findall(r"  (home|pick|tilt_[xy][+-]|diagonal): +(-?[\d.]+(?:, +-?[\d.]+){6})$",
+                         log, flags=re.MULTILINE)  # fmt: skip
+    assert [name for name, _ in targets[:2]] == ["home", "pick"] and len(targets) >= 6, log
+    assert "trajectory goal" not in next(tmp_path.glob("sim_node-*.log")).read_text()
+    assert not any(bags.glob("2*"))
+
+
 def test_a_robot_file_that_does_not_parse_stops_the_sequencer_with_an_error(start_node, tmp_path):
     config = PANDA.parameters() | {"gripper_joints": "panda_finger_joint1"}  # not a list
     path = tmp_path / "my_arm.yaml"
@@ -765,14 +795,15 @@ class ActionUser:
         """(wall s, sim s) now, as this client knows the sim's clock."""
         return time.monotonic(), self.sim
 
-    def send(self, **options):
-        """The accepted goal's handle."""
+    def send(self, accepted: bool = True, **options):
+        """The goal's handle, once answered ``accepted`` (or rejected)."""
         assert self.client.wait_for_server(timeout_sec=30.0), "no ~/explore action"
         assert spin_until(self.node, lambda: self.sim > 0, 10.0), "no /clock"
         future = self.client.send_goal_async(
             self.Explore.Goal(**options), feedback_callback=self._keep
         )
-        assert spin_until(self.node, future.done, 10.0) and future.result().accepted
+        assert spin_until(self.node, future.done, 10.0)
+        assert future.result().accepted == accepted, options
         return future.result()
 
     def result(self, handle, timeout: float = 120.0):
@@ -832,16 +863,15 @@ def test_the_explore_action_gives_progress_the_live_sigma_and_the_estimate(
     handle = user.send(dwell=0.6)
     sent = user.now()
     spin_until(client.node, lambda: len(user.feedback) > 2, 30.0)
-    refused = user.result(user.send(tilt=0.4))  # while the first runs
-    assert refused.status == "ERROR" and "still running" in refused.message, refused.message
-    bad = user.result(user.send(tilt=3.0, dwell=-1.0))
-    assert bad.status == "ERROR" and "tilt=3.0 refused" in bad.message
-    assert "dwell=-1.0 refused" in bad.message
+    user.send(accepted=False, tilt=0.4)  # while the first runs: rejected, the log says why
+    user.send(accepted=False, tilt=3.0, dwell=-1.0)
     result = user.result(handle)
     answered = user.now()
     assert result.status == "OK", result.message
     log = next(tmp_path.glob("sequencer_node-*.log")).read_text()
     assert "dwell 0.6 s; predicted" in log  # the goal's dwell, not the parameter's 0.9
+    assert "rejected Explore goal: exploration" in log and "is still running" in log
+    assert "rejected Explore goal: tilt=3.0 refused" in log and "dwell=-1.0 refused" in log
 
     cov = np.array(result.covariance).reshape(4, 4)
     sigma = np.sqrt(np.diag(cov))

@@ -45,6 +45,9 @@ PARAMETERS = table_of([
           high=10.0),
     Input("speed", 1.35, "mean joint speed, capped per joint by the URDF's velocity limits",
           unit="rad/s", low=0.01, high=10.0),
+    Input("preview", False, "plan the run, log every move's joint targets and the largest "
+          "joint excursion, and end [PREVIEW] without moving the arm (a first run on a real "
+          "arm: config/real_robot.yaml)", kind="bool"),
     Input("max_tilt", math.pi / 6, "the largest tilt the object allows (a full mug: small)",
           **_TILT),
     Input("raise_tilt", False, "with target_com_sigma: the tilt may be raised up to max_tilt",

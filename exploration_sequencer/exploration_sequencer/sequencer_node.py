@@ -55,7 +55,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from rcl_interfaces.msg import Parameter as ParameterMsg
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rcl_interfaces.srv import GetParameters, SetParameters
-from rclpy.action import ActionServer, CancelResponse
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
@@ -255,6 +255,7 @@ class SequencerNode(Node):
             Explore,
             EXPLORE_SERVICE,
             execute_callback=self.execute_goal,
+            goal_callback=self.goal_callback,
             cancel_callback=lambda _: CancelResponse.ACCEPT,
             callback_group=group,
         )
@@ -361,15 +362,22 @@ class SequencerNode(Node):
         response.success = status == OK
         return response
 
-    def execute_goal(self, goal_handle) -> Explore.Result:
-        """The action: the goal's options over the parameters, checked before anything
-        moves; the result with the estimate, its covariance and the bag."""
-        overrides, problems = goal_options(goal_handle.request)
+    def goal_callback(self, goal: Explore.Goal) -> GoalResponse:
+        """Reject a goal with bad options, or while an exploration runs, with an ERROR log
+        that says why (as a trajectory controller rejects a goal it cannot run)."""
+        _, problems = goal_options(goal)
+        if self.running:
+            problems.append(f"exploration {self._running} is still running")
         if problems:
-            status, message = ERROR, f"refused: {'; '.join(problems)}"
-            self.get_logger().error(message)
-        else:
-            status, message = self._run(overrides, goal_handle)
+            self.get_logger().error(f"rejected Explore goal: {'; '.join(problems)}")
+            return GoalResponse.REJECT
+        return GoalResponse.ACCEPT
+
+    def execute_goal(self, goal_handle) -> Explore.Result:
+        """The action: an accepted goal's options over the parameters; the result with
+        the estimate, its covariance and the bag."""
+        overrides, _ = goal_options(goal_handle.request)
+        status, message = self._run(overrides, goal_handle)
         values = {kv.key: kv.value for kv in self._status.values} if self._status else {}
         frame = self._status.hardware_id if self._status else ""
         result = result_of(status, message, self._bag, values, frame)
@@ -638,6 +646,11 @@ class SequencerNode(Node):
             f"run {run_id}: {config.robot}, poses {[n for n, _ in poses]}, "
             f"tilt {plan.tilt:.3f} rad, dwell {plan.dwell:g} s; predicted {prediction}"
         )
+        if self.p("preview"):
+            verify = motion.verify_joints()[0] if information != WRENCHES else None
+            moves = [("home", home), ("pick", pick), *poses]
+            moves += [(VERIFY_POSE, verify)] if verify else []
+            return True, self._preview(run_id, moves)
         phases = self._static_phases(plan, motion, information != WRENCHES, False)
         bag = self._start_bag(run_id, self._plan_phases(phases))
         self._to_known_state(home, pick)
@@ -677,6 +690,23 @@ class SequencerNode(Node):
             self.arm.put_back(home, pick)
         plan_line = f"predicted {prediction}; object pass {object_time:.1f} s (sim)"
         return self._estimate(run_id, end, plan_line, bag)
+
+    def _preview(self, run_id: str, moves: list[tuple[str, list[float]]]) -> str:
+        """Log every move's joint targets (deg, the configuration's arm_joints) and return
+        the summary: where the arm would go, without moving it (``preview``)."""
+        log, names = self.get_logger(), self.config.arm_joints
+        here = [self.io.joints[name][0] for name in names]
+        log.info(f"preview of run {run_id}: joint targets in deg of {', '.join(names)}")
+        for name, joints in moves:
+            log.info(f"  {name}: " + ", ".join(f"{math.degrees(v):7.1f}" for v in joints))
+        excursion = max(
+            abs(v - h) for _, joints in moves for v, h in zip(joints, here, strict=True)
+        )
+        return (
+            f"[PREVIEW] run {run_id}: {len(moves)} targets logged, the largest joint "
+            f"excursion from where the arm is {math.degrees(excursion):.1f} deg at speed "
+            f"{self.p('speed'):g} rad/s; nothing moved (set preview false to run)"
+        )
 
     def _estimate(self, run_id: str, end: int, plan_line: str, bag: Path) -> tuple[bool, str]:
         """``_finish`` as the run's last phase, the time it took kept for the next run's
@@ -742,6 +772,14 @@ class SequencerNode(Node):
         config, period = self.config, self.p("motion_period")
         home, pick = list(config.home_joints), list(config.pick_joints)
         excitation, verification = self._excitations(motion, period)
+        if self.p("preview"):
+            names = config.arm_joints
+            moves = [("home", home), ("pick", pick)]
+            for name, ex in ((MOTION_OBJECT, excitation), (MOTION_VERIFY, verification)):
+                q = ex.waypoints(names)[1]  # the path's extremes, joint by joint
+                moves += [(f"{name} lowest", list(q.min(axis=0))),
+                          (f"{name} highest", list(q.max(axis=0)))]  # fmt: skip
+            return True, self._preview(run_id, moves)
         hand = self._cached_hand(motion, excitation, estimator_cache)
         phases = motion_run_phases(
             motion=motion,
