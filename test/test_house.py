@@ -20,6 +20,7 @@ FLOORS = {
     "payload": 4,
     "report": 4,
     "paper": 5,
+    "sequencing": 5,
 }
 """The wings from the bottom up; wings on one floor do not import each other."""
 

@@ -530,7 +530,8 @@ def in_motion(node, executor, compensated: list, urdf: str, args, values: dict) 
 
     from com_core.planning.excitation import design_excitation
     from com_core.robot.choreography import Choreography
-    from exploration_sequencer.arm import excitation_trajectory
+    from com_core.sequencing.motion import excitation_path
+    from exploration_sequencer.ros_arm import trajectory_message
 
     config = read_robot_config(args.robot)
     motion = Choreography.of(config, urdf)
@@ -540,7 +541,7 @@ def in_motion(node, executor, compensated: list, urdf: str, args, values: dict) 
                                    iterations=20, seed=THIRD_MOTION_SEED)  # fmt: skip
     publisher = node.create_publisher(JointTrajectory, ARM_COMMAND_TOPIC, 10)
     compensated.clear()
-    publisher.publish(excitation_trajectory(excitation, config.arm_joints))
+    publisher.publish(trajectory_message(excitation_path(excitation, config.arm_joints)))
     deadline = time.monotonic() + 30.0
     while time.monotonic() < deadline and not (
         compensated and (compensated[-1][0] - compensated[0][0]) * 1e-9 > excitation.period

@@ -26,25 +26,10 @@ from com_core.contract import (
 )
 from com_core.robot.joint_states import JointStates
 from com_core.runtime.rosenv import topic_remaps
+from com_core.sequencing.errors import CancelledRunError, RunError, TimeoutRunError
 from exploration_sequencer.recorder_process import RecorderProcess
 
 _NEVER = -(2**62)
-
-
-class RunError(RuntimeError):
-    """An exploration cannot go on; the message says why."""
-
-
-class TimeoutRunError(RunError):
-    """Something the sim answers did not happen in time (e.g. the arm was blocked)."""
-
-
-class RecordingError(RunError):
-    """The run's recording stopped (a full or failing disk): the run goes back and ends."""
-
-
-class CancelledRunError(RunError):
-    """The run was cancelled (a goal's cancel, or the node stopping)."""
 
 
 class IoNode(Node):
@@ -139,6 +124,10 @@ class IoNode(Node):
             if not rclpy.ok():
                 raise RunError("shutting down")
             time.sleep(0.002)
+
+    def rested_since(self, names, resting) -> int | None:
+        """``JointStates.rested_since`` of the merged joint states (the JointFeed port)."""
+        return self.joint_states.rested_since(names, resting)
 
     def sleep_until(self, stamp_ns: int, what: str) -> None:
         """Wait until sim time ``stamp_ns``."""

@@ -168,17 +168,19 @@ from com_core.runtime.lifeline import stop_with_parent
 from com_core.runtime.rosenv import discovery_line, keep_dds_local, start_refusal, stop_on_signals
 from com_core.sensing.calibration import Calibration
 from com_core.sensing.noise import NoiseModel
-from com_interfaces.action import Explore
-from exploration_sequencer.arm import Arm
-from exploration_sequencer.explore_action import feedback_of, goal_options, result_of
-from exploration_sequencer.io_node import (
+from com_core.sequencing.errors import (
     CancelledRunError,
-    IoNode,
     RecordingError,
     RunError,
     TimeoutRunError,
 )
+from com_core.sequencing.motion import ArmMotion
+from com_interfaces.action import Explore
+from exploration_sequencer.explore_action import feedback_of, goal_options, result_of
+from exploration_sequencer.io_node import IoNode
 from exploration_sequencer.parameters import PARAMETERS
+from exploration_sequencer.ros_arm import ActionArm, TopicArm
+from exploration_sequencer.ros_gripper import ActionGripper, TopicGripper
 
 CANCEL_TIMEOUT = 8.0  # s (wall) a node stopping mid-run gives the way back (SIGINT: 10 s)
 FEEDBACK_PERIOD = 0.5  # s (wall) between an action's feedback messages
@@ -217,7 +219,11 @@ class SequencerNode(Node):
         self.pose_pub = self.create_publisher(Header, POSE_TOPIC, latched)  # the current label
         # read-only: one configuration for the node's life
         self.config = RobotConfig.from_parameters({name: self.p(name) for name in KEYS})
-        self.arm = Arm(self, io, self.config)
+        self.arm = ArmMotion(io, io, self.config, self.get_logger().warning)
+        # the ports' adapters, one of each picked per run (arm_interface, gripper_interface)
+        self._arms = {"action": ActionArm(self, io, self.config), "topic": TopicArm(self)}
+        self._grippers = {"action": ActionGripper(self, io, self.config),
+                          "topic": TopicGripper(self)}  # fmt: skip
         # the choreography on the latest /robot_description, or why there is none
         self._motion: Choreography | str = ""
         self.create_subscription(
@@ -590,12 +596,10 @@ class SequencerNode(Node):
                 raise RunError(why)  # before anything moves
         self.io.sim_timeout = self.p("sim_timeout")
         self.arm.speed, self.arm.settle = self.p("speed"), self.p("settle")
-        self.arm.arm_interface = self.p("arm_interface")
-        self.arm.gripper_interface = self.p("gripper_interface")
-        self.arm.max_effort, self.arm.gripper_timeout = (
-            self.p("gripper_max_effort"),
-            self.p("gripper_timeout"),
-        )
+        self.arm.arm = self._arms[self.p("arm_interface")]
+        self.arm.gripper_port = self._grippers[self.p("gripper_interface")]
+        self.arm.max_effort = self.p("gripper_max_effort")
+        self._grippers["action"].timeout = self.p("gripper_timeout")
         self.io.wait(lambda: self.io.joints, "waiting for the joint states", wall_timeout=None)
         self._clock_mark = (time.monotonic(), self.io.now_ns())  # the sim's rate from here
         self._phases, self._current, self._progress = (), -1, 0.0
@@ -972,7 +976,7 @@ class SequencerNode(Node):
         result = self.arm.gripper(close=True, wait=GRIPPER_TIME)
         what = "the gripper"
         stalled = reached = None
-        if result is not None:
+        if result is not None:  # the driver's outcome (an action's result)
             what = f"the gripper action {self.config.gripper_action}"
             stalled, reached = result.stalled, result.reached_goal
         problem = closing_problem(stalled, reached, self.arm.gripper_closed(), what)
