@@ -196,7 +196,7 @@ def assert_replays_to_node(bag: Path, offline: dict) -> None:
 @pytest.mark.parametrize(
     ("robot", "shape", "seed"),
     [("panda", "box", 1), ("panda", "cylinder", 2), ("panda", "mug", 3), ("xarm6", "box", 4),
-     ("ur5e", "box", 5)],
+     ("ur5e", "box", 5), ("fr3", "box", 6)],
 )  # fmt: skip
 def test_rigid_grasp_estimate_is_within_tolerance_of_ground_truth(
     start_node, client, tmp_path, ros_env, robot, shape, seed
