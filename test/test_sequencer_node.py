@@ -157,7 +157,9 @@ def move_arm(node, joints: dict[str, float], goal: list[float], seconds: int) ->
 
     arm = node.create_publisher(JointTrajectory, ARM_COMMAND_TOPIC, 10)
     spin_until(node, lambda: arm.get_subscription_count() > 0, 5.0)
-    point = JointTrajectoryPoint(positions=goal, time_from_start=Duration(sec=seconds))
+    rest = [0.0] * len(goal)  # at rest: a cubic from the arm's state
+    point = JointTrajectoryPoint(positions=goal, velocities=rest, accelerations=rest,
+                                 time_from_start=Duration(sec=seconds))  # fmt: skip
     arm.publish(JointTrajectory(joint_names=list(PANDA.arm_joints), points=[point]))
     assert spin_until(
         node,

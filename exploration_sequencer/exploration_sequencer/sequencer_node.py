@@ -185,7 +185,8 @@ from exploration_sequencer.ros_gripper import ActionGripper, TopicGripper
 CANCEL_TIMEOUT = 8.0  # s (wall) a node stopping mid-run gives the way back (SIGINT: 10 s)
 FEEDBACK_PERIOD = 0.5  # s (wall) between an action's feedback messages
 LABEL_ACK_TIMEOUT = 10.0  # s (wall) a pose label waits for its readers' acknowledgement
-EXCITATION_LEAD = 0.2  # s (sim) between sending an excitation and its start
+EXCITATION_LEAD = 0.5  # s (sim) between sending an excitation and its start: the arm holds
+# still at its first point until then; a stamp the controller gets late would jump the arm
 EXCITATION_REST = 0.3  # s (sim) at rest after an excitation, within its span
 EXCITATION_CACHE = "excitation_cache.json"  # beside the tare cache
 VERIFY_ITERATIONS = 40  # the verification's motion needs no optimum, only another motion
