@@ -5,9 +5,13 @@ from __future__ import annotations
 
 from com_core.estimation.exploration import Exploration
 from com_core.estimation.settings import (
+    BAG_SETTINGS_FILE,
     SETTINGS,
+    defaults,
     exploration_from,
     load_cached_tares,
+    read_bag_settings,
+    write_bag_settings,
 )
 from com_core.estimation.tare_cache import save_tares
 from com_core.estimation.windows import window_from_mean
@@ -33,3 +37,20 @@ def test_the_cached_tare_is_the_current_entry_of_the_file(tmp_path):
     window = window_from_mean("home", [0, 0, 9.9, 0, 0, 0], [[0.0] * 6] * 6, 5000)
     save_tares(tmp_path / "cache.json", "hand|plan", {"home": window})
     assert load_cached_tares(tmp_path / "cache.json").windows["home"].force[2] == 9.9
+
+
+def test_a_runs_settings_beside_its_bag_read_back_as_written_and_refused_values_left_out(
+    tmp_path,
+):
+    """``estimator.yaml``: the replay's defaults for the run (the frames, the URDF and the
+    tare cache have files of their own)."""
+    path = tmp_path / BAG_SETTINGS_FILE
+    values = defaults() | {"accuracy": 0.03, "full_scale": [50.0, 10.0], "wrench_sign": -1.0}
+    write_bag_settings(values | {"sensor_frame": "tool0", "robot_description": "<robot/>"}, path)
+    read = read_bag_settings(path)
+    assert read["accuracy"] == 0.03 and read["full_scale"] == [50.0, 10.0]
+    assert read["wrench_sign"] == -1.0 and read["method"] == "ml"
+    assert not {"sensor_frame", "robot_description", "tare_cache"} & read.keys()
+    path.write_text("accuracy: -2.0\nmethod: ml\nno_such_setting: 1\n")
+    assert read_bag_settings(path) == {"method": "ml"}
+    assert read_bag_settings(tmp_path / "none.yaml") == {}

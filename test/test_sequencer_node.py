@@ -231,21 +231,9 @@ def test_rigid_grasp_estimate_is_within_tolerance_of_ground_truth(
     topics = {t for t, *_ in read_raw(bag, (WRENCH_TOPIC, POSE_TOPIC))}
     assert topics == {WRENCH_TOPIC, POSE_TOPIC}
     assert read_robot_config(str(bag / BAG_ROBOT_FILE)).robot == robot
-    offline = replay_json(bag, ros_env, *replay_options(robot))
+    offline = replay_json(bag, ros_env)  # the run's settings beside it (the UR5e's sensor)
     assert offline["status"] == "OK" and offline["information"] == "kinematics+mount", offline
     assert_replays_to_node(bag, offline)
-
-
-def replay_options(robot: str) -> list[str]:
-    """The estimator's settings that ``robot``'s file gives beside its configuration (the
-    UR5e's sensor: accuracy, full_scale), as the replay's options."""
-    values = yaml.safe_load(robot_config_path(robot).read_text())["/**"]["ros__parameters"]
-    options = []
-    if "accuracy" in values:
-        options += ["--accuracy", str(values["accuracy"])]
-    if "full_scale" in values:
-        options += ["--full-scale", *(str(v) for v in values["full_scale"])]
-    return options
 
 
 def test_the_papers_reconfiguration_is_flagged(start_node, client, tmp_path):

@@ -12,7 +12,8 @@ with its traceback).
 
 Reads /ft_sensor/wrench and /exploration_sequencer/pose from a rosbag2 directory
 (MCAP) and feeds them to the same ``com_core.estimation.exploration.Exploration`` the node uses,
-with the node's defaults, so the same messages give the same numbers to the last bit.
+with the node's settings of that run (BAG/estimator.yaml; an option overrides one), so the
+same messages give the same numbers to the last bit.
 
 A bag without pose labels is cut into static windows by
 ``com_core.estimation.static_windows.find_static_windows`` (blocks of 50 ms whose spread is at the
@@ -66,8 +67,10 @@ from com_core.estimation.feed import feed_bag
 from com_core.estimation.fits import WRENCHES
 from com_core.estimation.hand_motion import HAND_MOTION_FILE, load_hand_motion
 from com_core.estimation.settings import (
+    BAG_SETTINGS_FILE,
     SETTINGS,
     exploration_from,
+    read_bag_settings,
     robot_from,
     use_cached_tares,
 )
@@ -104,14 +107,12 @@ def build_parser() -> argparse.ArgumentParser:
         if name != "tare_cache":
             option = "--" + name.replace("_", "-")
             text = f"{row.description}; {row.allowed()}".replace("%", "%%")  # argparse's %
+            # unset: the run's (its estimator.yaml, robot.yaml), else the default
+            text += f" (default: the run's; without it {row.default!r})"
             if isinstance(row.default, list):
-                parser.add_argument(
-                    option, type=float, nargs=len(row.default), default=row.default, help=text
-                )
-            elif name in ROBOT_FRAMES:  # unset: the run's robot configuration's
-                parser.add_argument(option, type=str, default=None, help=text)
+                parser.add_argument(option, type=float, nargs=len(row.default), help=text)
             else:
-                parser.add_argument(option, type=type(row.default), default=row.default, help=text)
+                parser.add_argument(option, type=type(row.default), help=text)
     parser.add_argument("--wrench-topic", default=WRENCH_TOPIC)
     parser.add_argument("--pose-topic", default=POSE_TOPIC)
     parser.add_argument(
@@ -173,7 +174,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def option_settings(args: argparse.Namespace) -> dict[str, object]:
-    """The estimator settings the options give (the frames only when given)."""
+    """The estimator settings the options give (those given only)."""
     names = [name for name in SETTINGS if name != "tare_cache"]
     return {name: getattr(args, name) for name in names if getattr(args, name) is not None}
 
@@ -189,7 +190,7 @@ def replay_captured(bag: Path, args: argparse.Namespace) -> tuple[int, Solution 
         except Exception as exc:
             print(f"replay: {bag}: {INTERNAL_ERROR}\n{traceback.format_exc()}", file=sys.stderr)
             code = INTERNAL_ERROR_CODE
-            solution = Solution(ERROR, f"{INTERNAL_ERROR}: {exc!r}", args.method)
+            solution = Solution(ERROR, f"{INTERNAL_ERROR}: {exc!r}", args.method or "ml")
     return code, solution, out.getvalue(), err.getvalue()
 
 
@@ -246,7 +247,7 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
     if not is_bag(args.bag):
         print(f"replay: {args.bag} is not a rosbag2 directory", file=sys.stderr)
         return 2, None
-    settings = option_settings(args)
+    settings = read_bag_settings(args.bag / BAG_SETTINGS_FILE) | option_settings(args)
     robot_file = args.robot or args.bag / BAG_ROBOT_FILE
     robot = None
     if args.robot is not None or robot_file.is_file():

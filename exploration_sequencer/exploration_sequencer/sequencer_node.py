@@ -62,7 +62,7 @@ from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
-from rclpy.parameter import Parameter
+from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import Header, String
@@ -104,6 +104,12 @@ from com_core.estimation.hand_motion import (
     save_hand_motion,
 )
 from com_core.estimation.motion_solution import MOTION
+from com_core.estimation.settings import (
+    BAG_SETTINGS_FILE,
+    NOT_IN_BAG_SETTINGS,
+    SETTINGS,
+    write_bag_settings,
+)
 from com_core.estimation.solution import noise_line, vector_value, verification_lines
 from com_core.estimation.tare_cache import (
     BAG_TARE_FILE,
@@ -734,6 +740,13 @@ class SequencerNode(Node):
         self._bag = bag
         self._start_ns, self._planned_s = self.io.now_ns(), planned_s
         write_robot_config(self.config, bag / BAG_ROBOT_FILE)  # the replay's frames
+        names = [name for name in SETTINGS if name not in NOT_IN_BAG_SETTINGS]
+        answer = self._call(self._estimator_params, GetParameters.Request(names=names),
+                            "reading the estimator's settings")  # fmt: skip
+        values = {
+            n: parameter_value_to_python(v) for n, v in zip(names, answer.values, strict=True)
+        }
+        write_bag_settings(values, bag / BAG_SETTINGS_FILE)  # the replay's defaults
         return bag
 
     def _finish(self, run_id: str, end: int, plan_line: str, bag: Path) -> tuple[bool, str]:

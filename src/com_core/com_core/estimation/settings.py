@@ -37,15 +37,23 @@ from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES
 from com_core.sensing.wrench_model import SensorModel
 
 __all__ = [
+    "BAG_SETTINGS_FILE",
     "SETTINGS",
     "defaults",
     "exploration_from",
     "load_cached_tares",
+    "read_bag_settings",
     "robot_from",
     "use_cached_hand_motion",
     "use_cached_tares",
+    "write_bag_settings",
 ]
 
+BAG_SETTINGS_FILE = "estimator.yaml"
+"""The estimator's settings of a run, beside its bag (the replay's defaults): every setting
+but the robot's frames (``robot.yaml``'s), its URDF (the bag's /robot_description) and the
+tare cache (the bag's copy)."""
+NOT_IN_BAG_SETTINGS = ("sensor_frame", "base_frame", "robot_description", "tare_cache")
 _REALISTIC = PROFILES[DEFAULT_PROFILE]
 CALIBRATION_ACCURACY = _REALISTIC.calibration_accuracy
 FULL_SCALE = (_REALISTIC.limit_f, _REALISTIC.limit_tau)
@@ -223,3 +231,27 @@ def use_cached_hand_motion(exploration: Exploration, path: str | Path, hand_id: 
     exploration.hand_motion = (
         entry.fit if fits and not entry.other_hand(hand_id, robot.urdf_sha256) else None
     )
+
+
+def write_bag_settings(values: Mapping[str, Any], path: Path) -> None:
+    """Write the settings ``values`` (by name; those of NOT_IN_BAG_SETTINGS left out) to
+    ``path`` (YAML) for ``read_bag_settings``."""
+    import yaml
+
+    kept = {k: v for k, v in values.items() if k in SETTINGS and k not in NOT_IN_BAG_SETTINGS}
+    path.write_text("# the estimator's settings of this run\n" + yaml.safe_dump(kept))
+
+
+def read_bag_settings(path: Path) -> dict[str, Any]:
+    """The settings in ``path`` that its table takes ({} with no file; a value the table
+    refuses, or an unknown name, is left out)."""
+    import yaml
+
+    try:
+        values = yaml.safe_load(path.read_text()) or {}
+    except (OSError, yaml.YAMLError):
+        return {}
+    if not isinstance(values, dict):
+        return {}
+    taken = set(SETTINGS) - set(NOT_IN_BAG_SETTINGS)
+    return {k: v for k, v in values.items() if k in taken and not SETTINGS[k].problem(v)}
