@@ -750,74 +750,95 @@ XARM_GRIPPER_LINKS = [
 ]
 
 
-def test_xarm_hand_ground_truth_is_the_gripper_of_the_urdf(xarm_world):
-    mass, com = xarm_world.hand_ground_truth()
+def assert_hand_is_its_urdf(world: ArmWorld, links: list[str], mass: float) -> None:
+    """The hand's ground truth is the URDF's ``links`` beyond the sensor: ``mass`` kg."""
+    truth_mass, com = world.hand_ground_truth()
     urdf_mass, urdf_com = urdf_load_inertia(
-        xarm_world.urdf_text, XARM.sensor_frame, XARM_GRIPPER_LINKS
+        world.urdf_text, world.config.robot.sensor_frame, links
     )
-    assert mass == pytest.approx(0.7514296, abs=1e-6)  # the gripper's seven links
-    assert mass == pytest.approx(urdf_mass)
+    assert truth_mass == pytest.approx(mass, abs=1e-6)
+    assert truth_mass == pytest.approx(urdf_mass)
     assert_allclose(com, urdf_com, atol=1e-7)
 
 
-def test_xarm_hand_only_matches_gravity_wrench_at_every_orientation(xarm_hand_sweep):
-    assert list(xarm_hand_sweep.poses) == list(XARM_POSES)
-    for name, pose in xarm_hand_sweep.poses.items():
+def assert_hand_sweep_reads_gravity(swept: Sweep, poses: dict, finger_axis: int) -> None:
+    """The hand alone reads its gravity wrench at every pose, gravity along the finger axis
+    (a sensor axis) both ways among them, with no collision."""
+    assert list(swept.poses) == list(poses)
+    for name, pose in swept.poses.items():
         assert not pose.held, name
         assert np.abs(pose.errors[:, :3]).max() < FORCE_TOL, name
         assert np.abs(pose.errors[:, 3:]).max() < TORQUE_TOL, name
-    assert xarm_hand_sweep.collisions == 0, xarm_hand_sweep.events
+    assert swept.collisions == 0, swept.events
+    gravity = [pose.gravity[finger_axis] / STANDARD_GRAVITY for pose in swept.poses.values()]
+    assert max(gravity) > 0.999 and min(gravity) < -0.999
 
 
-def test_xarm_rigid_grasp_matches_gravity_wrench_at_every_orientation(xarm_world):
-    grasp(xarm_world)
-    mass, com = xarm_world.object_ground_truth()
-    # The box's centre on the grasp centre, 0.16 m from the flange; object frame (x, y, z) =
-    # sensor (x, -y, -z) at home.
+def assert_rigid_grasp_reads_gravity(
+    world: ArmWorld, poses: dict, grasp_z: float, to_sensor: np.ndarray, offset
+) -> None:
+    """Grasped rigidly, the box's centre on the grasp centre ``grasp_z`` m along the
+    sensor's z, its COM ``offset`` (object frame; ``to_sensor`` @ it in the sensor frame at
+    home): the wrench is the gravity wrench of hand and box at every pose."""
+    grasp(world)
+    mass, com = world.object_ground_truth()
     assert mass == pytest.approx(0.1)
-    offset = np.array(XARM_COM_OFFSET) * [1, -1, -1]
-    assert_allclose(com, np.array([0.0, 0.0, 0.16]) + offset, atol=COM_TOL)
-    gravity_directions, worst = [], np.zeros(2)
-    for name, q in XARM_POSES.items():
-        errors = np.abs(hold_and_compare(xarm_world, q))
+    assert_allclose(com, np.array([0.0, 0.0, grasp_z]) + to_sensor @ offset, atol=COM_TOL)
+    for name, q in poses.items():
+        errors = np.abs(hold_and_compare(world, q))
         assert errors[:, :3].max() < FORCE_TOL, name
         assert errors[:, 3:].max() < TORQUE_TOL, name
-        worst = np.maximum(worst, [errors[:, :3].max(), errors[:, 3:].max()])
-        gravity_directions.append(xarm_world.gravity_in_sensor() / STANDARD_GRAVITY)
-    print(f"xArm6 rigid grasp: max error {worst[0]:.2e} N, {worst[1]:.2e} N m")
-    # The poses include gravity along the finger axis (sensor y), both ways.
-    assert max(g[1] for g in gravity_directions) > 0.999
-    assert min(g[1] for g in gravity_directions) < -0.999
-    assert xarm_world.collisions == 0, xarm_world.events
+    assert world.collisions == 0, world.events
 
 
-@pytest.mark.parametrize("shape", sorted(SHAPES))
-def test_xarm_grasps_every_shape_at_its_grasp_centre(shape):
+def assert_grasps_shape(robot, shape: str, grasp_z: float, to_sensor: np.ndarray) -> None:
     """At pick_joints the object stands between the open pads; closing the gripper holds it
-    (drive_joint stops where the pads meet it), its COM is the requested offset from the
-    grasp centre, and opening releases it."""
+    (its drive joint stops where the pads meet it), its COM is the requested offset from
+    the grasp centre, and opening releases it."""
     offset = range_corner(shape)
-    world = ArmWorld(SimConfig(robot=XARM, object_shape=shape, object_com_offset=offset))
+    world = ArmWorld(SimConfig(robot=robot, object_shape=shape, object_com_offset=offset))
     try:
         grasp(world)
         world.run(0.3)
         mass, com = world.object_ground_truth()
         assert world.object_held and mass == pytest.approx(0.1)
-        centre = np.array([0.0, 0.0, 0.16 + SHAPES[shape].half_extents[2] - 0.04])
-        assert_allclose(com, centre + np.array(offset) * [1.0, -1.0, -1.0], atol=COM_TOL)
+        centre = np.array([0.0, 0.0, grasp_z + SHAPES[shape].half_extents[2] - 0.04])
+        assert_allclose(com, centre + to_sensor @ np.array(offset), atol=COM_TOL)
         names, positions, velocities, _ = world.joint_state()
-        assert names == XARM.arm_joints + XARM.gripper_joints
-        # drive_joint (rad) where each pad is the object's half width from the centre
-        gap_open, gap_closed = XARM.finger_gap
+        assert names == robot.arm_joints + robot.gripper_joints
+        gap_open, gap_closed = robot.finger_gap
         closed = (gap_open - SHAPES[shape].grasp_half_width) / (gap_open - gap_closed)
-        assert positions[-1] == pytest.approx(closed * XARM.gripper_closed)
+        assert positions[-1] == pytest.approx(closed * robot.gripper_closed)
         assert velocities[-1] == 0.0
-        world.command_gripper(XARM.gripper_open)
+        world.command_gripper(robot.gripper_open)
         world.run(0.5)
         assert not world.object_held
-        assert world.joint_state()[1][-1] == XARM.gripper_open
+        assert world.joint_state()[1][-1] == robot.gripper_open
     finally:
         world.close()
+
+
+XARM_GRASP_Z = 0.16  # m: the grasp centre from the flange
+XARM_TO_SENSOR = np.diag([1.0, -1.0, -1.0])  # the object's axes in the sensor's at home
+
+
+def test_xarm_hand_ground_truth_is_the_gripper_of_the_urdf(xarm_world):
+    assert_hand_is_its_urdf(xarm_world, XARM_GRIPPER_LINKS, 0.7514296)  # seven links
+
+
+def test_xarm_hand_only_matches_gravity_wrench_at_every_orientation(xarm_hand_sweep):
+    assert_hand_sweep_reads_gravity(xarm_hand_sweep, XARM_POSES, finger_axis=1)
+
+
+def test_xarm_rigid_grasp_matches_gravity_wrench_at_every_orientation(xarm_world):
+    assert_rigid_grasp_reads_gravity(
+        xarm_world, XARM_POSES, XARM_GRASP_Z, XARM_TO_SENSOR, XARM_COM_OFFSET
+    )
+
+
+@pytest.mark.parametrize("shape", sorted(SHAPES))
+def test_xarm_grasps_every_shape_at_its_grasp_centre(shape):
+    assert_grasps_shape(XARM, shape, XARM_GRASP_Z, XARM_TO_SENSOR)
 
 
 def test_xarm_driven_into_the_ground_reports_a_collision():
@@ -932,66 +953,24 @@ def ur5e_hand_sweep() -> Sweep:
         world.close()
 
 
+UR5E_GRASP_Z = 0.141  # m from tool0: the coupling's 11 mm and 0.13 m from the gripper's base
+UR5E_TO_SENSOR = np.array([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+
+
 def test_ur5e_hand_ground_truth_is_the_coupling_and_gripper_of_the_urdf(ur5e_world):
-    mass, com = ur5e_world.hand_ground_truth()
-    urdf_mass, urdf_com = urdf_load_inertia(
-        ur5e_world.urdf_text, UR5E.sensor_frame, UR5E_GRIPPER_LINKS
-    )
-    assert mass == pytest.approx(0.93086427, abs=1e-6)  # Robotiq's coupling and 2F-85
-    assert mass == pytest.approx(urdf_mass)
-    assert_allclose(com, urdf_com, atol=1e-7)
+    assert_hand_is_its_urdf(ur5e_world, UR5E_GRIPPER_LINKS, 0.93086427)  # Robotiq's
 
 
 def test_ur5e_hand_only_matches_gravity_wrench_at_every_orientation(ur5e_hand_sweep):
-    assert list(ur5e_hand_sweep.poses) == list(UR5E_POSES)
-    for name, pose in ur5e_hand_sweep.poses.items():
-        assert not pose.held, name
-        assert np.abs(pose.errors[:, :3]).max() < FORCE_TOL, name
-        assert np.abs(pose.errors[:, 3:]).max() < TORQUE_TOL, name
-    assert ur5e_hand_sweep.collisions == 0, ur5e_hand_sweep.events
-    gravity = [pose.gravity / STANDARD_GRAVITY for pose in ur5e_hand_sweep.poses.values()]
-    assert max(g[0] for g in gravity) > 0.999 and min(g[0] for g in gravity) < -0.999
+    assert_hand_sweep_reads_gravity(ur5e_hand_sweep, UR5E_POSES, finger_axis=0)
 
 
 def test_ur5e_rigid_grasp_matches_gravity_wrench_at_every_orientation(ur5e_world):
-    grasp(ur5e_world)
-    mass, com = ur5e_world.object_ground_truth()
-    # The box's centre on the grasp centre, 0.141 m from tool0 (the coupling's 11 mm and
-    # 0.13 m from the gripper's base); object frame (x, y, z) = sensor (-y, -x, -z) at home.
-    assert mass == pytest.approx(0.1)
-    x, y, z = UR5E_COM_OFFSET
-    assert_allclose(com, np.array([0.0, 0.0, 0.141]) + np.array([-y, -x, -z]), atol=COM_TOL)
-    for name, q in UR5E_POSES.items():
-        errors = np.abs(hold_and_compare(ur5e_world, q))
-        assert errors[:, :3].max() < FORCE_TOL, name
-        assert errors[:, 3:].max() < TORQUE_TOL, name
-    assert ur5e_world.collisions == 0, ur5e_world.events
+    assert_rigid_grasp_reads_gravity(
+        ur5e_world, UR5E_POSES, UR5E_GRASP_Z, UR5E_TO_SENSOR, UR5E_COM_OFFSET
+    )
 
 
 @pytest.mark.parametrize("shape", sorted(SHAPES))
 def test_ur5e_grasps_every_shape_at_its_grasp_centre(shape):
-    """At pick_joints the object stands between the open pads; closing the gripper holds it
-    (robotiq_85_left_knuckle_joint stops where the pads meet it), its COM is the requested
-    offset from the grasp centre, and opening releases it."""
-    offset = range_corner(shape)
-    world = ArmWorld(SimConfig(robot=UR5E, object_shape=shape, object_com_offset=offset))
-    try:
-        grasp(world)
-        world.run(0.3)
-        mass, com = world.object_ground_truth()
-        assert world.object_held and mass == pytest.approx(0.1)
-        centre = np.array([0.0, 0.0, 0.141 + SHAPES[shape].half_extents[2] - 0.04])
-        x, y, z = offset
-        assert_allclose(com, centre + np.array([-y, -x, -z]), atol=COM_TOL)
-        names, positions, velocities, _ = world.joint_state()
-        assert names == UR5E.arm_joints + UR5E.gripper_joints
-        gap_open, gap_closed = UR5E.finger_gap
-        closed = (gap_open - SHAPES[shape].grasp_half_width) / (gap_open - gap_closed)
-        assert positions[-1] == pytest.approx(closed * UR5E.gripper_closed)
-        assert velocities[-1] == 0.0
-        world.command_gripper(UR5E.gripper_open)
-        world.run(0.5)
-        assert not world.object_held
-        assert world.joint_state()[1][-1] == UR5E.gripper_open
-    finally:
-        world.close()
+    assert_grasps_shape(UR5E, shape, UR5E_GRASP_Z, UR5E_TO_SENSOR)

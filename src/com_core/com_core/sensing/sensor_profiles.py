@@ -153,21 +153,16 @@ PROFILES = {
         vibration_hz=(12.0, 27.0),
         vibration_damping=(0.03, 0.02),
     ),
-    "ur_e_series": SensorProfile(
-        sigma_f=1.75,
-        sigma_tau=0.1,
-        correlation_time=0.005,
-        limit_f=50.0,
-        limit_tau=10.0,
-        calibration_accuracy=0.03,
-        warmup_f=0.3,
-        warmup_tau=0.015,
-        random_walk_f=2e-4,
-        random_walk_tau=1e-5,
-        vibration_hz=(12.0, 27.0),
-        vibration_damping=(0.03, 0.02),
-    ),
 }
+PROFILES["ur_e_series"] = replace(  # UR's figures (module); the rest the realistic sensor's
+    PROFILES["realistic"],
+    sigma_f=1.75,
+    sigma_tau=0.1,
+    resolution_f=0.0,
+    resolution_tau=0.0,
+    limit_f=50.0,
+    calibration_accuracy=0.03,
+)
 DEFAULT_PROFILE = "realistic"
 
 
