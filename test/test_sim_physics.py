@@ -704,17 +704,21 @@ def xarm_world():
     world.close()
 
 
-@pytest.fixture(scope="module")
-def xarm_hand_sweep() -> Sweep:
-    """The xArm6 in rigid mode, the box on its stand: every pose of XARM_POSES, the hand
+def hand_sweep(robot, poses: dict, offset) -> Sweep:
+    """``robot`` in rigid mode, the box on its stand: every pose of ``poses``, the hand
     alone, then home (its collisions and events counted after that)."""
-    world = ArmWorld(SimConfig(robot=XARM, object_shape="box", object_com_offset=XARM_COM_OFFSET))
+    world = ArmWorld(SimConfig(robot=robot, object_shape="box", object_com_offset=offset))
     try:
-        swept = sweep(world, XARM_POSES)
-        move(world, XARM.home_joints)
+        swept = sweep(world, poses)
+        move(world, robot.home_joints)
         return replace(swept, collisions=world.collisions, events=list(world.events))
     finally:
         world.close()
+
+
+@pytest.fixture(scope="module")
+def xarm_hand_sweep() -> Sweep:
+    return hand_sweep(XARM, XARM_POSES, XARM_COM_OFFSET)
 
 
 def urdf_load_inertia(urdf: str, sensor_frame: str, links: list[str]) -> tuple[float, np.ndarray]:
@@ -942,15 +946,7 @@ def ur5e_world():
 
 @pytest.fixture(scope="module")
 def ur5e_hand_sweep() -> Sweep:
-    """The UR5e in rigid mode, the box on its stand: every pose of UR5E_POSES, the hand
-    alone, then home (its collisions and events counted after that)."""
-    world = ArmWorld(SimConfig(robot=UR5E, object_shape="box", object_com_offset=UR5E_COM_OFFSET))
-    try:
-        swept = sweep(world, UR5E_POSES)
-        move(world, UR5E.home_joints)
-        return replace(swept, collisions=world.collisions, events=list(world.events))
-    finally:
-        world.close()
+    return hand_sweep(UR5E, UR5E_POSES, UR5E_COM_OFFSET)
 
 
 UR5E_GRASP_Z = 0.141  # m from tool0: the coupling's 11 mm and 0.13 m from the gripper's base
