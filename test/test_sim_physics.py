@@ -704,7 +704,7 @@ def xarm_world():
     world.close()
 
 
-def hand_sweep(robot, poses: dict, offset) -> Sweep:
+def swept_hand(robot, poses: dict, offset) -> Sweep:
     """``robot`` in rigid mode, the box on its stand: every pose of ``poses``, the hand
     alone, then home (its collisions and events counted after that)."""
     world = ArmWorld(SimConfig(robot=robot, object_shape="box", object_com_offset=offset))
@@ -718,7 +718,7 @@ def hand_sweep(robot, poses: dict, offset) -> Sweep:
 
 @pytest.fixture(scope="module")
 def xarm_hand_sweep() -> Sweep:
-    return hand_sweep(XARM, XARM_POSES, XARM_COM_OFFSET)
+    return swept_hand(XARM, XARM_POSES, XARM_COM_OFFSET)
 
 
 def urdf_load_inertia(urdf: str, sensor_frame: str, links: list[str]) -> tuple[float, np.ndarray]:
@@ -946,7 +946,7 @@ def ur5e_world():
 
 @pytest.fixture(scope="module")
 def ur5e_hand_sweep() -> Sweep:
-    return hand_sweep(UR5E, UR5E_POSES, UR5E_COM_OFFSET)
+    return swept_hand(UR5E, UR5E_POSES, UR5E_COM_OFFSET)
 
 
 UR5E_GRASP_Z = 0.141  # m from tool0: the coupling's 11 mm and 0.13 m from the gripper's base
