@@ -72,11 +72,6 @@ class ArmController:
             cancel_callback=lambda _: CancelResponse.ACCEPT,
         )
 
-    @property
-    def running(self) -> bool:
-        """A goal is running."""
-        return self._goal is not None
-
     def _topic_callback(self, msg: JointTrajectory) -> None:
         """Follow a trajectory from the topic now; a malformed one is logged and ignored."""
         try:
@@ -112,8 +107,7 @@ class ArmController:
         try:
             end = self._world.command_arm(**command_of(goal.trajectory))
         except ValueError as error:  # the world moved on since the goal callback
-            self._goal = (handle, TrajectoryGoal((), 0.0, [], [], 0.0), 0)
-            self._end("aborted", INVALID_GOAL, str(error))
+            self._finish(handle, "aborted", INVALID_GOAL, str(error))
             return
         names = self._world.config.robot.arm_joints
 
@@ -174,6 +168,10 @@ class ArmController:
             return
         handle, _, _ = self._goal
         self._goal = None
+        self._finish(handle, how, code, text)
+
+    def _finish(self, handle: ServerGoalHandle, how: str, code: int, text: str) -> None:
+        """End ``handle``'s goal ``how`` with ``code`` and ``text`` (logged)."""
         self._ended[bytes(handle.goal_id.uuid)] = (how, code, text)
         handle.execute()  # runs _result
         log = self._node.get_logger()
