@@ -42,8 +42,13 @@ demo: setup
 study: setup
 	$(IN_ENV) python -m com_core.paper.study $(ARGS)
 
+# Every test: those without node processes on every core (as test-fast, with the Monte
+# Carlo statistics), then the system tests one at a time (each runs its nodes on the
+# cores). A selection (ARGS, e.g. -k) that leaves one half empty passes that half.
 test: setup lint
-	$(IN_ENV) python -m pytest test $(ARGS)
+	$(IN_ENV) python -m pytest test -m "not system" -n auto --dist worksteal $(ARGS); \
+		code=$$?; [ $$code -eq 0 ] || [ $$code -eq 5 ]
+	$(IN_ENV) python -m pytest test -m system $(ARGS); code=$$?; [ $$code -eq 0 ] || [ $$code -eq 5 ]
 
 # The core and unit tests: no node processes, no rclpy context (the `system` marker), no
 # Monte Carlo statistics over hundreds of fits (the `slow` marker); on every core
