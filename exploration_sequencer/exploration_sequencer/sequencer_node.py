@@ -52,9 +52,7 @@ from pathlib import Path
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
-from rcl_interfaces.msg import Parameter as ParameterMsg
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
-from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.duration import Duration
@@ -62,7 +60,7 @@ from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
-from rclpy.parameter import Parameter, parameter_value_to_python
+from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from rclpy.signals import SignalHandlerOptions
 from std_msgs.msg import Header, String
@@ -73,10 +71,6 @@ from com_core.contract import (
     CANCELLED,
     DONE,
     ERROR,
-    ESTIMATOR_PARAMETERS_SERVICE,
-    ESTIMATOR_RESET_SERVICE,
-    ESTIMATOR_SAVE_PAYLOAD_SERVICE,
-    ESTIMATOR_SET_PARAMETERS_SERVICE,
     EXPLORE_SERVICE,
     INTERNAL_ERROR,
     JOINT_STATES_TOPIC,
@@ -186,6 +180,7 @@ from exploration_sequencer.explore_action import feedback_of, goal_options, resu
 from exploration_sequencer.io_node import IoNode
 from exploration_sequencer.parameters import PARAMETERS
 from exploration_sequencer.ros_arm import ActionArm, TopicArm
+from exploration_sequencer.ros_estimator import EstimatorLink
 from exploration_sequencer.ros_gripper import ActionGripper, TopicGripper
 
 CANCEL_TIMEOUT = 8.0  # s (wall) a node stopping mid-run gives the way back (SIGINT: 10 s)
@@ -249,7 +244,6 @@ class SequencerNode(Node):
         self._window_seen: dict[str, tuple[float, dict[str, float]]] = {}
         group = ReentrantCallbackGroup()
         self.create_service(Trigger, EXPLORE_SERVICE, self.explore_callback, callback_group=group)
-        self._restore: dict[str, object] = {}  # the estimator's parameters a goal changed
         self._status: DiagnosticStatus | None = None  # the estimator's answer to the run
         self._bag: Path | None = None
         self._goal = None  # the running goal's handle
@@ -273,18 +267,7 @@ class SequencerNode(Node):
             callback_group=group,
         )
         self.create_timer(FEEDBACK_PERIOD, self.feedback_callback, callback_group=group)
-        self._estimator_reset = self.create_client(
-            Trigger, ESTIMATOR_RESET_SERVICE, callback_group=group
-        )
-        self._estimator_params = self.create_client(
-            GetParameters, ESTIMATOR_PARAMETERS_SERVICE, callback_group=group
-        )
-        self._estimator_set_params = self.create_client(
-            SetParameters, ESTIMATOR_SET_PARAMETERS_SERVICE, callback_group=group
-        )
-        self._estimator_save = self.create_client(
-            Trigger, ESTIMATOR_SAVE_PAYLOAD_SERVICE, callback_group=group
-        )
+        self.estimator = EstimatorLink(self, io, group, lambda: self.p("sim_timeout"))
         self.get_logger().info("ready: call ~/explore to run an exploration")
 
     # --- parameters ------------------------------------------------------------------
@@ -436,7 +419,7 @@ class SequencerNode(Node):
             self.get_logger().error(f"{message}\n{traceback.format_exc()}")
             self._stop_recording()
         finally:
-            self._restore_estimator()
+            self.estimator.restore()
             self._running, self._overrides, self._goal = None, {}, None
             self._phase = ""
             self.io.cancel.clear()
@@ -556,32 +539,6 @@ class SequencerNode(Node):
             over = (now_ns - self._phase_ns) * 1e-9 - phase.sim
             self._wall_seen[phase.phase] = max(over, 0.0) / self._measured_rate()
 
-    def _set_estimator(self, name: str, value: object) -> None:
-        """Set the estimator's parameter ``name`` for this run (restored after it)."""
-        answer = self._call(
-            self._estimator_params, GetParameters.Request(names=[name]), f"reading {name}"
-        )
-        previous = Parameter.from_parameter_msg(ParameterMsg(name=name, value=answer.values[0]))
-        self._restore.setdefault(name, previous.value)
-        request = SetParameters.Request(
-            parameters=[Parameter(name, value=value).to_parameter_msg()]
-        )
-        answer = self._call(self._estimator_set_params, request, f"setting the estimator's {name}")
-        if not answer.results[0].successful:
-            raise RunError(f"the estimator refused {name}={value!r}: {answer.results[0].reason}")
-
-    def _restore_estimator(self) -> None:
-        """The estimator's parameters as they were before the run's options."""
-        for name, value in self._restore.items():
-            request = SetParameters.Request(
-                parameters=[Parameter(name, value=value).to_parameter_msg()]
-            )
-            try:
-                self._call(self._estimator_set_params, request, f"restoring {name}")
-            except RunError as exc:
-                self.get_logger().error(f"the estimator's {name} not restored: {exc}")
-        self._restore.clear()
-
     def _enter(self, phase: str, line: str) -> None:
         """Log the phase's line; the feedback names it, and counts the time left from its
         start: its plan and every later phase's."""
@@ -627,8 +584,8 @@ class SequencerNode(Node):
         self.io.arm_joints = frozenset(config.arm_joints)  # their messages: the arm answers
         self._handshake()
         if information := self._overrides.get("information"):  # before the reset: the
-            self._set_estimator("information", information)  # estimator reads it there
-        self._call(self._estimator_reset, Trigger.Request(), "resetting the estimator")
+            self.estimator.set("information", information)  # the estimator reads it there
+        self.estimator.reset()
         self.io.diagnostics.clear()  # only this run's answers from here on
         home, pick = list(config.home_joints), list(config.pick_joints)
         names = [
@@ -639,14 +596,12 @@ class SequencerNode(Node):
             "accuracy",
             "full_scale",
         ]
-        request = GetParameters.Request(names=names)
-        answer = self._call(self._estimator_params, request, "reading the estimator's settings")
-        method, information, estimator_cache = (value.string_value for value in answer.values[:3])
+        values = self.estimator.settings(names)
+        method, information, estimator_cache = (values[n] for n in names[:3])
         if self.p("excitation") == MOTION:
             return self._explore_in_motion(run_id, motion, information, estimator_cache)
-        drift_rate = tuple(answer.values[3].double_array_value)
-        accuracy, full_scale = answer.values[4].double_value, answer.values[5].double_array_value
-        calibration = estimator_calibration(accuracy, full_scale)
+        drift_rate = tuple(values["bias_drift_rate"])
+        calibration = estimator_calibration(values["accuracy"], values["full_scale"])
         settings = self.settings()
         noise, source = self.planning_noise(settings)
         plan, poses, prediction = self._planned(
@@ -741,11 +696,7 @@ class SequencerNode(Node):
         self._start_ns, self._planned_s = self.io.now_ns(), planned_s
         write_robot_config(self.config, bag / BAG_ROBOT_FILE)  # the replay's frames
         names = [name for name in SETTINGS if name not in NOT_IN_BAG_SETTINGS]
-        answer = self._call(self._estimator_params, GetParameters.Request(names=names),
-                            "reading the estimator's settings")  # fmt: skip
-        values = {
-            n: parameter_value_to_python(v) for n, v in zip(names, answer.values, strict=True)
-        }
+        values = self.estimator.settings(names)
         write_bag_settings(values, bag / BAG_SETTINGS_FILE)  # the replay's defaults
         return bag
 
@@ -758,7 +709,7 @@ class SequencerNode(Node):
             status is not None
             and {kv.key: kv.value for kv in status.values}.get("payload") == "True"
         ):
-            self._save_payload(bag)  # this run's estimate is the estimator's payload now
+            self.estimator.save_payload(bag)  # this run's estimate is its payload now
         counts = self._stop_recording()
         run = self._read_run(bag)
         summary = _summary(status, plan_line, bag, run.incomplete if run else [])
@@ -1133,24 +1084,6 @@ class SequencerNode(Node):
             wall_timeout=self.p("estimate_timeout"),
         )
 
-    def _call(self, client, request, what: str):
-        """The answer of a service; RunError if it is not there within ``sim_timeout`` s,
-        or does not answer three tries of 3 s (a request sent before the service matched
-        is lost)."""
-        if not client.wait_for_service(timeout_sec=self.p("sim_timeout")):
-            raise RunError(f"{client.srv_name} is not available ({what})")
-        for attempt in range(1, 4):
-            future = client.call_async(request)
-            try:
-                self.io.wait(future.done, what, wall_timeout=3.0)
-                break
-            except TimeoutRunError:
-                client.remove_pending_request(future)
-                if attempt == 3:
-                    raise
-                self.get_logger().warning(f"{client.srv_name} did not answer; asking again")
-        return future.result()
-
     def _estimator_answer(self, done_ns: int):
         """The estimator's diagnostics status for this run's 'done', or None."""
 
@@ -1165,22 +1098,6 @@ class SequencerNode(Node):
             self.get_logger().error(f"no estimate: {exc}")
             return None
         return answered()
-
-    def _save_payload(self, bag: Path) -> None:
-        """The estimator's payload files beside the bag (its ~/save_payload, to the bag's
-        directory); a failure is logged, the run goes on."""
-        directory = Parameter("payload_save_dir", Parameter.Type.STRING, str(bag))
-        request = SetParameters.Request(parameters=[directory.to_parameter_msg()])
-        try:
-            self._call(self._estimator_set_params, request, "setting payload_save_dir")
-            answer = self._call(self._estimator_save, Trigger.Request(), "saving the payload")
-        except RunError as exc:
-            self.get_logger().error(f"payload files not written: {exc}")
-            return
-        if answer.success:
-            self.get_logger().info(f"payload files: {answer.message}")
-        else:
-            self.get_logger().error(f"payload files not written: {answer.message}")
 
     def _stop_recording(self) -> dict[str, int]:
         """Close the bag; messages written per topic ({} when none or the recording
