@@ -249,6 +249,7 @@ class SequencerNode(Node):
         self._goal = None  # the running goal's handle
         self._phase = ""
         self._start_ns, self._planned_s = 0, math.inf  # the run's start (sim ns), plan (s)
+        self._goal_ns = 0  # sim ns: when the run began to plan (its progress counts from it)
         self._recording_failed = False  # the recorder's failure was raised once
         self._recording_ns = 0  # sim time (ns) at which the run's recording started
         self._phases: tuple[PhaseTime, ...] = ()  # the run's phases as planned
@@ -474,7 +475,8 @@ class SequencerNode(Node):
             if goal.is_cancel_requested and self._phase != "cancelling":
                 self.io.cancel.set()
         now = self.io.now_ns()
-        elapsed = (now - self._start_ns) * 1e-9 if self._start_ns else 0.0
+        # from the run's start, once it has a plan: the planning's own time is done time
+        elapsed = (now - self._goal_ns) * 1e-9 if self._start_ns else 0.0
         feedback = feedback_of(self._phase or "starting", elapsed, self._left(now), self.io.live)
         if elapsed > 0:  # never back, though a tare check that fails plans a tare pass
             feedback.progress = self._progress = max(feedback.progress, self._progress)
@@ -566,6 +568,7 @@ class SequencerNode(Node):
         self._grippers["action"].timeout = self.p("gripper_timeout")
         self.io.wait(lambda: self.io.joints, "waiting for the joint states", wall_timeout=None)
         self._clock_mark = (time.monotonic(), self.io.now_ns())  # the sim's rate from here
+        self._goal_ns = self._clock_mark[1]  # the progress counts the run's time from here
         self._phases, self._current, self._progress = (), -1, 0.0
         config, motion = self.config, self._choreography()
         self.arm.motion = motion
