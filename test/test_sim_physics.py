@@ -63,13 +63,17 @@ ACROSS_FINGERS = ("home", "j6+0.5", "j6-0.5")
 XARM = read_robot_config("xarm6")
 
 
-def xarm_tilted(joint: int, angle: float, turn: float = 0.0) -> list[float]:
-    """The xArm6's home joints with joint 6 turned by ``turn`` and ``joint`` (0-based) moved
-    by ``angle``."""
-    q = np.array(XARM.home_joints)
+def tilted(robot, joint: int, angle: float, turn: float = 0.0) -> list[float]:
+    """``robot``'s home joints with its sixth joint turned by ``turn`` and ``joint``
+    (0-based) moved by ``angle``."""
+    q = np.array(robot.home_joints)
     q[5] += turn
     q[joint] += angle
     return q.tolist()
+
+
+def xarm_tilted(joint: int, angle: float, turn: float = 0.0) -> list[float]:
+    return tilted(XARM, joint, angle, turn)
 
 
 # xArm6: gravity along sensor z at home; joint 5 tilts about sensor y, joint 4 about an axis
@@ -915,12 +919,7 @@ UR5E_GRIPPER_LINKS = [
 
 
 def ur5e_tilted(joint: int, angle: float, turn: float = 0.0) -> list[float]:
-    """The UR5e's home joints with wrist 3 turned by ``turn`` and ``joint`` (0-based) moved
-    by ``angle``."""
-    q = np.array(UR5E.home_joints)
-    q[5] += turn
-    q[joint] += angle
-    return q.tolist()
+    return tilted(UR5E, joint, angle, turn)  # wrist 3 turned
 
 
 # UR5e: gravity along sensor z at home; wrist 2 and wrist 1 tilt about axes in the sensor's

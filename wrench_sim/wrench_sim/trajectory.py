@@ -204,8 +204,7 @@ def trajectory_from_command(
     times = np.asarray(times, dtype=np.float64)
     if times.ndim != 1 or times.size == 0:
         raise ValueError("the trajectory has no points")
-    commanded = _rows("positions", positions, times.size, len(names))
-    assert commanded is not None
+    commanded = _positions(positions, times.size, len(names))
     if not (np.all(np.isfinite(times)) and np.all(np.isfinite(commanded))):
         raise ValueError("NaN or inf in times or positions")
     if times[0] < 0.0 or np.any(np.diff(times) <= 0.0):
@@ -264,14 +263,14 @@ def trajectory_from_command(
     return trajectory
 
 
-def _rows(name: str, rows: ArrayLike | None, k: int, m: int) -> NDArray[np.float64] | None:
-    """``rows`` as shape (k, m); ValueError naming ``name`` when the shape differs."""
-    rows = [np.asarray(row, dtype=np.float64) for row in rows]  # type: ignore[union-attr]
+def _positions(positions: ArrayLike, k: int, m: int) -> NDArray[np.float64]:
+    """``positions`` as shape (k, m); ValueError when the shape differs."""
+    rows = [np.asarray(row, dtype=np.float64) for row in positions]  # type: ignore[union-attr]
     if len(rows) != k:
-        raise ValueError(f"{k} times but {len(rows)} rows of {name}")
+        raise ValueError(f"{k} times but {len(rows)} rows of positions")
     for i, row in enumerate(rows):
         if row.shape != (m,):
-            raise ValueError(f"point {i} has {row.size} {name} for {m} joint names")
+            raise ValueError(f"point {i} has {row.size} positions for {m} joint names")
     return np.array(rows)
 
 
