@@ -100,7 +100,6 @@ from com_core.estimation.hand_motion import (
 from com_core.estimation.motion_solution import MOTION
 from com_core.estimation.settings import (
     BAG_SETTINGS_FILE,
-    NOT_IN_BAG_SETTINGS,
     SETTINGS,
     write_bag_settings,
 )
@@ -591,18 +590,11 @@ class SequencerNode(Node):
         self.estimator.reset()
         self.io.diagnostics.clear()  # only this run's answers from here on
         home, pick = list(config.home_joints), list(config.pick_joints)
-        names = [
-            "method",
-            "information",
-            "tare_cache",
-            "bias_drift_rate",
-            "accuracy",
-            "full_scale",
-        ]
-        values = self.estimator.settings(names)
-        method, information, estimator_cache = (values[n] for n in names[:3])
+        # the estimator's settings, once: the run's plan, and the bag's copy for the replay
+        values = self.estimator.settings([n for n in SETTINGS if n != "robot_description"])
+        method, information = values["method"], values["information"]
         if self.p("excitation") == MOTION:
-            return self._explore_in_motion(run_id, motion, information, estimator_cache)
+            return self._explore_in_motion(run_id, motion, values)
         drift_rate = tuple(values["bias_drift_rate"])
         calibration = estimator_calibration(values["accuracy"], values["full_scale"])
         settings = self.settings()
@@ -621,10 +613,10 @@ class SequencerNode(Node):
             moves += [(VERIFY_POSE, verify)] if verify else []
             return True, self._preview(run_id, moves)
         phases = self._static_phases(plan, motion, information != WRENCHES, False)
-        bag = self._start_bag(run_id, self._plan_phases(phases))
+        bag = self._start_bag(run_id, self._plan_phases(phases), values)
         self._to_known_state(home, pick)
         self.arm.gripper(close=False)
-        tare_home = self._tare(plan, motion, bag, estimator_cache, information != WRENCHES)
+        tare_home = self._tare(plan, motion, bag, values["tare_cache"], information != WRENCHES)
         self._enter(GRASP, "phase 2/4: grasp and lift")
         self.arm.move(home, "home")
         self.arm.move(pick, "the object")
@@ -685,9 +677,10 @@ class SequencerNode(Node):
         self._phase_ended(self.io.now_ns())
         return outcome
 
-    def _start_bag(self, run_id: str, planned_s: float) -> Path:
+    def _start_bag(self, run_id: str, planned_s: float, settings: dict[str, object]) -> Path:
         """Start recording the run to <bag_dir>/<run_id> (with the robot configuration the
-        replay takes its frames from) and its progress, ``planned_s`` s (sim) long."""
+        replay takes its frames from and the estimator's ``settings``, its defaults) and
+        its progress, ``planned_s`` s (sim) long."""
         bag = Path(self.p("bag_dir")).resolve() / run_id
         if why := bag_room_refusal(bag.parent, planned_s):
             raise RunError(why)  # before anything moves
@@ -698,9 +691,7 @@ class SequencerNode(Node):
         self._bag = bag
         self._start_ns, self._planned_s = self.io.now_ns(), planned_s
         write_robot_config(self.config, bag / BAG_ROBOT_FILE)  # the replay's frames
-        names = [name for name in SETTINGS if name not in NOT_IN_BAG_SETTINGS]
-        values = self.estimator.settings(names)
-        write_bag_settings(values, bag / BAG_SETTINGS_FILE)  # the replay's defaults
+        write_bag_settings(settings, bag / BAG_SETTINGS_FILE)  # the replay's defaults
         return bag
 
     def _finish(self, run_id: str, end: int, plan_line: str, bag: Path) -> tuple[bool, str]:
@@ -727,15 +718,15 @@ class SequencerNode(Node):
     # --- an exploration in motion -------------------------------------------------------
 
     def _explore_in_motion(
-        self, run_id: str, motion: Choreography, information: str, estimator_cache: str
+        self, run_id: str, motion: Choreography, settings: dict[str, object]
     ) -> tuple[bool, str]:
         """An exploration in motion (docs/design.md, Identification in motion): the empty
         hand at rest at home (the sensor's noise and bias) and along the excitation (not
         when the hand's motion fit of an earlier run serves, ``_cached_hand``), the grasp,
         the object along the excitation, then along another motion no fit uses, and the
         return. RunError before anything moves when the estimator's information has no
-        kinematics."""
-        if information == WRENCHES:
+        kinematics. ``settings``: the estimator's."""
+        if settings["information"] == WRENCHES:
             raise RunError(
                 "excitation 'motion' needs the estimator's information 'kinematics' or "
                 "'kinematics+mount' (it has 'wrenches'): the fit takes the wrist's motion "
@@ -752,7 +743,7 @@ class SequencerNode(Node):
                 moves += [(f"{name} lowest", list(q.min(axis=0))),
                           (f"{name} highest", list(q.max(axis=0)))]  # fmt: skip
             return True, self._preview(run_id, moves)
-        hand = self._cached_hand(motion, excitation, estimator_cache)
+        hand = self._cached_hand(motion, excitation, settings["tare_cache"])
         phases = motion_run_phases(
             motion=motion,
             speed=self.arm.speed,
@@ -768,7 +759,7 @@ class SequencerNode(Node):
             release=self.p("release"),
             wall=self._wall_seen,
         )
-        bag = self._start_bag(run_id, self._plan_phases(phases))
+        bag = self._start_bag(run_id, self._plan_phases(phases), settings)
         if hand is not None:
             save_hand_motion(bag / HAND_MOTION_FILE, hand)  # the replay's
         self._to_known_state(home, pick)
