@@ -22,6 +22,7 @@ one quintic (a 0.5 rad/s tilt stays below ~0.7 N).
 
 from __future__ import annotations
 
+import bisect
 import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -60,33 +61,55 @@ def interpolate(
     ``b`` reached ``duration`` s after it: linear, cubic or quintic by what both points
     carry (the controller's ``interpolate_between_points``); ``s`` outside [0, duration]
     clamps to an end, linearly."""
+    if s < 0.0 or s > duration:
+        return _evaluate(_coefficients(a, b, duration, linear=True), min(max(s, 0.0), duration))
+    return _evaluate(_coefficients(a, b, duration), s)
+
+
+def _coefficients(a: State, b: State, T: float, linear: bool = False) -> NDArray[np.float64]:
+    """The polynomial from point ``a`` to point ``b`` over ``T`` s, shape (m, n): row i
+    multiplies s^i; linear (m = 2), cubic (4) or quintic (6) by what both points carry, or
+    linear if ``linear``."""
     p0, v0, a0 = a
     p1, v1, a1 = b
-    has_velocity = v0 is not None and v1 is not None
+    has_velocity = not linear and v0 is not None and v1 is not None
     has_acceleration = has_velocity and a0 is not None and a1 is not None
-    if s < 0.0 or s > duration:
-        s = min(max(s, 0.0), duration)
-        has_velocity = has_acceleration = False
-    T = duration
     if not has_velocity:
         slope = (p1 - p0) / T if T > 0.0 else np.zeros_like(p0)
-        return p0 + slope * s, slope, np.zeros_like(p0)
+        return np.array([p0, slope], dtype=np.float64)
     if not has_acceleration:
-        c = [p0, v0, (3 * (p1 - p0) - (2 * v0 + v1) * T) / T**2,
-             (2 * (p0 - p1) + (v0 + v1) * T) / T**3]  # fmt: skip
-    else:
-        c = [
+        return np.array(
+            [p0, v0, (3 * (p1 - p0) - (2 * v0 + v1) * T) / T**2,
+             (2 * (p0 - p1) + (v0 + v1) * T) / T**3],
+            dtype=np.float64,
+        )  # fmt: skip
+    return np.array(
+        [
             p0,
             v0,
             0.5 * a0,
             (20 * (p1 - p0) - (12 * v0 + 8 * v1) * T - (3 * a0 - a1) * T**2) / (2 * T**3),
             (30 * (p0 - p1) + (16 * v0 + 14 * v1) * T + (3 * a0 - 2 * a1) * T**2) / (2 * T**4),
             (12 * (p1 - p0) - 6 * (v0 + v1) * T - (a0 - a1) * T**2) / (2 * T**5),
-        ]
-    k = np.arange(len(c))
-    position = sum(c[i] * s**i for i in k)
-    velocity = sum(i * c[i] * s ** (i - 1) for i in k[1:])
-    acceleration = sum(i * (i - 1) * c[i] * s ** (i - 2) for i in k[2:])
+        ],
+        dtype=np.float64,
+    )
+
+
+def _evaluate(
+    c: NDArray[np.float64], s: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Position, velocity and acceleration at ``s`` of the polynomial of ``_coefficients``:
+    one product of the powers of ``s`` and their derivatives (3, m) with ``c``."""
+    m = len(c)
+    powers = [1.0, s]
+    for _ in range(m - 2):
+        powers.append(powers[-1] * s)
+    rows = np.zeros((3, m))
+    rows[0] = powers
+    rows[1, 1:] = [i * powers[i - 1] for i in range(1, m)]
+    rows[2, 2:] = [i * (i - 1) * powers[i - 2] for i in range(2, m)]
+    position, velocity, acceleration = rows @ c
     return position, velocity, acceleration
 
 
@@ -112,6 +135,8 @@ class SplineTrajectory:
         self._knots = start_time + np.asarray(times, dtype=np.float64)
         self._points = list(points)
         self._final = np.asarray(points[-1][0], dtype=np.float64)
+        self._knot_list = self._knots.tolist()
+        self._segments: dict[int, NDArray[np.float64]] = {}
 
     @property
     def arrival_time(self) -> float:
@@ -136,12 +161,22 @@ class SplineTrajectory:
         if t >= self._knots[-1]:
             zero = np.zeros_like(self._final)
             return self._final.copy(), zero, zero.copy()
-        if t < self._knots[0]:
-            duration = self._knots[0] - self._arrival_time
-            return interpolate(self._arrival, self._points[0], duration, t - self._arrival_time)
-        i = int(np.searchsorted(self._knots, t, side="right")) - 1
-        duration = self._knots[i + 1] - self._knots[i]
-        return interpolate(self._points[i], self._points[i + 1], duration, t - self._knots[i])
+        knots = self._knot_list
+        if t < knots[0]:  # segment -1: from the state at arrival to the first point
+            i, start = -1, self._arrival_time
+        else:
+            i = bisect.bisect_right(knots, t) - 1
+            start = knots[i]
+        duration = knots[i + 1] - start
+        s = t - start
+        if s < 0.0 or s > duration:
+            start_point = self._arrival if i < 0 else self._points[i]
+            return interpolate(start_point, self._points[i + 1], duration, s)
+        c = self._segments.get(i)
+        if c is None:  # each segment's polynomial once, on its first sample
+            start_point = self._arrival if i < 0 else self._points[i]
+            c = self._segments[i] = _coefficients(start_point, self._points[i + 1], duration)
+        return _evaluate(c, s)
 
     def peak_speed(self) -> NDArray[np.float64]:
         """Largest |velocity| of each joint from arrival to the end, rad/s, shape (n,)."""
