@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
@@ -93,6 +93,11 @@ class Choreography:
     pivot: NDArray[np.float64]
     others: dict[str, float]
     """The model's joints that do not move (the gripper's, at open): their positions."""
+    _turns: dict[tuple[tuple[float, ...], float], tuple[tuple[float, ...] | None, str]] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
+    """``turned``'s answers by (axis, tilt): a plan's poses are solved once (planning
+    reaches the tare pass's poses, then times the pass's same poses)."""
 
     @classmethod
     def of(cls, config: RobotConfig, urdf: str) -> Choreography:
@@ -122,17 +127,20 @@ class Choreography:
     def turned(self, axis: Sequence[float], tilt: float) -> tuple[list[float] | None, str]:
         """(arm joints, rad, that turn the sensor by ``tilt`` rad about ``axis`` (its home
         axes) about the grasp centre, or None; the reason when None)."""
-        result = solve_pose(
-            self.robot,
-            self.home_positions(),
-            rotation_about(np.asarray(axis, dtype=np.float64), tilt),
-            self.pivot,
-            joints=self.arm_joints,
-            max_position_error=MAX_PIVOT_SHIFT,
-        )
-        if not result.reachable:
-            return None, result.reason
-        return [result.joints[name] for name in self.arm_joints], ""
+        key = (tuple(float(a) for a in axis), float(tilt))
+        if key not in self._turns:
+            result = solve_pose(
+                self.robot,
+                self.home_positions(),
+                rotation_about(np.asarray(key[0]), key[1]),
+                self.pivot,
+                joints=self.arm_joints,
+                max_position_error=MAX_PIVOT_SHIFT,
+            )
+            joints = tuple(result.joints[name] for name in self.arm_joints)
+            self._turns[key] = (joints, "") if result.reachable else (None, result.reason)
+        joints, reason = self._turns[key]
+        return (None if joints is None else list(joints)), reason
 
     def pose_joints(self, plan: TiltPlan) -> list[tuple[str, list[float]]]:
         """(pose name, arm joints in rad) for every pose of ``plan``, home first, in the
