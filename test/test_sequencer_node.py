@@ -379,26 +379,6 @@ def test_a_run_after_a_sequencer_killed_mid_run_starts_clean(start_node, client,
     assert abs(mass - 0.5) < 0.005 * 0.5
 
 
-def test_a_grasp_that_holds_nothing_fails_before_the_object_pass(start_node, client, tmp_path):
-    """Fingers closed on air (pick_joints at home): the sequencer weighs the grasp after
-    lifting and says so, rather than an estimator's hint about the tare. The tilt asked
-    for (1.5 rad) is beyond the Panda's reach about y: refused before moving, with the
-    largest it reaches (1.132 rad, joint 6 at its limit), and the plan takes that."""
-    tilt = {"tilt": 1.5, "max_tilt": 1.5, "pick_joints": list(PANDA.home_joints)}
-    start_system(start_node, tmp_path, {"object": "box"}, tilt)
-    result = client.wait(client.call())
-    assert not result.success and "grasp failed" in result.message, result.message
-    assert "the object was not picked up" in result.message
-    assert not any(label.startswith("object/") for label in client.labels)
-    log = next(tmp_path.glob("sequencer_node-*.log")).read_text()
-    assert re.search(
-        r"refused before moving: pose tilt_y\+ at 1.500 rad is out of reach \(joint limit: "
-        r"panda_joint6 at its upper limit .*the largest tilt the arm reaches there is 1.13",
-        log,
-    ), log
-    assert "plan changed: tilt 1.500 -> 1.13" in log
-
-
 def test_a_configuration_the_urdf_does_not_serve_is_an_error_that_names_it(
     start_node, client, tmp_path
 ):
@@ -701,25 +681,6 @@ def test_the_compensated_stream_shows_a_push_without_gravity_and_payload_files_l
     both = [s for s in during if s in raw]  # this subscriber may miss a best-effort sample
     gravity = mean(both, raw) - mean(both, compensated)
     assert np.linalg.norm(gravity[:3]) > 5.0  # the hand and the object, some 1.1 kg
-
-
-def test_an_arm_left_away_from_home_with_open_fingers_goes_home_first(
-    start_node, client, tmp_path
-):
-    """The arm left elsewhere by someone else (fingers open, nothing held): the run logs
-    that it moves the arm home first, and then explores as usual."""
-    start_system(start_node, tmp_path, {"seed": 6})
-    node = client.node
-    joints = joint_positions(node)
-    assert spin_until(node, lambda: all(j in joints for j in PANDA.arm_joints), 30.0)
-    goal = [joints[j] for j in PANDA.arm_joints]
-    goal[0] += 0.3
-    goal[5] -= 0.3
-    move_arm(node, joints, goal, seconds=1)
-    result = client.wait(client.call())
-    assert result.success and result.message.startswith("[OK]"), result.message
-    log = next(tmp_path.glob("sequencer_node-*.log")).read_text()
-    assert "the arm is away from home: moving it home before the run" in log, log
 
 
 def test_the_three_nodes_with_their_defaults_give_an_estimate(start_node, client, tmp_path):

@@ -1,6 +1,8 @@
-"""The estimator as the sequencer's run uses it, over its services: its settings read, a
-run's options set on it and restored after, a reset, the payload files saved. Each call is
-retried three times and fails as a RunError that names the service."""
+"""The estimator's port (``com_core.sequencing.ports.EstimatorPort``) over ROS: its
+settings read, a run's options set on it and restored after, a reset, the payload files
+saved (its services; each call is retried three times and fails as a RunError that names
+the service), and what it has heard and answered (its diagnostics, which the I/O node
+hears)."""
 
 from __future__ import annotations
 
@@ -20,25 +22,28 @@ from com_core.contract import (
     ESTIMATOR_RESET_SERVICE,
     ESTIMATOR_SAVE_PAYLOAD_SERVICE,
     ESTIMATOR_SET_PARAMETERS_SERVICE,
+    status_of,
 )
 from com_core.sequencing.errors import RunError, TimeoutRunError
-from com_core.sequencing.ports import RunClock
+from com_core.sequencing.ports import EstimatorAnswer
+from exploration_sequencer.io_node import IoNode
 
 CALL_TRIES, CALL_TIMEOUT = 3, 3.0  # s (wall) each: a request sent before the service matched
 
 
 class EstimatorLink:
-    """The estimator's services for ``node`` (in ``group``), waited for on ``clock``;
-    ``service_timeout()`` is how long (s, wall) a service may take to appear."""
+    """The estimator's services for ``node`` (in ``group``), waited for on ``io``, and its
+    diagnostics as ``io`` hears them; ``service_timeout()`` is how long (s, wall) a
+    service may take to appear."""
 
     def __init__(
         self,
         node: Node,
-        clock: RunClock,
+        io: IoNode,
         group: CallbackGroup,
         service_timeout: Callable[[], float],
     ) -> None:
-        self._log, self._clock, self._timeout = node.get_logger(), clock, service_timeout
+        self._log, self._io, self._timeout = node.get_logger(), io, service_timeout
         self._reset = node.create_client(Trigger, ESTIMATOR_RESET_SERVICE, callback_group=group)
         self._get = node.create_client(
             GetParameters, ESTIMATOR_PARAMETERS_SERVICE, callback_group=group
@@ -59,7 +64,7 @@ class EstimatorLink:
         for attempt in range(1, CALL_TRIES + 1):
             future = client.call_async(request)
             try:
-                self._clock.wait(future.done, what, wall_timeout=CALL_TIMEOUT)
+                self._io.wait(future.done, what, wall_timeout=CALL_TIMEOUT)
                 break
             except TimeoutRunError:
                 client.remove_pending_request(future)
@@ -120,3 +125,17 @@ class EstimatorLink:
             self._log.info(f"payload files: {answer.message}")
         else:
             self._log.error(f"payload files not written: {answer.message}")
+
+    def heard(self) -> tuple[int, int]:
+        return self._io.estimator_latest, self._io.estimator_label
+
+    def clear_answers(self) -> None:
+        self._io.diagnostics.clear()
+
+    def answer(self, done_ns: int) -> EstimatorAnswer | None:
+        status = next((s for stamp, s in self._io.diagnostics if stamp == done_ns), None)
+        if status is None:
+            return None
+        values = {kv.key: kv.value for kv in status.values}
+        return EstimatorAnswer(status_of(status.level), status.message, values,
+                               status.hardware_id)  # fmt: skip

@@ -53,6 +53,7 @@ __all__ = [
     "OK",
     "POSE_TOPIC",
     "ROBOT_DESCRIPTION_TOPIC",
+    "RUN_CANCELLED",
     "SIM_PARAMETERS_SERVICE",
     "STATIC_PREFIXES",
     "TARE_PREFIX",
@@ -228,6 +229,9 @@ LATEST_LABEL_KEY = "latest_label_ns"
 """Input status key: the stamp of the latest label it heard, ns (absent before one)."""
 
 OK, WARN, ERROR = "OK", "WARN", "ERROR"
+RUN_CANCELLED = "CANCELLED"
+"""The status of a cancelled exploration run (the Explore action's result), beside the
+estimator's three."""
 _LEVELS = {OK: 0, WARN: 1, ERROR: 2}
 _STATUSES = {0: OK, 1: WARN, 2: ERROR, 3: "STALE"}
 

@@ -1,0 +1,229 @@
+"""com_core.sequencing.run (no ROS): whole explorations over fake ports (``fake_robot``),
+in a second each: the choreography, the way back after a cancel, a failed grasp and a full
+disk, the tare's reuse, and the progress's plan against the run's own time."""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import re
+from pathlib import Path
+
+import pytest
+from conftest import PANDA
+from fake_robot import HOME, PICK, FakeWorld
+
+from com_core.contract import (
+    CANCELLED,
+    DONE,
+    ERROR,
+    INTERNAL_ERROR,
+    MOVING,
+    OBJECT_PREFIX,
+    OK,
+    RUN_CANCELLED,
+    TARE_PREFIX,
+    VERIFY_PREFIX,
+    WINDOW_PREFIXES,
+)
+from com_core.estimation.settings import BAG_SETTINGS_FILE
+from com_core.estimation.tare_cache import BAG_TARE_FILE
+from com_core.planning.decisions import BIAS_AFTER_SUFFIX, BIAS_WINDOW_SUFFIX
+from com_core.planning.run_time import ESTIMATE, WALL
+from com_core.robot.choreography import VERIFY_POSE
+from com_core.robot.config import BAG_ROBOT_FILE, RobotConfig
+from com_core.sequencing.run import ExplorationRun, RunPorts
+from exploration_sequencer.parameters import PARAMETERS
+
+
+def make_run(
+    world: FakeWorld, tmp_path: Path, run_id: str = "run-1", config: RobotConfig = PANDA,
+    **options: object,
+) -> ExplorationRun:  # fmt: skip
+    """A run of the sequencer's defaults with ``options`` over them, on ``world`` with the
+    robot configuration ``config``; the estimator reads the run's tare cache."""
+    params = config.parameters() | {name: row.default for name, row in PARAMETERS.items()}
+    params |= {"bag_dir": str(tmp_path / "bags"), "tare_cache": str(tmp_path / "tare.json")}
+    params |= options
+    world.settings_values["tare_cache"] = params["tare_cache"]
+    every = dict.fromkeys(("clock", "feed", "arm", "gripper", "labels", "recorder", "estimator",
+                           "log"), world)  # fmt: skip
+    ports = RunPorts(robot=lambda: world.motion, **every)
+    wall = dict.fromkeys(WALL, 0.0)  # no own work: the fake's time is all sim time
+    return ExplorationRun(run_id, config, ports, params.__getitem__, wall, itertools.count(1))
+
+
+def windows(world: FakeWorld) -> list[tuple[int, int, str]]:
+    """(start ns, end ns, label) of every window: a window label to the next label."""
+    labels = world.labels
+    return [(s, e, label) for (s, label), (e, _) in itertools.pairwise(labels)
+            if label.startswith(WINDOW_PREFIXES)]  # fmt: skip
+
+
+def goals(world: FakeWorld) -> list[list[float]]:
+    return [list(path.points[-1][1]) for _, path in world.sent("send")]
+
+
+def test_a_default_run_labels_each_window_after_the_arm_rests_and_sends_no_move_inside_one(
+    tmp_path,
+):
+    world = FakeWorld()
+    outcome = make_run(world, tmp_path).execute()
+    assert outcome.status == OK, outcome.message
+    assert outcome.answer is not None and outcome.answer.frame == "ft_sensor"
+    names = [label for _, label in world.labels]
+    assert names[0] == MOVING  # the handshake, before the estimator is reset
+    assert names[-2:] == [DONE, MOVING]
+    shown = [label for _, _, label in windows(world)]
+    tare = [f"{TARE_PREFIX}home", f"{TARE_PREFIX}tilt_y+", f"{TARE_PREFIX}tilt_y-",
+            f"{TARE_PREFIX}tilt_x-", f"{TARE_PREFIX}tilt_x+"]  # fmt: skip
+    objects = [OBJECT_PREFIX + name.removeprefix(TARE_PREFIX) for name in tare]
+    assert shown == [*tare, *objects, VERIFY_PREFIX + VERIFY_POSE,
+                     f"{TARE_PREFIX}home{BIAS_AFTER_SUFFIX}"]  # fmt: skip
+    for (start, end, label), dwell in zip(windows(world), [5.0] * 5 + [0.9] * 5 + [2.0, 3.0],
+                                          strict=True):  # fmt: skip
+        assert end - start == round(dwell * 1e9), label
+        sent = [t for t, _ in world.sent("send") if start <= t < end]
+        assert not sent, f"a move sent at {sent[0]} inside {label} [{start}, {end})"
+    # every move two points at rest or the goal alone; the last puts the object back
+    assert all(len(path.points) in (1, 2) for _, path in world.sent("send"))
+    assert goals(world)[-3:] == [HOME, PICK, HOME]
+    fingers = [value[0] for _, value in world.sent("gripper")]
+    assert fingers == [PANDA.gripper_open, PANDA.gripper_closed, PANDA.gripper_open]
+    calls = [kind for kind, _ in world.estimator_calls]
+    assert calls[:2] == ["reset", "clear_answers"] and calls[-1] == "restore"
+    assert not world.recording and not world.held
+    bag = outcome.bag
+    assert (bag / BAG_ROBOT_FILE).is_file() and (bag / BAG_SETTINGS_FILE).is_file()
+    assert f"bag {bag}" in outcome.message and "[OK] mass 0.400 kg" in outcome.message
+    assert any("grasp holds 400." in m for _, m in world.sent("info"))
+
+
+@pytest.mark.parametrize("holding", [False, True])
+def test_a_run_starts_from_the_empty_hand_at_home(tmp_path, holding):
+    """The arm left elsewhere (fingers open): it goes home first. Fingers closed on the
+    object (a run that stopped mid-way): the object goes back on the stand first. Then the
+    run explores as usual."""
+    world = FakeWorld()
+    away = [q + d for q, d in zip(HOME, (0.3, 0, 0, 0, 0, -0.3, 0), strict=True)]
+    world.joints |= {n: (q, 0.0) for n, q in zip(PANDA.arm_joints, away, strict=True)}
+    if holding:
+        world.command(PANDA.gripper_closed, 20.0, "closing")
+        world.held = True
+    outcome = make_run(world, tmp_path).execute()
+    assert outcome.status == OK, outcome.message
+    said = "putting it back on the stand" if holding else "the arm is away from home"
+    assert said in world.warnings[0] and world.warnings[0].endswith("before the run")
+    first = [HOME, PICK, HOME] if holding else [HOME]
+    assert goals(world)[: len(first)] == first
+    fingers = [value[0] for _, value in world.sent("gripper")][holding:]  # the run's
+    assert fingers[: 1 + holding] == [PANDA.gripper_open] * (1 + holding)
+
+
+def test_a_cancel_drops_the_windows_puts_the_object_back_and_closes_the_bag(tmp_path):
+    world = FakeWorld()
+    run = make_run(world, tmp_path)
+    world.on_label = lambda label, w: run.cancel() if label == f"{OBJECT_PREFIX}tilt_y+" else None
+    outcome = run.execute()
+    assert outcome.status == RUN_CANCELLED
+    assert "cancelled while" in outcome.message and str(outcome.bag) in outcome.message
+    names = [label for _, label in world.labels]
+    assert DONE not in names
+    after = names[names.index(f"{OBJECT_PREFIX}tilt_y+") + 1 :]
+    assert after == [CANCELLED, MOVING]  # the window cut short, then dropped
+    assert goals(world)[-3:] == [HOME, PICK, HOME]  # put back, home
+    assert world.sent("gripper")[-1][1][0] == PANDA.gripper_open and not world.held
+    assert not world.recording and world.estimator_calls[-1][0] == "restore"
+    assert not world.cancel.is_set()  # the next run starts clean
+
+
+@pytest.mark.parametrize(
+    ("object_mass", "why"),
+    [
+        (None, "reached its closed goal: the fingers closed on nothing"),
+        (0.0, "after lifting the hand holds"),
+    ],
+)
+def test_a_grasp_that_holds_nothing_fails_before_the_object_pass_with_the_hand_empty(
+    tmp_path, object_mass, why
+):
+    world = FakeWorld(object_mass=object_mass)
+    outcome = make_run(world, tmp_path).execute()
+    assert outcome.status == ERROR and "grasp failed" in outcome.message
+    assert why in outcome.message
+    assert not any(label.startswith(OBJECT_PREFIX) for _, label in world.labels)
+    assert world.sent("gripper")[-1][1][0] == PANDA.gripper_open
+    assert goals(world)[-1] == HOME and not world.recording
+
+
+def test_a_tilt_beyond_reach_is_refused_before_moving_and_the_plan_takes_the_largest(tmp_path):
+    """Fingers closed on air (pick_joints at home) after a plan whose tilt (1.5 rad) is
+    beyond the Panda's reach about y: refused before moving, with the largest it reaches
+    (1.132 rad, joint 6 at its limit), and the plan takes that; the grasp then fails."""
+    world = FakeWorld()
+    config = dataclasses.replace(PANDA, pick_joints=PANDA.home_joints)
+    outcome = make_run(world, tmp_path, config=config, tilt=1.5, max_tilt=1.5).execute()
+    assert outcome.status == ERROR and "the object was not picked up" in outcome.message
+    refusal, change = world.warnings[:2]
+    assert re.match(
+        r"refused before moving: pose tilt_y\+ at 1.500 rad is out of reach \(joint limit: "
+        r"panda_joint6 at its upper limit .*the largest tilt the arm reaches there is 1.13",
+        refusal,
+    ), refusal
+    assert change.startswith("plan changed: tilt 1.500 -> 1.13"), change
+
+
+def test_a_second_run_checks_the_cached_tare_at_home_and_takes_no_tare_pass(tmp_path):
+    world = FakeWorld()
+    assert make_run(world, tmp_path).execute().status == OK
+    first = len(world.labels)
+    outcome = make_run(world, tmp_path, run_id="run-2").execute()
+    assert outcome.status == OK, outcome.message
+    second = [label for _, label in world.labels[first:]]
+    tares = [label for label in second if label.startswith(TARE_PREFIX)]
+    assert tares == [f"{TARE_PREFIX}home{BIAS_WINDOW_SUFFIX}",
+                     f"{TARE_PREFIX}home{BIAS_AFTER_SUFFIX}"]  # fmt: skip
+    assert any(m.startswith("tare: reusing the cache") for _, m in world.sent("info"))
+    assert (outcome.bag / BAG_TARE_FILE).is_file()  # the replay's tare
+
+
+def test_a_full_disk_ends_the_run_by_name_with_the_arm_home_and_the_bag_closed(tmp_path):
+    world = FakeWorld()
+    world.disk_full_after = 14  # in the object pass, the object in the hand
+    outcome = make_run(world, tmp_path).execute()
+    assert outcome.status == ERROR and "No space left on device" in outcome.message
+    assert "free" in outcome.message  # the room left where the bag is
+    assert world.labels[-1][1] == MOVING and DONE not in [label for _, label in world.labels]
+    assert goals(world)[-3:] == [HOME, PICK, HOME] and not world.held
+    assert not world.recording
+
+
+def test_a_defect_is_an_internal_error_by_number_and_the_run_ends_clean(tmp_path):
+    world = FakeWorld()
+    del world.settings_values["method"]
+    outcome = make_run(world, tmp_path).execute()
+    assert outcome.status == ERROR
+    assert f"{INTERNAL_ERROR} #1 KeyError('method')" in outcome.message
+    assert world.estimator_calls[-1][0] == "restore" and not world.recording
+
+
+@pytest.mark.parametrize("release", [True, False])
+def test_the_time_left_at_each_phase_start_is_what_the_run_then_takes(tmp_path, release):
+    """The phases' plan (``planning.run_time``) against the run's own sequence, a tare pass
+    and then a tare check, without the wall time of own work (none here): the time left
+    at each phase's start is the sim time the run then takes, to the fake's 1 ms steps."""
+    world = FakeWorld()
+    for run_id in ("tare-pass", "tare-check"):
+        run = make_run(world, tmp_path, run_id, release=release)
+        starts: list[tuple[str, int, float]] = []
+        enter = run.progress.enter
+
+        def entered(phase: str, run=run, enter=enter, starts=starts) -> None:
+            enter(phase)
+            starts.append((phase, world.t, run.progress.left(world.t)))
+
+        run.progress.enter = entered
+        assert run.execute().status == OK
+        assert [phase for phase, _, _ in starts][-1] == ESTIMATE
+        for phase, t, left in starts[:-1]:
+            assert left == pytest.approx((world.t - t) * 1e-9, abs=0.02), (run_id, phase)
