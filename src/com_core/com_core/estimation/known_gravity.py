@@ -172,6 +172,19 @@ def _design(gravity: NDArray[np.float64]) -> NDArray[np.float64]:
     return a
 
 
+def _designs(gravity: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(n, 6, 4): ``_design`` of each of n gravities (n, 3)."""
+    x, y, z = gravity.T
+    cross = np.zeros((len(gravity), 3, 3))  # skew(g) of each
+    cross[:, 0, 1], cross[:, 0, 2] = -z, y
+    cross[:, 1, 0], cross[:, 1, 2] = z, -x
+    cross[:, 2, 0], cross[:, 2, 1] = -y, x
+    a = np.zeros((len(gravity), 6, 4))
+    a[:, :3, 0] = gravity
+    a[:, 3:, 1:] = -cross
+    return a
+
+
 def _mass_com(
     theta: NDArray[np.float64], cov_theta: NDArray[np.float64]
 ) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
@@ -244,6 +257,10 @@ class _Model:
             float(np.mean([o.time for o in self.obs if o.epoch == e] or [0.0]))
             for e in range(self.epochs)
         ]
+        # ``linear_design``'s and ``gravities``' parts that the unknowns do not change
+        self._fixed_rows: NDArray[np.float64] | None = None
+        self._load_groups: list[tuple[slice, NDArray[np.intp]]] = []
+        self._rotations_t: NDArray[np.float64] | None = None
 
     def _whitening(self) -> NDArray[np.float64]:
         """(6n, 6n) W with W^T W the inverse of the windows' joint covariance: each
@@ -262,12 +279,19 @@ class _Model:
         """g_i (m/s^2, sensor frame) at the unknowns ``x`` for each R_base_sensor of
         ``rotations`` (default: the observations')."""
         if rotations is None:
-            rotations = [o.rotation for o in self.obs]
+            if self._rotations_t is None:  # the observations' R^T, stacked once
+                stack = [o.rotation for o in self.obs]
+                self._rotations_t = np.array(stack, dtype=np.float64).reshape(-1, 3, 3)
+                self._rotations_t = self._rotations_t.transpose(0, 2, 1)
+            rotations_t = self._rotations_t
+        else:
+            rotations_t = np.array(rotations, dtype=np.float64).reshape(-1, 3, 3)
+            rotations_t = rotations_t.transpose(0, 2, 1)
         if self.mount.stop == self.mount.start:
-            return [r.T @ self.gravity for r in rotations]
+            return list(rotations_t @ self.gravity)
         mount_t = _rotation(x[self.mount][:3]).T
         base = _rotation(x[self.mount][3:] @ self.tilt_axes) @ self.gravity
-        return [mount_t @ r.T @ base for r in rotations]
+        return list((mount_t @ rotations_t) @ base)
 
     def design_rows(
         self, g: NDArray[np.float64], epoch: int, time: float, load: bool, group: int = 0
@@ -288,15 +312,31 @@ class _Model:
         return rows
 
     def linear_design(self, gravities: list[NDArray[np.float64]]) -> NDArray[np.float64]:
-        """(6n, size): ``design_rows`` of every observation."""
-        if not self.obs:
+        """(6n, size): ``design_rows`` of every observation, built for all at once (the
+        bias and rate columns, which gravity does not enter, once per model)."""
+        n = len(self.obs)
+        if not n:
             return np.zeros((0, self.size))
-        return np.concatenate(
-            [
-                self.design_rows(g, o.epoch, o.time, o.load, o.group)
-                for o, g in zip(self.obs, gravities, strict=True)
+        if len(gravities) != n:
+            raise ValueError(f"{len(gravities)} gravities for {n} observations")
+        if self._fixed_rows is None:
+            fixed = np.zeros((n, 6, self.size))
+            for i, o in enumerate(self.obs):
+                fixed[i] = self.design_rows(np.zeros(3), o.epoch, o.time, False)
+            self._fixed_rows = fixed
+            loads = [i for i, o in enumerate(self.obs) if o.load]
+            groups = sorted({self.obs[i].group for i in loads})
+            self._load_groups = [
+                (self.moved[k], np.array([i for i in loads if self.obs[i].group == k]))
+                for k in groups
             ]
-        )
+        a = _designs(np.asarray(gravities, dtype=np.float64).reshape(n, 3))
+        rows = self._fixed_rows.copy()
+        if self.has_hand:
+            rows[:, :, self.hand] = a
+        for columns, index in self._load_groups:
+            rows[index, :, columns] = a[index]
+        return rows.reshape(6 * n, self.size)
 
     def predict(
         self,
