@@ -68,15 +68,16 @@ def record_until(
     """Step the world until sim time ``end`` (s): (joint stamps s, arm joint positions
     rad) every ``joint_every`` steps, and (wrench stamps s, readings N and N m in
     ``ft_sensor``) of ``sensor`` every step."""
-    robot = world.config.robot
+    arm = len(world.config.robot.arm_joints)
     stamps, positions, readings = [], [], []
     while world.time < end:
         world.step()
+        if len(stamps) % joint_every == 0:  # the joint states only where they are kept
+            positions.append(world.joint_state()[1][:arm])
         stamps.append(world.time)
-        positions.append(world.joint_state()[1][: len(robot.arm_joints)])
         readings.append(sensor.read(world.wrench, world.time))
-    stamps, positions = np.array(stamps), np.array(positions)
-    return stamps[::joint_every], positions[::joint_every], stamps, np.array(readings)
+    stamps = np.array(stamps)
+    return stamps[::joint_every], np.array(positions), stamps, np.array(readings)
 
 
 def feed(
