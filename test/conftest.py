@@ -15,6 +15,9 @@
   ``wait_for_messages`` and ``spin_until`` wait on it with a timeout.
 - ``replay_json(bag)``: the installed replay's --json answer; ``write_stream_bag(path,
   stream)``: a run bag of a synthetic exploration stream (no ROS).
+- ``shared_value(tmp_path_factory, key, compute)``: ``compute()``'s value, computed once
+  per test session by whichever pytest-xdist worker asks first (a module's tests may run
+  on several), pickled for the others.
 - OPENBLAS_NUM_THREADS is 1 unless set (see below).
 """
 
@@ -31,13 +34,14 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import fcntl
 import itertools
 import json
+import pickle
 import signal
 import subprocess
 import tempfile
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import pytest
 
@@ -70,6 +74,32 @@ _LOCK_DIR = Path(tempfile.gettempdir()) / "ros_domain_id_locks"
 _held_locks: dict[int, Any] = {}
 _counter = itertools.count()
 _LOG_TAIL_LINES = 40
+
+
+T = TypeVar("T")
+
+
+def shared_value(
+    tmp_path_factory: pytest.TempPathFactory, key: str, compute: Callable[[], T]
+) -> T:
+    """``compute()``'s value (picklable), computed once per test session: under
+    pytest-xdist the first worker to ask computes it, holding a lock file in the
+    session's shared temporary directory, and pickles it there; the others wait for the
+    lock and read it. Without xdist, ``compute()``."""
+    if os.environ.get("PYTEST_XDIST_WORKER") is None:
+        return compute()
+    root = tmp_path_factory.getbasetemp().parent / "shared_values"
+    root.mkdir(exist_ok=True)
+    path = root / f"{key}.pickle"
+    with open(root / f"{key}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if path.exists():
+            return pickle.loads(path.read_bytes())
+        value = compute()
+        partial = path.with_suffix(".partial")
+        partial.write_bytes(pickle.dumps(value))
+        partial.replace(path)
+        return value
 
 
 def ros_domain_id() -> int:

@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import pytest
+from conftest import shared_value
 from numpy.testing import assert_allclose
 
 from com_core.robot.config import read_robot_config
@@ -171,13 +172,18 @@ def rigid_world():
 
 
 @pytest.fixture(scope="module")
-def hand_sweep() -> Sweep:
-    """The Panda in rigid mode, the box on its stand: every pose of POSES, the hand alone."""
-    world = ArmWorld(SimConfig(object_shape="box", object_com_offset=COM_OFFSET))
-    try:
-        return sweep(world, POSES)
-    finally:
-        world.close()
+def hand_sweep(tmp_path_factory) -> Sweep:
+    """The Panda in rigid mode, the box on its stand: every pose of POSES, the hand alone
+    (swept once per session: the tests of its sweep may run on several workers)."""
+
+    def swept() -> Sweep:
+        world = ArmWorld(SimConfig(object_shape="box", object_com_offset=COM_OFFSET))
+        try:
+            return sweep(world, POSES)
+        finally:
+            world.close()
+
+    return shared_value(tmp_path_factory, "sim_physics_hand_sweep", swept)
 
 
 def test_hand_ground_truth_comes_from_the_urdf(rigid_world):
@@ -247,17 +253,22 @@ FRICTION_POSES = ("home", "j6+0.5", "j6-0.5", "j5+0.5", "fingers-down", "fingers
 
 
 @pytest.fixture(scope="module")
-def friction_sweep() -> Sweep:
+def friction_sweep(tmp_path_factory) -> Sweep:
     """The Panda in friction mode, the box grasped: FRICTION_POSES in turn, then the rest of
-    POSES (for the sensor's orientation), 50 steps each."""
-    world = ArmWorld(
-        SimConfig(object_shape="box", grasp_mode="friction", object_com_offset=COM_OFFSET)
-    )
-    try:
-        grasp(world)
-        return sweep(world, {name: POSES[name] for name in FRICTION_POSES} | POSES, steps=50)
-    finally:
-        world.close()
+    POSES (for the sensor's orientation), 50 steps each (once per session)."""
+
+    def swept() -> Sweep:
+        world = ArmWorld(
+            SimConfig(object_shape="box", grasp_mode="friction", object_com_offset=COM_OFFSET)
+        )
+        try:
+            grasp(world)
+            poses = {name: POSES[name] for name in FRICTION_POSES} | POSES
+            return sweep(world, poses, steps=50)
+        finally:
+            world.close()
+
+    return shared_value(tmp_path_factory, "sim_physics_friction_sweep", swept)
 
 
 def test_friction_mode_error_stays_within_the_documented_bound(friction_sweep):
@@ -721,8 +732,12 @@ def swept_hand(robot, poses: dict, offset) -> Sweep:
 
 
 @pytest.fixture(scope="module")
-def xarm_hand_sweep() -> Sweep:
-    return swept_hand(XARM, XARM_POSES, XARM_COM_OFFSET)
+def xarm_hand_sweep(tmp_path_factory) -> Sweep:
+    return shared_value(
+        tmp_path_factory,
+        "sim_physics_xarm_hand_sweep",
+        lambda: swept_hand(XARM, XARM_POSES, XARM_COM_OFFSET),
+    )
 
 
 def urdf_load_inertia(urdf: str, sensor_frame: str, links: list[str]) -> tuple[float, np.ndarray]:
@@ -944,8 +959,12 @@ def ur5e_world():
 
 
 @pytest.fixture(scope="module")
-def ur5e_hand_sweep() -> Sweep:
-    return swept_hand(UR5E, UR5E_POSES, UR5E_COM_OFFSET)
+def ur5e_hand_sweep(tmp_path_factory) -> Sweep:
+    return shared_value(
+        tmp_path_factory,
+        "sim_physics_ur5e_hand_sweep",
+        lambda: swept_hand(UR5E, UR5E_POSES, UR5E_COM_OFFSET),
+    )
 
 
 UR5E_GRASP_Z = 0.141  # m from tool0: the coupling's 11 mm and 0.13 m from the gripper's base
