@@ -29,11 +29,13 @@ import multiprocessing
 import os
 import signal
 import threading
+import time
 from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
 
 from com_core.contract import JOINT_STATES_TOPIC, POSE_TOPIC, WRENCH_TOPIC
+from com_core.sequencing.errors import RunError
 
 __all__ = ["RecorderProcess"]
 
@@ -46,8 +48,9 @@ published before the recorder's subscription matched the sequencer's would be mi
 CALL_TIMEOUT = 30.0  # s (wall) for an answer; a stop flushes and closes the bag
 
 
-class RecorderError(RuntimeError):
-    """The recorder's process refused a call or is gone; the message says why."""
+class RecorderError(RunError):
+    """The recorder's process refused a call, did not answer in time or is gone; the
+    message says why. A RunError: the run ends by name."""
 
 
 class RecorderProcess:
@@ -65,6 +68,7 @@ class RecorderProcess:
         self._process.start()
         child.close()
         self._lock = threading.Lock()  # one call at a time on the pipe
+        self._calls = 0  # the number of the latest call
         self._path: Path | None = None
         self.lost: dict[str, int] = {}
         self._call("ready", timeout=START_TIMEOUT)
@@ -124,12 +128,21 @@ class RecorderProcess:
         self._conn.close()
 
     def _call(self, what: str, *args: Any, timeout: float = CALL_TIMEOUT) -> Any:
+        """The child's answer to ``what``; an answer to an earlier call that timed out,
+        arriving late, is dropped (each call carries its number)."""
         with self._lock:
+            self._calls += 1
+            deadline = time.monotonic() + timeout
             try:
-                self._conn.send((what, args))
-                if not self._conn.poll(timeout):
-                    raise RecorderError(f"the recorder did not answer {what!r} in {timeout:g} s")
-                ok, value = self._conn.recv()
+                self._conn.send((self._calls, what, args))
+                while True:
+                    if not self._conn.poll(max(deadline - time.monotonic(), 0.0)):
+                        raise RecorderError(
+                            f"the recorder did not answer {what!r} in {timeout:g} s"
+                        )
+                    number, ok, value = self._conn.recv()
+                    if number == self._calls:
+                        break
             except (EOFError, OSError, BrokenPipeError) as exc:
                 code = self._process.exitcode
                 raise RecorderError(f"the recorder's process is gone (exit code {code})") from exc
@@ -191,10 +204,11 @@ def _newest(latest: Any, stamp_ns: int) -> None:
 
 
 def _answer(conn: Connection, recorder: Any, stopping: threading.Event) -> None:
-    """Answer the parent's calls as (ok, value) until it closes the pipe or says close."""
+    """Answer the parent's calls (number, what, args) as (number, ok, value) until it
+    closes the pipe or says close."""
     try:
         while not stopping.is_set():
-            what, args = conn.recv()
+            number, what, args = conn.recv()
             try:
                 if what == "ready":
                     value: Any = None
@@ -210,14 +224,14 @@ def _answer(conn: Connection, recorder: Any, stopping: threading.Event) -> None:
                 elif what == "failure":
                     value = recorder.failure
                 elif what == "close":
-                    conn.send((True, None))
+                    conn.send((number, True, None))
                     return
                 else:
                     raise ValueError(f"no call {what!r}")
             except Exception as exc:  # answered: the parent raises it
-                conn.send((False, str(exc)))
+                conn.send((number, False, str(exc)))
             else:
-                conn.send((True, value))
+                conn.send((number, True, value))
     except (EOFError, OSError):
         pass  # the parent is gone
     finally:
