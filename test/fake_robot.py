@@ -18,7 +18,7 @@ import numpy as np
 from conftest import PANDA, choreography
 
 from com_core.bags.cdr import encode_wrench_stamped
-from com_core.contract import DONE, OK
+from com_core.contract import DONE, OK, WRENCH_TOPIC
 from com_core.estimation.settings import SETTINGS
 from com_core.sensing.wrench_model import gravity_wrench
 from com_core.sequencing.errors import CancelledRunError, RunError, TimeoutRunError
@@ -176,7 +176,7 @@ class FakeWorld:
     def stop(self) -> dict[str, int]:
         self.recording = False
         self.events.append((self.t, "stopped", None))
-        return {"/ft_sensor/wrench": self.bag_written}
+        return {WRENCH_TOPIC: self.bag_written}
 
     def failure(self) -> str:
         full = self.disk_full_after is not None and len(self.labels) > self.disk_full_after
