@@ -178,9 +178,14 @@ def test_every_bad_input_gives_its_status_and_the_node_keeps_serving(start_node,
     assert "mass" in values  # its numbers, for diagnosis
     spin_until(listener.node, lambda: bool(listener.estimates), 1.0)
     assert not listener.estimates, "an inconsistent fit was published on ~/estimate"
+    faults = [fault for fault, _, _ in BAD_INPUTS]  # one exploration each, in order
+    proc = start_node("synthetic_exploration", PACKAGE,
+                      args=["--fault", *faults, "--dwell", "0.4", "--speed", "4000"])  # fmt: skip
+    # the listener spins meanwhile: its depth would not hold every status of the run
+    assert spin_until(listener.node, lambda: proc.poll() is not None, 120.0)
+    assert proc.returncode == 0, Path(proc.log_path).read_text()
     seen = 1
     for fault, level, text in BAD_INPUTS:
-        run_publisher(start_node, "--fault", fault, "--dwell", "0.4", "--speed", "4000")
         status, _ = listener.next_status(seen)
         seen += 1
         assert status.level == {"WARN": b"\x01", "ERROR": b"\x02"}[level], (fault, status.message)

@@ -41,6 +41,7 @@ import sys
 import time
 import traceback
 
+import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import InertiaStamped, WrenchStamped
@@ -87,7 +88,7 @@ from com_core.contract import (
 from com_core.estimation.exploration import Exploration
 from com_core.estimation.fits import WRENCHES
 from com_core.estimation.hand_motion import hand_motion_path, load_hand_motion, save_hand_motion
-from com_core.estimation.inbox import shorten
+from com_core.estimation.inbox import TIME_RESET_NS, shorten
 from com_core.estimation.motion_solution import hand_motion_of
 from com_core.estimation.settings import (
     SETTINGS,
@@ -473,6 +474,16 @@ class EstimatorNode(Node):
             self._exploration.count_dropped("undecodable (malformed CDR)", bad)
         if not len(stamps):
             return
+        latest = self._exploration.latest_stamp
+        if self._done_stamp is not None and latest is not None:
+            back = np.flatnonzero(stamps <= latest - TIME_RESET_NS)
+            if back.size:  # a restarted clock before the run's done caught up: solve the
+                first = int(back[0])  # run on what it has, the new timeline apart
+                self._exploration.add_samples(stamps[:first], wrenches[:first], frames[:first])
+                self._solve(self._done_stamp)
+                self._exploration, self._done_stamp = self._new_exploration(), None
+                self._live_stamp = None
+                stamps, wrenches, frames = stamps[first:], wrenches[first:], frames[first:]
         resets = self._exploration.time_resets
         self._exploration.add_samples(stamps, wrenches, frames)
         self._latest_stamp, self._latest_frame = int(stamps[-1]), str(frames[-1])

@@ -2,7 +2,7 @@
 
     synthetic_exploration [--mass 0.1 --com X Y Z] [--speed 2000] [--bag DIR]
                           [--fault nan|frame|order|duplicate|motion|no-tare|one-pose|
-                                   no-windows|long-label] [--shift-sigma 0.01]
+                                   no-windows|long-label ...] [--shift-sigma 0.01]
                           [--estimator-timeout 10]
 
 The stream is ``com_core.paper.synthetic.exploration_stream`` (tare pass, then object pass,
@@ -11,7 +11,10 @@ motion between poses, then ``done``), published on /ft_sensor/wrench and
 ``--bag`` every published message is also written, serialized as sent, to a rosbag2
 directory, so the node's answer can be compared with the offline replay's.
 
-It begins with 1 s (sensor time) of the hand at rest, in no window, and plays the
+Several faults play one exploration each, in order, each with the same stamps (as a
+restarted sensor's), each from its own lead-in.
+
+Each exploration begins with 1 s (sensor time) of the hand at rest, in no window, and plays the
 exploration only once the estimator's input status on /diagnostics reports a wrench
 of this lead-in (at most ``--estimator-timeout`` s of wall time; 0: do not wait). A
 publisher seeing its subscriber does not mean the subscriber has matched the
@@ -85,7 +88,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--shift-sigma", type=float, default=0.0, help="COM shift per tilt, m")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--fault", choices=FAULTS, default="none", help="inject a bad input")
+    p.add_argument("--fault", choices=FAULTS, nargs="+", default=["none"],
+                   help="inject a bad input; several: one exploration each, in order")  # fmt: skip
     p.add_argument("--bag", help="also write the published messages to this directory")
     p.add_argument("--frame", default="ft_sensor")
     p.add_argument(
@@ -142,18 +146,6 @@ def main(argv: list[str] | None = None) -> int:
     stream = exploration_stream(
         plan, load, Load(args.hand_mass, tuple(args.hand_com)), rng, shift_sigma=args.shift_sigma
     )
-    stream, frames = inject(stream, args.fault, args.dwell, args.rate)
-    # 1 s of rest before the first label, as a sensor streams before an exploration (see
-    # the module); a best-effort reader drops what arrives before it has matched
-    lead = round(args.rate)
-    lead_stamps = stream.stamps[0] - np.arange(lead, 0, -1) * round(1e9 / args.rate)
-    stream = Stream(
-        np.concatenate([lead_stamps, stream.stamps]),
-        np.concatenate([np.tile(stream.wrenches[0], (lead, 1)), stream.wrenches]),
-        stream.labels,
-    )
-    frames = [""] * lead + frames
-
     keep_dds_local()
     rclpy.init(args=argv)
     node = rclpy.create_node("synthetic_exploration")
@@ -161,18 +153,36 @@ def main(argv: list[str] | None = None) -> int:
     wrench_pub = node.create_publisher(WrenchStamped, WRENCH_TOPIC, 1000)
     pose_pub = node.create_publisher(Header, POSE_TOPIC, latched)
     truth_pub = node.create_publisher(InertiaStamped, TRUTH_TOPIC, latched)
+    estimator = _EstimatorInput(node) if args.estimator_timeout > 0 else None
     with contextlib.ExitStack() as stack:
         bag = stack.enter_context(CrashSafeBagWriter(args.bag)) if args.bag else None
         pubs = (wrench_pub, pose_pub, truth_pub)
-        elapsed = _play(args, stream, frames, lead, node, pubs, bag)
-    node.get_logger().info(
-        f"published {len(stream.stamps)} wrenches and {len(stream.labels)} labels in "
-        f"{elapsed:.2f} s (fault: {args.fault})" + (f"; bag {args.bag}" if args.bag else "")
-    )
+        for fault in args.fault:
+            played, frames, lead = _with_lead_in(*inject(stream, fault, args.dwell, args.rate),
+                                                 args.rate)  # fmt: skip
+            elapsed = _play(args, played, frames, lead, node, pubs, bag, estimator)
+            node.get_logger().info(
+                f"published {len(played.stamps)} wrenches and {len(played.labels)} labels in "
+                f"{elapsed:.2f} s (fault: {fault})" + (f"; bag {args.bag}" if args.bag else "")
+            )
     time.sleep(0.5)  # let reliable late messages (labels) be delivered before leaving
     node.destroy_node()
     rclpy.try_shutdown()
     return 0
+
+
+def _with_lead_in(stream: Stream, frames: list[str], rate: float) -> tuple[Stream, list[str], int]:
+    """The stream after 1 s (sensor time) of its first sample, as a sensor streams before
+    an exploration (see the module; a best-effort reader drops what arrives before it has
+    matched); its frames; the lead-in's samples."""
+    lead = round(rate)
+    lead_stamps = stream.stamps[0] - np.arange(lead, 0, -1) * round(1e9 / rate)
+    led = Stream(
+        np.concatenate([lead_stamps, stream.stamps]),
+        np.concatenate([np.tile(stream.wrenches[0], (lead, 1)), stream.wrenches]),
+        stream.labels,
+    )
+    return led, [""] * lead + frames, lead
 
 
 class _EstimatorInput:
@@ -197,11 +207,13 @@ def _play(
     node,
     pubs,
     bag: CrashSafeBagWriter | None,
+    heard: _EstimatorInput | None,
 ) -> float:
     """Publish (and record) the stream; returns the wall time it took, s. The first
-    ``lead`` samples go out slowly until the estimator reports hearing one (module)."""
+    ``lead`` samples go out slowly until the estimator reports hearing one (module;
+    ``heard``: its input status, None: no wait)."""
     wrench_pub, pose_pub, truth_pub = pubs
-    estimator = _EstimatorInput(node) if args.estimator_timeout > 0 else None
+    estimator = heard
     lead_first = int(stream.stamps[0])
 
     def send(pub, msg, msgtype: str, stamp: int) -> None:
