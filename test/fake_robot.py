@@ -5,7 +5,7 @@ One world: the run's clock (1 ms steps, jumping ahead while nothing moves), the 
 joint states, a trajectory controller that moves the joints linearly to a path's last
 point, a gripper whose fingers stall on an object at the pick pose, a wrist sensor that
 reads the gravity wrench of the hand and what it holds (from the URDF's kinematics, with
-white noise) at 1 kHz, the pose labels, a recorder and an estimator that answers each
+white noise) at 250 Hz, the pose labels, a recorder and an estimator that answers each
 ``done``. ``events`` says what the run sent, and when (sim ns).
 """
 
@@ -25,6 +25,7 @@ from com_core.sequencing.errors import CancelledRunError, RunError, TimeoutRunEr
 from com_core.sequencing.ports import EstimatorAnswer, GripperOutcome, JointPath
 
 MS = 1_000_000
+SAMPLE = 4 * MS  # the sensor's period: 250 Hz, enough samples per window, fewer to make
 HOME, PICK = list(PANDA.home_joints), list(PANDA.pick_joints)
 HAND = (0.7, np.array([0.0, 0.0, 0.06]))  # kg, m in the sensor frame
 OBJECT = (0.4, np.array([0.01, -0.02, 0.11]))
@@ -86,19 +87,19 @@ class FakeWorld:
             self._path, self._rested = None, self.t
 
     def _sample(self, after_ns: int, to_ns: int) -> None:
-        """The sensor's samples stamped every ms in (after_ns, to_ns], while captured."""
-        if self._captured is None:
+        """The sensor's samples stamped every SAMPLE ns in (after_ns, to_ns], while
+        captured."""
+        stamps = range((after_ns // SAMPLE + 1) * SAMPLE, to_ns + 1, SAMPLE)
+        if self._captured is None or not stamps:
             return
         gravity = self.motion.robot.gravity_in_sensor({n: q for n, (q, _) in self.joints.items()})
         wrench = gravity_wrench(HAND[0], HAND[1], gravity)
         if self.held and self.object_mass is not None:
             wrench = wrench + gravity_wrench(self.object_mass, OBJECT[1], gravity)
-        stamps = range(after_ns + MS, to_ns + 1, MS)
         noise = self._rng.normal(size=(len(stamps), 6)) * np.repeat(NOISE, 3)
         self._captured += [encode_wrench_stamped(s, "ft_sensor", wrench + n)
                            for s, n in zip(stamps, noise, strict=True)]  # fmt: skip
-        if len(stamps):
-            self.latest_ns = stamps[-1]
+        self.latest_ns = stamps[-1]
 
     # --- RunClock -------------------------------------------------------------------------
 

@@ -6,12 +6,13 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import math
 import re
 from pathlib import Path
 
 import pytest
 from conftest import PANDA
-from fake_robot import HOME, PICK, FakeWorld
+from fake_robot import HOME, NOISE, OBJECT, PICK, SAMPLE, FakeWorld
 
 from com_core.contract import (
     CANCELLED,
@@ -96,7 +97,12 @@ def test_a_default_run_labels_each_window_after_the_arm_rests_and_sends_no_move_
     bag = outcome.bag
     assert (bag / BAG_ROBOT_FILE).is_file() and (bag / BAG_SETTINGS_FILE).is_file()
     assert f"bag {bag}" in outcome.message and "[OK] mass 0.400 kg" in outcome.message
-    assert any("grasp holds 400." in m for _, m in world.sent("info"))
+    (weighed,) = [
+        float(m.split()[2]) for _, m in world.sent("info") if m.startswith("grasp holds")
+    ]
+    # the mean of grasp_check_dwell's samples less the tare's: 5 sigma of the sensor's noise
+    samples = PARAMETERS["grasp_check_dwell"].default * 1e9 / SAMPLE
+    assert abs(weighed - OBJECT[0] * 1e3) < 5e3 * NOISE[0] / 9.81 * math.sqrt(2 / samples)
 
 
 @pytest.mark.parametrize("holding", [False, True])
