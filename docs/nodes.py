@@ -338,7 +338,8 @@ def estimator_node() -> list[str]:
         "close, no load beyond the hand (the object was not held), a load against gravity (a "
         "tare taken with the object in the hand): ERROR with the reason. A sensor clock that "
         "jumps back by more than 1 s (a restarted simulator, a looped bag) starts a new "
-        "timeline; a label more than `max_label_gap` s after the previous one drops the "
+        "timeline (a run whose `done` came but whose samples had not reached it is solved "
+        "first, on what it has); a label more than `max_label_gap` s after the previous one drops the "
         "exploration before it (a sequencer that died mid-run), so two runs' windows of one "
         "name never merge.",
         "",
@@ -385,8 +386,9 @@ def estimator_node() -> list[str]:
         "",
         "Plays a synthetic exploration (optionally with a fault: `--fault nan|frame|order|"
         "duplicate|motion|no-tare|one-pose|no-windows|long-label`, or an object that moves: "
-        "`--shift-sigma`) into a live estimator and records what it sent (`--bag`). It starts "
-        "the exploration only once the estimator's input status reports hearing its lead-in "
+        "`--shift-sigma`) into a live estimator and records what it sent (`--bag`); several "
+        "faults play one exploration each, in order, each with the same stamps. It starts "
+        "each exploration only once the estimator's input status reports hearing its lead-in "
         "(`--estimator-timeout`, 0 for no estimator).",
         "",
     ]
