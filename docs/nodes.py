@@ -340,8 +340,8 @@ def estimator_node() -> list[str]:
         "jumps back by more than 1 s (a restarted simulator, a looped bag) starts a new "
         "timeline (a run whose `done` came but whose samples had not reached it is solved "
         "first, on what it has); a label more than `max_label_gap` s after the previous one "
-        "drops the exploration before it (a sequencer that died mid-run), so two runs' windows of one "
-        "name never merge.",
+        "drops the exploration before it (a sequencer that died mid-run), so two runs' "
+        "windows of one name never merge.",
         "",
         "### `replay BAG [BAG ...]`",
         "",
