@@ -132,7 +132,10 @@ class ArmDriver:
     def joint_state(self) -> tuple[list[float], list[float], list[float]]:
         """Positions (rad), velocities (rad/s) and efforts (N m) of ``arm_joints``."""
         scene = self._scene
-        states = scene.client.getJointStates(scene.robot_body, scene.arm)
+        # pybullet's own function: BulletClient's look-up costs as much as the call
+        states = pybullet.getJointStates(
+            scene.robot_body, scene.arm, physicsClientId=scene.client._client
+        )
         return [s[0] for s in states], [s[1] for s in states], [s[3] for s in states]
 
     def _follow(self, t: float) -> None:

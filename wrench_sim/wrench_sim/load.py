@@ -140,16 +140,18 @@ class LoadWrench:
         self._truth = truth
         c = scene.client
         # Bound once: BulletClient looks the function up on every call, a hot path here.
-        self._get_joint_state = functools.partial(
-            pybullet.getJointState, physicsClientId=c._client
-        )
-        self._get_joint_states = functools.partial(
-            pybullet.getJointStates, physicsClientId=c._client
+        client = {"physicsClientId": c._client}
+        self._get_joint_states = functools.partial(pybullet.getJointStates, **client)
+        self._get_link_state = functools.partial(pybullet.getLinkState, **client)
+        self._matrix_from_quaternion = functools.partial(
+            pybullet.getMatrixFromQuaternion, **client
         )
         c.enableJointForceTorqueSensor(scene.robot_body, scene.sensor, True)
         self._counted_twice = CountedTwice(
             c, scene.robot_body, scene.urdf_text, scene.sensor, scene.load_links
         )
+        # read each step in one call: the sensor's joint, then the joints counted twice
+        self._read_joints = [scene.sensor, *self._counted_twice.joints]
         self._raw = np.zeros(6)
         self._previous_raw = np.zeros(6)
         self._vibration = vibration
@@ -159,10 +161,9 @@ class LoadWrench:
     def read(self, moving: bool) -> None:
         """Take the reading of the step just run; ``moving``: a trajectory is running."""
         self._previous_raw = self._raw
+        sensor, *states = self._get_joint_states(self._scene.robot_body, self._read_joints)
         # (F, M): the flange's wrench on the hand, hand axes, M about the joint origin.
-        body = self._scene.robot_body
-        self._raw = np.negative(self._get_joint_state(body, self._scene.sensor)[2])
-        states = self._get_joint_states(body, self._counted_twice.joints)
+        self._raw = np.negative(sensor[2])
         velocities = [state[1] for state in states]
         if max(map(abs, velocities)) > _STILL:
             positions = [state[0] for state in states]
@@ -184,10 +185,10 @@ class LoadWrench:
         """The wrench (6,) the load's reaction to the structure's vibration adds to the
         reading (``wrench_sim.vibration``); N, N m; ft_sensor."""
         scene = self._scene
-        state = scene.client.getLinkState(
+        state = self._get_link_state(
             scene.robot_body, scene.sensor, computeLinkVelocity=1, computeForwardKinematics=1
         )
-        R = np.array(scene.client.getMatrixFromQuaternion(state[5])).reshape(3, 3)
+        R = np.array(self._matrix_from_quaternion(state[5])).reshape(3, 3)
         assert self._vibration is not None
         accel = R.T @ self._vibration.step(np.array(state[6]), moving)
         mass, com_cross = self._load

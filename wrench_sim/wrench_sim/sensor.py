@@ -60,7 +60,8 @@ class BiasDrift:
     """A bias that warms up and wanders: per axis A (1 - exp(-t / T)) toward a final offset
     A drawn N(0, ``warmup``^2), plus a random walk of ``random_walk`` per sqrt(s); N, N m.
 
-    ``at(t)`` must be called with non-decreasing times (s)."""
+    ``at(t)`` must be called with non-decreasing times (s). ``warmup`` and ``random_walk``
+    are read at construction (whether the bias moves at all)."""
 
     def __init__(
         self,
@@ -75,10 +76,21 @@ class BiasDrift:
         self._rng = rng
         self._walk = np.zeros(6)
         self._time = 0.0
+        # nothing to warm up or wander (the white and ideal profiles): every reading's drift
+        # is final * warm + walk = (+-0) * warm + 0 = +0 on each axis, at any time
+        self._walking = bool(self.random_walk.any())
+        self._zeros = None if self.final.any() or self._walking else np.zeros(6)
+        if self._zeros is not None:
+            self._zeros.flags.writeable = False
 
     def at(self, t: float) -> NDArray[np.float64]:
+        """The drift (6,) at sim time ``t`` (s); N, N m; a new array but for a sensor
+        without warm-up or random walk, whose zeros are shared (read-only)."""
+        if self._zeros is not None:
+            self._time = max(self._time, t)
+            return self._zeros
         dt = t - self._time
-        if dt > 0 and self.random_walk.any():
+        if dt > 0 and self._walking:
             self._walk += self._rng.standard_normal(6) * self.random_walk * math.sqrt(dt)
         self._time = max(self._time, t)
         warm = 1.0 - math.exp(-t / self.warmup_time) if self.warmup_time > 0 else 1.0
@@ -113,6 +125,18 @@ class WrenchSensor:
         self._signal: NDArray[np.float64] | None = None
         self.saturated = False
 
+    @property
+    def model(self) -> SensorModel:
+        """The sensor's model; set it to change the sensor from the next reading on."""
+        return self._model
+
+    @model.setter
+    def model(self, model: SensorModel) -> None:
+        self._model = model
+        self._phi = model.phi  # the model is frozen: its coefficient once, not per reading
+        # no finite range: |reading| >= inf only where the reading is infinite
+        self._unlimited = bool(np.all(model.limit == np.inf))
+
     def read(self, true_wrench: ArrayLike, t: float = 0.0) -> NDArray[np.float64]:
         """One reading (6,) of the true wrench (6,) at sim time ``t`` (s); N and N m; frame
         ``ft_sensor``. Sets ``saturated`` when any axis reached its range."""
@@ -121,9 +145,9 @@ class WrenchSensor:
             self._next = 0
         normal = self._normals[self._next]
         self._next += 1
-        model = self.model
+        model = self._model
         signal = np.asarray(true_wrench, dtype=np.float64)
-        phi = model.phi
+        phi = self._phi
         if phi:
             if self._coloured is None or self._signal is None:
                 self._coloured, self._signal = normal.copy(), signal.copy()
@@ -135,7 +159,10 @@ class WrenchSensor:
             self._coloured = self._signal = None
         drift = None if self.drift is None else self.drift.at(t)
         reading = model.apply(signal, normal, drift)
-        self.saturated = bool(model.saturated(reading).any())
+        if self._unlimited:  # model.saturated(reading).any(), in one pass fewer
+            self.saturated = bool(np.isinf(reading).any())
+        else:
+            self.saturated = bool(model.saturated(reading).any())
         return reading
 
 

@@ -9,7 +9,8 @@ The node does not spin on a timer: ``run`` steps the physics at 1 kHz as fast as
 ``real_time_factor``), publishes /clock every ``1000 / clock_rate`` steps (4 ms by default:
 fine enough to sequence, a quarter of the load of every step at 5x real time) and the wrench
 every ``1000 / rate`` steps, and services its subscriptions every 50 steps with
-``spin_once(timeout_sec=0)``.
+``spin_once(timeout_sec=0)``. The wrenches and /clock go out as serialized messages (the
+same messages, without rclpy's conversion of a Python one at every sample).
 
 Publishes (names in ``com_core.contract``; stamps in sim time):
 
@@ -68,7 +69,9 @@ The world's events (grasp, release, pushes, grasp shifts) are logged as INFO; a 
 
 from __future__ import annotations
 
+import array
 import signal
+import struct
 import time
 
 import numpy as np
@@ -166,6 +169,7 @@ class SimNode(Node):
         self._mount = (
             rotation_about("z", yaw) @ rotation_about("y", pitch) @ rotation_about("x", roll)
         )
+        self._mount_identity = bool(np.array_equal(self._mount, np.eye(3)))
         drift = profile_drift(p, streams["drift"])
         self.sensor = WrenchSensor(self._sensor_model(), streams["sensor"], drift)
         self._drift = np.array(parameter("bias_drift").value, dtype=np.float64)  # per s
@@ -210,14 +214,15 @@ class SimNode(Node):
         self.executor_ = SingleThreadedExecutor(context=self.context)
         self.executor_.add_node(self)
 
-        self._wrench = WrenchStamped()
-        self._wrench.header.frame_id = SENSOR_FRAME
-        self._applied = WrenchStamped()
-        self._applied.header.frame_id = SENSOR_FRAME
+        self._wrench_bytes = _WrenchBytes(SENSOR_FRAME)
         self._push_scheduled = False  # a push was accepted and its zero not yet published
         self._push_published = False  # the last applied wrench published was not zero
-        self._clock_msg = Clock()
+        arm = len(robot.arm_joints)
+        names = self.world.joint_state()[0]
         self._joint_states = (JointState(), JointState())
+        self._joint_cuts = (slice(0, arm), slice(arm, None))
+        for msg, cut in zip(self._joint_states, self._joint_cuts, strict=True):
+            msg.name = list(names[cut])
         self._saturated = False  # in a saturation episode
         self._saturated_readings = 0  # since the last report
         self._published_object: tuple[bool, np.ndarray] | None = None
@@ -411,30 +416,33 @@ class SimNode(Node):
 
         ``publish=False`` skips the DDS publishing (for the benchmark's comparison).
         """
-        world, sensor = self.world, self.sensor
+        world, sensor, mounted = self.world, self.sensor, self._mounted
+        step, read = world.step, sensor.read
+        clock_every, joint_every = self._clock_every, self._joint_state_every
+        finger_every = self._finger_state_every
         end_steps = None if duration is None else round(duration / TIME_STEP)
         steps = 0
         self._pace_origin = None
         while end_steps is None or steps < end_steps:
-            world.step()
+            step()
             steps += 1
             now = world.time_ns
             reading = None
-            if steps % self._publish_every == 0:
+            if steps % self._publish_every == 0:  # the rate may be set meanwhile
                 t = now * 1e-9
-                reading = sensor.read(self._mounted(world.wrench) + self._drift * t, t)
+                reading = read(mounted(world.wrench) + self._drift * t, t)
                 self._saturated_readings += sensor.saturated
             if publish:
-                if steps % self._clock_every == 0:
+                if steps % clock_every == 0:
                     self._publish_clock(now)
                 if reading is not None:
                     self._publish_wrench(now, reading)
                     if self._push_scheduled:
                         self._publish_applied(now)
-            if publish and steps % self._joint_state_every == 0:
-                self._publish_joint_state(now, 0)
-            if publish and steps % self._finger_state_every == 0:
-                self._publish_joint_state(now, 1)
+                if steps % joint_every == 0:
+                    self._publish_joint_state(now, 0)
+                if steps % finger_every == 0:
+                    self._publish_joint_state(now, 1)
             if steps % _GOALS_EVERY == 0:
                 self.arm_controller.track()
                 if self._gripper_goal is not None:
@@ -463,11 +471,12 @@ class SimNode(Node):
                 time.sleep(max(0.0, remaining - time.perf_counter()))
 
     def _publish_clock(self, now: int) -> None:
-        self._clock_msg.clock.sec, self._clock_msg.clock.nanosec = divmod(now, 1_000_000_000)
-        self.clock_publisher.publish(self._clock_msg)
+        """Sim time ``now`` (ns) on /clock, serialized (``_clock_bytes``)."""
+        self.clock_publisher.publish(_clock_bytes(now))
 
     def _publish_wrench(self, now: int, reading: np.ndarray) -> None:
-        self.wrench_publisher.publish(_filled(self._wrench, now, reading))
+        """The reading (6,), N and N m in ``ft_sensor``, stamped ``now`` (ns)."""
+        self.wrench_publisher.publish(self._wrench_bytes.pack(now, reading))
 
     def _publish_applied(self, now: int) -> None:
         """The pushes of the last step as the sensor reads them, in the mounted sensor's
@@ -483,17 +492,19 @@ class SimNode(Node):
             self._push_scheduled = world.push_scheduled
             return
         self._push_scheduled = world.push_scheduled or self._push_published
-        self.applied_publisher.publish(_filled(self._applied, now, wrench))
+        self.applied_publisher.publish(self._wrench_bytes.pack(now, wrench))
 
     def _publish_joint_state(self, now: int, part: int) -> None:
-        """The arm's joints (``part`` 0) or the gripper's (1), from their own publisher."""
+        """The arm's joints (``part`` 0) or the gripper's (1), from their own publisher;
+        the message (its names set once) reused, its values as ``array('d')``, which rclpy
+        takes without checking each element."""
         msg = self._joint_states[part]
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(now, 1_000_000_000)
-        names, *values = self.world.joint_state()
-        arm = len(self.world.config.robot.arm_joints)
-        cut = slice(0, arm) if part == 0 else slice(arm, None)
-        msg.name = list(names[cut])
-        msg.position, msg.velocity, msg.effort = (list(v[cut]) for v in values)
+        _, positions, velocities, efforts = self.world.joint_state()
+        cut = self._joint_cuts[part]
+        msg.position = array.array("d", positions[cut])
+        msg.velocity = array.array("d", velocities[cut])
+        msg.effort = array.array("d", efforts[cut])
         self.joint_state_publishers[part].publish(msg)
 
     def _report(self) -> None:
@@ -527,11 +538,10 @@ class SimNode(Node):
         last = self._published_object
         changed = force or last is None or held != last[0]
         mount = self._mount
-        hand_inertia, object_inertia = world.inertia_ground_truth()
         if changed or held:
             mass, com = world.object_ground_truth()
             if changed or np.max(np.abs(com - last[1])) > TRUTH_MOVE_M:
-                inertia = mount.T @ object_inertia @ mount
+                inertia = mount.T @ world.inertia_ground_truth()[1] @ mount
                 self.truth_publisher.publish(_inertia(stamp, mass, mount.T @ com, inertia))
                 self._published_object = (held, com)
             if changed:
@@ -544,14 +554,22 @@ class SimNode(Node):
         hand_mass, hand_com = world.hand_ground_truth()
         last_hand = self._published_hand
         if force or last_hand is None or np.max(np.abs(hand_com - last_hand)) > TRUTH_MOVE_M:
-            inertia = mount.T @ hand_inertia @ mount
+            inertia = mount.T @ world.inertia_ground_truth()[0] @ mount
             self.hand_truth_publisher.publish(
                 _inertia(stamp, hand_mass, mount.T @ hand_com, inertia)
             )
             self._published_hand = hand_com
 
     def _mounted(self, wrench: np.ndarray) -> np.ndarray:
-        """A wrench (6,) in the URDF's sensor frame expressed in the mounted sensor's."""
+        """A wrench (6,) in the URDF's sensor frame expressed in the mounted sensor's (a new
+        array).
+
+        A sensor mounted as its URDF frame (the default) takes ``wrench + 0.0``, without the
+        two matrix products: for finite values the product with the identity bit for bit
+        (each element 1 x plus two signed zeros: x, and 0.0 for -0.0, as x + 0.0 gives).
+        """
+        if self._mount_identity:
+            return wrench + 0.0
         return np.concatenate([self._mount.T @ wrench[:3], self._mount.T @ wrench[3:]])
 
     def close(self) -> None:
@@ -560,14 +578,37 @@ class SimNode(Node):
         self.world.close()
 
 
-def _filled(msg: WrenchStamped, now: int, wrench: np.ndarray) -> WrenchStamped:
-    """``msg`` (reused: no allocation per sample) stamped ``now`` (ns) with ``wrench`` (6,)."""
-    msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(now, 1_000_000_000)
-    fx, fy, fz, tx, ty, tz = wrench.tolist()
-    force, torque = msg.wrench.force, msg.wrench.torque
-    force.x, force.y, force.z = fx, fy, fz
-    torque.x, torque.y, torque.z = tx, ty, tz
-    return msg
+_CDR_LE = b"\x00\x01\x00\x00"  # a serialized message's encapsulation: plain CDR, little-endian
+_CLOCK = struct.Struct("<4siI")  # rosgraph_msgs/Clock: clock.sec (int32), clock.nanosec (uint32)
+
+
+def _clock_bytes(now: int) -> bytes:
+    """rosgraph_msgs/Clock of sim time ``now`` (ns), serialized as rmw sends it (what
+    ``rclpy.serialization.serialize_message`` gives; the tests check it)."""
+    return _CLOCK.pack(_CDR_LE, *divmod(now, 1_000_000_000))
+
+
+class _WrenchBytes:
+    """geometry_msgs/WrenchStamped with a fixed ``frame_id``, serialized as rmw sends it (what
+    ``rclpy.serialization.serialize_message`` gives; the tests check it).
+
+    ``Publisher.publish`` sends bytes as they are: the 1 kHz stream skips rclpy's conversion
+    of a Python message (its type checks and field-by-field copy, ~6 us a message).
+    Layout after the encapsulation: stamp sec (int32), nanosec (uint32), frame_id (uint32
+    length with its NUL, the characters, NUL), padding to 8 bytes, force x, y, z (N), torque
+    x, y, z (N m) as float64.
+    """
+
+    def __init__(self, frame_id: str) -> None:
+        frame = frame_id.encode() + b"\0"
+        self._frame = struct.pack("<I", len(frame)) + frame
+        padding = -(8 + len(self._frame)) % 8  # the doubles align to 8 from the stamp on
+        self._struct = struct.Struct(f"<4siI{len(self._frame)}s{padding}x6d")
+
+    def pack(self, now: int, wrench: np.ndarray) -> bytes:
+        """The message stamped ``now`` (ns) with ``wrench`` (6,): force N, torque N m."""
+        sec, nanosec = divmod(now, 1_000_000_000)
+        return self._struct.pack(_CDR_LE, sec, nanosec, self._frame, *wrench.tolist())
 
 
 def _gripper_message(

@@ -157,6 +157,10 @@ class SensorModel:
             object.__setattr__(self, "calibration", c)
         object.__setattr__(self, "_quantised", bool(np.any(self.resolution > 0)))
         object.__setattr__(self, "_limited", bool(np.any(np.isfinite(self.limit))))
+        # for ``apply``, once: the quantisation step per axis (1 where none) and the range's
+        # lower end
+        object.__setattr__(self, "_step", np.where(self.resolution > 0, self.resolution, 1.0))
+        object.__setattr__(self, "_low", -self.limit)
 
     @classmethod
     def from_scalars(
@@ -228,14 +232,15 @@ class SensorModel:
         w = np.asarray(wrench, dtype=np.float64)
         if self.calibration is not None:
             w = w @ self.calibration.T
-        reading = w + self.bias + normals * self.sigma
+        reading = w + self.bias + normals * self.sigma  # a new array: changed in place below
         if drift is not None:
-            reading = reading + drift
+            reading += drift
         if self._quantised:
-            q = np.where(self.resolution > 0, self.resolution, 1.0)
+            q = self._step
             reading = np.where(self.resolution > 0, np.round(reading / q) * q, reading)
         if self._limited:
-            reading = np.minimum(np.maximum(reading, -self.limit), self.limit)
+            np.maximum(reading, self._low, out=reading)
+            np.minimum(reading, self.limit, out=reading)
         return reading
 
     def saturated(self, reading: ArrayLike) -> NDArray[np.bool_]:
