@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 from conftest import PANDA, choreography
 
-from com_core.bags.cdr import encode_wrench_stamped
+from com_core.bags.cdr import WrenchStampedEncoder
 from com_core.contract import DONE, OK, WRENCH_TOPIC
 from com_core.estimation.settings import SETTINGS
 from com_core.sensing.wrench_model import gravity_wrench
@@ -30,6 +30,7 @@ HOME, PICK = list(PANDA.home_joints), list(PANDA.pick_joints)
 HAND = (0.7, np.array([0.0, 0.0, 0.06]))  # kg, m in the sensor frame
 OBJECT = (0.4, np.array([0.01, -0.02, 0.11]))
 NOISE = (0.02, 0.001)  # N, N m per sample
+SENSOR = WrenchStampedEncoder("ft_sensor")
 
 
 class FakeWorld:
@@ -97,8 +98,10 @@ class FakeWorld:
         if self.held and self.object_mass is not None:
             wrench = wrench + gravity_wrench(self.object_mass, OBJECT[1], gravity)
         noise = self._rng.normal(size=(len(stamps), 6)) * np.repeat(NOISE, 3)
-        self._captured += [encode_wrench_stamped(s, "ft_sensor", wrench + n)
-                           for s, n in zip(stamps, noise, strict=True)]  # fmt: skip
+        encode = SENSOR.encode
+        self._captured += [
+            encode(s, (wrench + n).tolist()) for s, n in zip(stamps, noise, strict=True)
+        ]
         self.latest_ns = stamps[-1]
 
     # --- RunClock -------------------------------------------------------------------------

@@ -1,11 +1,12 @@
 """The sim's per-step shortcuts give the numbers of the plain computations, bit for bit.
 
-The node publishes the wrench and the clock as serialized bytes (``sim_node._WrenchBytes``,
-``_clock_bytes``): they decode to the message they stand for, with each float's bits. A
-sensor mounted as its URDF frame skips the product with the identity (``SimNode._mounted``);
-a bias without warm-up or random walk is a shared zero (``BiasDrift.at``); a sensor without
-range flags saturation where a reading is infinite (``WrenchSensor.read``); the model
-replaced at run time takes effect at the next reading.
+The node publishes the wrench and the clock as serialized bytes
+(``com_core.bags.cdr.WrenchStampedEncoder``, ``encode_clock``): they decode to the message
+they stand for, with each float's bits. A sensor mounted as its URDF frame skips the
+product with the identity (``SimNode._mounted``); a bias without warm-up or random walk is
+a shared zero (``BiasDrift.at``); a sensor without range flags saturation where a reading
+is infinite (``WrenchSensor.read``); the model replaced at run time takes effect at the
+next reading.
 """
 
 from __future__ import annotations
@@ -26,7 +27,8 @@ from geometry_msgs.msg import WrenchStamped
 from rclpy.serialization import deserialize_message, serialize_message
 from rosgraph_msgs.msg import Clock
 
-from wrench_sim.sim_node import SimNode, _clock_bytes, _WrenchBytes
+from com_core.bags.cdr import WrenchStampedEncoder, encode_clock
+from wrench_sim.sim_node import SimNode
 
 # values whose bits a careless encoding or a skipped operation would change
 AWKWARD = [0.0, -0.0, 1.5, -2.25, 1e-300, -5e-324, 1e308, 0.1, np.pi]
@@ -38,11 +40,11 @@ def bits(values) -> list[int]:
 
 @pytest.mark.parametrize("frame", ["ft_sensor", "world", "", "a", "sensor_0123456"])
 def test_wrench_bytes_decode_to_the_message(frame):
-    encoder = _WrenchBytes(frame)
+    encoder = WrenchStampedEncoder(frame)
     rng = np.random.default_rng(1)
     for now in (0, 1_000_000, 1_234_567_891, 2_000_000_000_000):
         wrench = rng.choice(AWKWARD, 6) * rng.choice([1.0, -1.0], 6)
-        data = encoder.pack(now, wrench)
+        data = encoder.encode(now, wrench.tolist())
         msg = deserialize_message(data, WrenchStamped)
         assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == divmod(now, 1_000_000_000)
         assert msg.header.frame_id == frame
@@ -55,8 +57,8 @@ def test_clock_bytes_are_the_serialized_clock():
     for now in (0, 4_000_000, 1_234_567_891, 86_400_000_000_000):
         msg = Clock()
         msg.clock.sec, msg.clock.nanosec = divmod(now, 1_000_000_000)
-        assert _clock_bytes(now) == serialize_message(msg)  # no padding to differ in
-        assert deserialize_message(_clock_bytes(now), Clock) == msg
+        assert encode_clock(now) == serialize_message(msg)  # no padding to differ in
+        assert deserialize_message(encode_clock(now), Clock) == msg
 
 
 def test_a_sensor_mounted_as_its_urdf_frame_reads_the_product_with_the_identity():

@@ -71,7 +71,6 @@ from __future__ import annotations
 
 import array
 import signal
-import struct
 import time
 
 import numpy as np
@@ -92,6 +91,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 
+from com_core.bags.cdr import WrenchStampedEncoder, encode_clock
 from com_core.contract import (
     APPLIED_WRENCH_TOPIC,
     APPLY_WRENCH_TOPIC,
@@ -214,7 +214,7 @@ class SimNode(Node):
         self.executor_ = SingleThreadedExecutor(context=self.context)
         self.executor_.add_node(self)
 
-        self._wrench_bytes = _WrenchBytes(SENSOR_FRAME)
+        self._wrench_bytes = WrenchStampedEncoder(SENSOR_FRAME)
         self._push_scheduled = False  # a push was accepted and its zero not yet published
         self._push_published = False  # the last applied wrench published was not zero
         arm = len(robot.arm_joints)
@@ -471,12 +471,12 @@ class SimNode(Node):
                 time.sleep(max(0.0, remaining - time.perf_counter()))
 
     def _publish_clock(self, now: int) -> None:
-        """Sim time ``now`` (ns) on /clock, serialized (``_clock_bytes``)."""
-        self.clock_publisher.publish(_clock_bytes(now))
+        """Sim time ``now`` (ns) on /clock, serialized (``encode_clock``)."""
+        self.clock_publisher.publish(encode_clock(now))
 
     def _publish_wrench(self, now: int, reading: np.ndarray) -> None:
         """The reading (6,), N and N m in ``ft_sensor``, stamped ``now`` (ns)."""
-        self.wrench_publisher.publish(self._wrench_bytes.pack(now, reading))
+        self.wrench_publisher.publish(self._wrench_bytes.encode(now, reading.tolist()))
 
     def _publish_applied(self, now: int) -> None:
         """The pushes of the last step as the sensor reads them, in the mounted sensor's
@@ -492,7 +492,7 @@ class SimNode(Node):
             self._push_scheduled = world.push_scheduled
             return
         self._push_scheduled = world.push_scheduled or self._push_published
-        self.applied_publisher.publish(self._wrench_bytes.pack(now, wrench))
+        self.applied_publisher.publish(self._wrench_bytes.encode(now, wrench.tolist()))
 
     def _publish_joint_state(self, now: int, part: int) -> None:
         """The arm's joints (``part`` 0) or the gripper's (1), from their own publisher;
@@ -576,39 +576,6 @@ class SimNode(Node):
         """Release pybullet and the executor."""
         self.executor_.shutdown(timeout_sec=0.0)
         self.world.close()
-
-
-_CDR_LE = b"\x00\x01\x00\x00"  # a serialized message's encapsulation: plain CDR, little-endian
-_CLOCK = struct.Struct("<4siI")  # rosgraph_msgs/Clock: clock.sec (int32), clock.nanosec (uint32)
-
-
-def _clock_bytes(now: int) -> bytes:
-    """rosgraph_msgs/Clock of sim time ``now`` (ns), serialized as rmw sends it (what
-    ``rclpy.serialization.serialize_message`` gives; the tests check it)."""
-    return _CLOCK.pack(_CDR_LE, *divmod(now, 1_000_000_000))
-
-
-class _WrenchBytes:
-    """geometry_msgs/WrenchStamped with a fixed ``frame_id``, serialized as rmw sends it (what
-    ``rclpy.serialization.serialize_message`` gives; the tests check it).
-
-    ``Publisher.publish`` sends bytes as they are: the 1 kHz stream skips rclpy's conversion
-    of a Python message (its type checks and field-by-field copy, ~6 us a message).
-    Layout after the encapsulation: stamp sec (int32), nanosec (uint32), frame_id (uint32
-    length with its NUL, the characters, NUL), padding to 8 bytes, force x, y, z (N), torque
-    x, y, z (N m) as float64.
-    """
-
-    def __init__(self, frame_id: str) -> None:
-        frame = frame_id.encode() + b"\0"
-        self._frame = struct.pack("<I", len(frame)) + frame
-        padding = -(8 + len(self._frame)) % 8  # the doubles align to 8 from the stamp on
-        self._struct = struct.Struct(f"<4siI{len(self._frame)}s{padding}x6d")
-
-    def pack(self, now: int, wrench: np.ndarray) -> bytes:
-        """The message stamped ``now`` (ns) with ``wrench`` (6,): force N, torque N m."""
-        sec, nanosec = divmod(now, 1_000_000_000)
-        return self._struct.pack(_CDR_LE, sec, nanosec, self._frame, *wrench.tolist())
 
 
 def _gripper_message(

@@ -20,10 +20,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = [
+    "WrenchStampedEncoder",
     "decode_header",
     "decode_wrench",
     "decode_wrench_batch",
     "decode_wrenches",
+    "encode_clock",
     "encode_header",
     "encode_wrench_stamped",
     "with_wrench",
@@ -140,8 +142,36 @@ def encode_header(stamp_ns: int, frame_id: str) -> bytes:
     return _encode_frame(stamp_ns, frame_id)
 
 
+class WrenchStampedEncoder:
+    """geometry_msgs/WrenchStamped of one ``frame_id``, serialized as rmw sends it (what
+    ``rclpy.serialization.serialize_message`` gives), for a publisher's ``publish`` of
+    bytes (no conversion of a Python message at every sample) and for tools without rclpy.
+
+    Layout after the encapsulation: stamp sec (int32), nanosec (uint32), frame_id (uint32
+    length with its NUL, the characters, NUL), padding to 8 bytes from the stamp on, force
+    x, y, z (N), torque x, y, z (N m) as float64.
+    """
+
+    def __init__(self, frame_id: str) -> None:
+        name = frame_id.encode() + b"\x00"
+        self._name = struct.pack("<I", len(name)) + name
+        padding = -(8 + len(self._name)) % 8
+        self._struct = struct.Struct(f"<4siI{len(self._name)}s{padding}x6d")
+
+    def encode(self, stamp_ns: int, wrench: Sequence[float]) -> bytes:
+        """The message stamped ``stamp_ns`` with ``wrench`` (6,): force N, torque N m."""
+        sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
+        return self._struct.pack(_ENCAPSULATION, sec, nanosec, self._name, *wrench)
+
+
 def encode_wrench_stamped(stamp_ns: int, frame_id: str, wrench: Sequence[float]) -> bytes:
-    """Serialized geometry_msgs/WrenchStamped (for tests and tools without rclpy)."""
-    head = _encode_frame(stamp_ns, frame_id)
-    pad = (-(len(head) - 4)) % 8
-    return head + b"\x00" * pad + struct.pack("<6d", *wrench)
+    """Serialized geometry_msgs/WrenchStamped (``WrenchStampedEncoder``)."""
+    return WrenchStampedEncoder(frame_id).encode(stamp_ns, wrench)
+
+
+_CLOCK = struct.Struct("<4siI")  # rosgraph_msgs/Clock: clock.sec (int32), clock.nanosec
+
+
+def encode_clock(stamp_ns: int) -> bytes:
+    """Serialized rosgraph_msgs/Clock of ``stamp_ns`` (as rmw sends it)."""
+    return _CLOCK.pack(_ENCAPSULATION, *divmod(int(stamp_ns), 1_000_000_000))
