@@ -3,7 +3,7 @@ Explore action's feedback reports it (``com_core.planning.run_time``).
 
 The run's time counts from when it first read the clock (its planning is time done); the
 time left is the current phase's plan from its start and every later phase's, at the sim's
-rate (sim s per wall s) measured when the phases were planned. A phase that ran over its
+rate (sim s per wall s) measured since the run's start. A phase that ran over its
 sim plan keeps the wall time it took beyond it for the next run's plan (``wall_seen``).
 """
 
@@ -28,7 +28,6 @@ class RunProgress:
         self._phases: tuple[PhaseTime, ...] = ()  # the run's phases as planned
         self._current, self._phase_ns = -1, 0  # the phase under way (index), its start (ns)
         self._mark = (0.0, 0)  # (wall s, sim ns) when the run first read the clock
-        self._rate = 1.0  # sim s per wall s, as measured when the phases were planned
         self._start_ns, self._planned_s = 0, math.inf  # the recording's start, its plan
 
     def start(self) -> None:
@@ -46,19 +45,19 @@ class RunProgress:
 
     def left(self, now_ns: int) -> float:
         """s (sim) the run has left at ``now_ns``: ``time_left`` of its phases from the
-        current one's start (before it has phases, what ``recording`` planned; inf before
-        that)."""
+        current one's start at the sim's rate measured so far (a run plans within its
+        first 0.5 s, before the rate is known; before it has phases, what ``recording``
+        planned; inf before that)."""
         if not self._phases:
             return self._planned_s - (now_ns - self._start_ns) * 1e-9
         in_phase = (now_ns - self._phase_ns) * 1e-9 if self._current >= 0 else 0.0
-        return time_left(self._phases, self._current, in_phase, self._rate)
+        return time_left(self._phases, self._current, in_phase, self.measured_rate())
 
     def plan(self, phases: tuple[PhaseTime, ...]) -> float:
         """Count the progress on ``phases`` from now, none of them under way yet; returns
         the s (sim) they take at the sim's rate measured so far."""
         self._phases, self._current = phases, -1
-        self._rate = self.measured_rate()
-        return time_left(phases, -1, 0.0, self._rate)
+        return time_left(phases, -1, 0.0, self.measured_rate())
 
     def measured_rate(self) -> float:
         """sim s per wall s since the run first read the clock; 1 within its first 0.5 s
