@@ -480,9 +480,7 @@ class EstimatorNode(Node):
             if back.size:  # a restarted clock before the run's done caught up: solve the
                 first = int(back[0])  # run on what it has, the new timeline apart
                 self._exploration.add_samples(stamps[:first], wrenches[:first], frames[:first])
-                self._solve(self._done_stamp)
-                self._exploration, self._done_stamp = self._new_exploration(), None
-                self._live_stamp = None
+                self._solve_done()
                 stamps, wrenches, frames = stamps[first:], wrenches[first:], frames[first:]
         resets = self._exploration.time_resets
         self._exploration.add_samples(stamps, wrenches, frames)
@@ -527,9 +525,17 @@ class EstimatorNode(Node):
             return
         caught_up = latest is not None and latest >= self._done_stamp
         if caught_up or time.monotonic() - self._done_wall > self._param("solve_timeout"):
-            self._solve(self._done_stamp)
-            self._exploration, self._done_stamp = self._new_exploration(), None
-            self._live_stamp = None
+            self._solve_done()
+
+    def _solve_done(self) -> None:
+        """Solve the run up to its ``done`` and start a new exploration."""
+        self._solve(self._done_stamp)
+        self._start_anew()
+
+    def _start_anew(self) -> None:
+        """A new exploration: no ``done`` pending, no live estimate due."""
+        self._exploration, self._done_stamp = self._new_exploration(), None
+        self._live_stamp = None
 
     # --- services -----------------------------------------------------------------
 
@@ -549,8 +555,7 @@ class EstimatorNode(Node):
     def reset_callback(self, request: Trigger.Request, response: Trigger.Response):
         self._drain()
         n = self._exploration.sample_count
-        self._exploration, self._done_stamp = self._new_exploration(), None
-        self._live_stamp = None
+        self._start_anew()
         response.success, response.message = True, f"cleared {n} samples"
         self.get_logger().info(response.message)
         return response
