@@ -50,8 +50,12 @@ SET_PARAMETERS_SERVICE = ESTIMATOR_PARAMETERS_SERVICE.replace("/get_", "/set_")
 TRUTH_MASS, TRUTH_COM = 0.1, (0.01, -0.02, 0.10)
 
 
-def run_publisher(start_node, *args: str, timeout: float = 60.0) -> None:
+def run_publisher(start_node, *args: str, timeout: float = 60.0, spin=None) -> None:
+    """synthetic_exploration with ``args``, to its end; ``spin``: a node spun meanwhile
+    (its subscriptions' depth would not hold all that arrives while it waits)."""
     proc = start_node("synthetic_exploration", PACKAGE, args=list(args))
+    if spin is not None:
+        spin_until(spin, lambda: proc.poll() is not None, timeout)
     assert proc.wait(timeout=timeout) == 0, Path(proc.log_path).read_text()
 
 
@@ -179,11 +183,8 @@ def test_every_bad_input_gives_its_status_and_the_node_keeps_serving(start_node,
     spin_until(listener.node, lambda: bool(listener.estimates), 1.0)
     assert not listener.estimates, "an inconsistent fit was published on ~/estimate"
     faults = [fault for fault, _, _ in BAD_INPUTS]  # one exploration each, in order
-    proc = start_node("synthetic_exploration", PACKAGE,
-                      args=["--fault", *faults, "--dwell", "0.4", "--speed", "4000"])  # fmt: skip
-    # the listener spins meanwhile: its depth would not hold every status of the run
-    assert spin_until(listener.node, lambda: proc.poll() is not None, 120.0)
-    assert proc.returncode == 0, Path(proc.log_path).read_text()
+    run_publisher(start_node, "--fault", *faults, "--dwell", "0.4", "--speed", "4000",
+                  timeout=120.0, spin=listener.node)  # fmt: skip
     seen = 1
     for fault, level, text in BAD_INPUTS:
         status, _ = listener.next_status(seen)
