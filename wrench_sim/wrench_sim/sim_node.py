@@ -214,7 +214,7 @@ class SimNode(Node):
         self.executor_ = SingleThreadedExecutor(context=self.context)
         self.executor_.add_node(self)
 
-        self._wrench_bytes = WrenchStampedEncoder(SENSOR_FRAME)
+        self._wrench_encoder = WrenchStampedEncoder(SENSOR_FRAME)
         self._push_scheduled = False  # a push was accepted and its zero not yet published
         self._push_published = False  # the last applied wrench published was not zero
         arm = len(robot.arm_joints)
@@ -476,7 +476,7 @@ class SimNode(Node):
 
     def _publish_wrench(self, now: int, reading: np.ndarray) -> None:
         """The reading (6,), N and N m in ``ft_sensor``, stamped ``now`` (ns)."""
-        self.wrench_publisher.publish(self._wrench_bytes.encode(now, reading.tolist()))
+        self.wrench_publisher.publish(self._wrench_encoder.encode(now, reading.tolist()))
 
     def _publish_applied(self, now: int) -> None:
         """The pushes of the last step as the sensor reads them, in the mounted sensor's
@@ -492,7 +492,7 @@ class SimNode(Node):
             self._push_scheduled = world.push_scheduled
             return
         self._push_scheduled = world.push_scheduled or self._push_published
-        self.applied_publisher.publish(self._wrench_bytes.encode(now, wrench.tolist()))
+        self.applied_publisher.publish(self._wrench_encoder.encode(now, wrench.tolist()))
 
     def _publish_joint_state(self, now: int, part: int) -> None:
         """The arm's joints (``part`` 0) or the gripper's (1), from their own publisher;
