@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 from conftest import PANDA
-from fake_robot import HOME, NOISE, OBJECT, PICK, SAMPLE, FakeWorld
+from fake_robot import HOME, MS, NOISE, OBJECT, PICK, SAMPLE, FakeWorld
 
 from com_core.contract import (
     CANCELLED,
@@ -124,6 +124,30 @@ def test_a_run_starts_from_the_empty_hand_at_home(tmp_path, holding):
     assert goals(world)[: len(first)] == first
     fingers = [value[0] for _, value in world.sent("gripper")][holding:]  # the run's
     assert fingers[: 1 + holding] == [PANDA.gripper_open] * (1 + holding)
+
+
+def test_fingers_heard_after_the_arm_are_waited_for_before_the_run_decides_what_the_hand_holds(
+    tmp_path,
+):
+    """The gripper's joint states come from a publisher of their own, heard later than the
+    arm's (a new node's discovery): the run waits for them, so fingers closed on the object
+    put it back on the stand, not count as open."""
+    world = FakeWorld()
+    world.command(PANDA.gripper_closed, 20.0, "closing")  # on nothing: at home
+    world.held = True
+    fingers = {name: world.joints.pop(name) for name in PANDA.gripper_joints}
+    heard, advance = world.t + 300 * MS, world._advance
+
+    def later(to_ns: int) -> None:
+        advance(to_ns)
+        if world.t >= heard:
+            world.joints |= {n: v for n, v in fingers.items() if n not in world.joints}
+
+    world._advance = later
+    outcome = make_run(world, tmp_path).execute()
+    assert outcome.status == OK, outcome.message
+    assert "putting it back on the stand before the run" in world.warnings[0], world.warnings
+    assert goals(world)[:2] == [PICK, HOME]  # at home already: down to the stand and back
 
 
 def test_a_cancel_drops_the_windows_puts_the_object_back_and_closes_the_bag(tmp_path):

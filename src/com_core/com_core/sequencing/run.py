@@ -309,10 +309,13 @@ class ExplorationRun:
         clock.wait(lambda: feed.joints, "waiting for the joint states", wall_timeout=None)
         self.progress.start()  # the run's time (and the sim's rate) from here
         motion = self.arm.motion = self.ports.robot()
+        # the arm's and the gripper's publishers are heard apart: before the run decides
+        # whether the hand holds an object, the fingers must have been heard too
+        joints = (*config.arm_joints, *config.gripper_joints)
         with contextlib.suppress(TimeoutRunError):  # missing: named below
-            clock.wait(  # a gripper's publisher may be heard before the arm's
-                lambda: all(name in feed.joints for name in config.arm_joints),
-                "waiting for the arm's joint states",
+            clock.wait(
+                lambda: all(name in feed.joints for name in joints),
+                "waiting for the arm's and the gripper's joint states",
                 wall_timeout=clock.sim_timeout,
             )
         missing = [name for name in config.arm_joints if name not in feed.joints]
@@ -320,6 +323,11 @@ class ExplorationRun:
             raise RunError(
                 f"{JOINT_STATES_TOPIC} has no {', '.join(missing)} of the robot configuration's "
                 f"arm_joints (it names {', '.join(feed.joints)})"
+            )
+        if fingers := [name for name in config.gripper_joints if name not in feed.joints]:
+            self.log.warning(
+                f"{JOINT_STATES_TOPIC} has no {', '.join(fingers)} of the robot "
+                "configuration's gripper_joints: those fingers count as open"
             )
         feed.arm_joints = frozenset(config.arm_joints)  # their messages: the arm answers
         self._handshake()
