@@ -44,7 +44,7 @@ def test_every_sample_the_estimator_used_is_in_the_bag_with_both_cores_loaded(
 ):
     """The node's window counts against the bag's, window by window, and the replay of
     the bag gives the node's mass and COM to the bit."""
-    start_system(start_node, tmp_path, {"real_time_factor": 2.0, "seed": 4})
+    start_system(start_node, tmp_path, {"real_time_factor": 2.0, "rate": 1000.0, "seed": 4})
     result = client.wait(client.call(), timeout=300.0)
     assert result.success, result.message
     bag = Path(BAG.search(result.message).group(1))
