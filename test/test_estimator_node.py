@@ -168,6 +168,10 @@ BAD_INPUTS = [
 ]
 
 
+QUICK = ("--dwell", "0.4", "--rate", "500", "--speed", "4000")
+"""A short exploration at 500 Hz, played at 4,000 wrenches per second (wall)."""
+
+
 def test_every_bad_input_gives_its_status_and_the_node_keeps_serving(start_node, listener):
     from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
     from rcl_interfaces.srv import SetParameters
@@ -176,15 +180,14 @@ def test_every_bad_input_gives_its_status_and_the_node_keeps_serving(start_node,
     start_node("estimator_node", PACKAGE, params=WRENCHES_ONLY)
     listener.wait_for_node()
     # the object moved in the grasp: WARN in the diagnostics, and no estimate on ~/estimate
-    run_publisher(start_node, "--shift-sigma", "0.01", "--dwell", "0.4", "--speed", "4000")
+    run_publisher(start_node, "--shift-sigma", "0.01", *QUICK)
     status, values = listener.next_status(0)
     assert status.level == b"\x01" and "moved in the grasp" in status.message, status.message
     assert "mass" in values  # its numbers, for diagnosis
     spin_until(listener.node, lambda: bool(listener.estimates), 1.0)
     assert not listener.estimates, "an inconsistent fit was published on ~/estimate"
     faults = [fault for fault, _, _ in BAD_INPUTS]  # one exploration each, in order
-    run_publisher(start_node, "--fault", *faults, "--dwell", "0.4", "--speed", "4000",
-                  timeout=120.0, spin=listener.node)  # fmt: skip
+    run_publisher(start_node, "--fault", *faults, *QUICK, timeout=120.0, spin=listener.node)
     seen = 1
     for fault, level, text in BAD_INPUTS:
         status, _ = listener.next_status(seen)
@@ -202,7 +205,7 @@ def test_every_bad_input_gives_its_status_and_the_node_keeps_serving(start_node,
         SetParameters, SET_PARAMETERS_SERVICE, SetParameters.Request(parameters=[bad])
     ).results[0]
     assert not result.successful and "method" in result.reason
-    run_publisher(start_node, "--dwell", "0.4", "--speed", "4000", "--seed", "9")
+    run_publisher(start_node, *QUICK, "--seed", "9")
     status, values = listener.next_status(seen)
     assert status.level == b"\x00", status.message
     assert math.isclose(float(values["mass"]), TRUTH_MASS, rel_tol=0.02)
