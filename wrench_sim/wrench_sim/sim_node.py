@@ -455,7 +455,9 @@ class SimNode(Node):
                 self._pace()
 
     def _pace(self) -> None:
-        """Service subscriptions; sleep (while spinning) to hold the real-time factor."""
+        """Service subscriptions; to hold the real-time factor, go on serving them until
+        the wall clock catches up with the sim (each request as it comes, not one per
+        ``_SPIN_EVERY`` steps)."""
         self.executor_.spin_once(timeout_sec=0)
         factor = self._real_time_factor  # one value throughout: a set may change it meanwhile
         if factor <= 0.0:
@@ -463,12 +465,9 @@ class SimNode(Node):
         if self._pace_origin is None:
             self._pace_origin = (time.perf_counter(), self.world.time)
         wall0, sim0 = self._pace_origin
-        ahead = wall0 + (self.world.time - sim0) / factor - time.perf_counter()
-        if ahead > 0.0:
+        due = wall0 + (self.world.time - sim0) / factor
+        while factor == self._real_time_factor and (ahead := due - time.perf_counter()) > 0.0:
             self.executor_.spin_once(timeout_sec=ahead)
-            if factor == self._real_time_factor:
-                remaining = wall0 + (self.world.time - sim0) / factor
-                time.sleep(max(0.0, remaining - time.perf_counter()))
 
     def _publish_clock(self, now: int) -> None:
         """Sim time ``now`` (ns) on /clock, serialized (``encode_clock``)."""
