@@ -43,7 +43,8 @@ run by test_the_three_nodes_with_their_defaults_give_an_estimate and bench/."""
 SIM = {"real_time_factor": 10.0, "rate": 250.0, **WHITE, **NOISE}
 """The simulator these tests run: the white sensor at 250 Hz, a rate many F/T drivers
 publish at, ten times faster than real time. The 1 kHz default is run by the defaults'
-test, the demo's, the compensated stream's and test_recording_under_load.py (2 kHz)."""
+test, the demo's, the compensated stream's, the Explore action's progress test and
+test_recording_under_load.py (2 kHz)."""
 SEQUENCER = {"use_sim_time": True, "tare_dwell": 2.0}
 """The sequencer these tests run: on sim time, the tare pass's windows 2 s long (5 s by
 default, for the noise's learning; the estimator's error bars count the samples)."""
@@ -97,6 +98,12 @@ class Client:
     def wait(self, future, timeout: float = 120.0):
         assert spin_until(self.node, future.done, timeout), "~/explore did not answer"
         return future.result()
+
+    def held(self) -> tuple[float, np.ndarray]:
+        """The latest ground truth with the object in the hand (its COM within 0.2 m of
+        the sensor; on the stand it is far below): mass (kg), COM (3,) (m, sensor frame)."""
+        truth = [t for t in self.truths if abs(t.inertia.com.z) < 0.2][-1].inertia
+        return truth.m, np.array([truth.com.x, truth.com.y, truth.com.z])
 
 
 @pytest.fixture
@@ -223,15 +230,12 @@ def test_rigid_grasp_estimate_is_within_tolerance_of_ground_truth(
     com = numbers(result.message, "COM") * 1e-3
     sigma = numbers(result.message, r"COM \([-\d., ]+\) \+-") * 1e-3
     mass = float(re.search(r"mass ([\d.]+)", result.message).group(1)) * 1e-3
-    held = [t for t in client.truths if abs(t.inertia.com.z) < 0.2]  # in the hand
-    truth = held[-1].inertia
-    np.testing.assert_allclose(
-        com, [truth.com.x, truth.com.y, truth.com.z], atol=float(4.5 * sigma.max() + 1e-4)
-    )
+    truth_mass, truth_com = client.held()
+    np.testing.assert_allclose(com, truth_com, atol=float(4.5 * sigma.max() + 1e-4))
     sigma_mass = float(re.search(r"mass [\d.]+ \+- ([\d.]+)", result.message).group(1)) * 1e-3
     # the run's own error bar, as for the COM (the 0.5 % of docs/design.md, Numbers, is a
     # 95th percentile over 50 objects: bench/exploration.py)
-    assert abs(mass - truth.m) < 4.5 * sigma_mass + 1e-5
+    assert abs(mass - truth_mass) < 4.5 * sigma_mass + 1e-5
 
     bag = Path(result.message.rsplit(" bag ", 1)[1])
     assert (bag / "metadata.yaml").is_file() and (bag / "report.png").is_file()
@@ -315,8 +319,7 @@ def test_a_cached_hand_model_absorbs_a_bias_drift_since_the_tare(
     sigma = numbers(first.message, r"COM \([-\d., ]+\) \+-")
     alone = numbers(first.message, r"wrenches alone: COM \+-")
     assert sigma[2] < 0.7 * alone[2], (sigma, alone)  # ~0.6x
-    truth = [t for t in client.truths if abs(t.inertia.com.z) < 0.2][-1].inertia
-    com = [truth.com.x, truth.com.y, truth.com.z]
+    com = client.held()[1]
     np.testing.assert_allclose(numbers(first.message, "COM") * 1e-3, com, atol=4.5e-3 * max(sigma))
 
     set_parameter(client, SIM_PARAMETERS_SERVICE.replace("get_", "set_"), "bias_f", 0.25)
@@ -334,12 +337,11 @@ def test_a_cached_hand_model_absorbs_a_bias_drift_since_the_tare(
     assert_replays_to_node(bag, offline)
     # the step, plus what the sensor drifted between the runs (well under 2 min apart)
     assert all(0.25 < d < 0.25 + 0.05 * 2 for d in offline["bias_drift"][:3]), offline
-    truth = [t for t in client.truths if abs(t.inertia.com.z) < 0.2][-1].inertia  # regrasped
-    com = [truth.com.x, truth.com.y, truth.com.z]
+    mass, com = client.held()  # regrasped
     np.testing.assert_allclose(offline["com"], com, atol=4.5 * max(offline["sigma_com"]))
-    assert abs(offline["mass"] - truth.m) < 4.5 * offline["sigma_mass"]
+    assert abs(offline["mass"] - mass) < 4.5 * offline["sigma_mass"]
     wrenches = replay_json(bag, ros_env, "--information", "wrenches")
-    assert abs(wrenches["mass"] - truth.m) > 10 * offline["sigma_mass"], wrenches
+    assert abs(wrenches["mass"] - mass) > 10 * offline["sigma_mass"], wrenches
     assert (bags / "tare_cache.json").is_file()
 
 
@@ -553,21 +555,13 @@ def test_a_sensor_mounted_off_its_urdf_frame_is_flagged_by_kinematics(
     bag = Path(result.message.rsplit(" bag ", 1)[1])
     offline = replay_json(bag, ros_env, "--information", "wrenches")
     assert offline["status"] == "OK" and offline["information"] == "wrenches"
-    truth = [t for t in client.truths if abs(t.inertia.com.z) < 0.2][-1].inertia
-    np.testing.assert_allclose(
-        offline["com"],
-        [truth.com.x, truth.com.y, truth.com.z],
-        atol=4.5 * max(offline["sigma_com"]),
-    )
+    com = client.held()[1]
+    np.testing.assert_allclose(offline["com"], com, atol=4.5 * max(offline["sigma_com"]))
     # kinematics+mount fits the mounting: right, and the 3 deg found within 0.5 deg
     mounted = replay_json(bag, ros_env, "--information", "kinematics+mount")
     assert mounted["status"] == "OK", mounted["reason"]
     assert abs(math.degrees(mounted["mount_rpy"][0]) - 3.0) < 0.5, mounted["mount_rpy"]
-    np.testing.assert_allclose(
-        mounted["com"],
-        [truth.com.x, truth.com.y, truth.com.z],
-        atol=4.5 * max(mounted["sigma_com"]),
-    )
+    np.testing.assert_allclose(mounted["com"], com, atol=4.5 * max(mounted["sigma_com"]))
 
 
 def test_the_compensated_stream_shows_a_push_without_gravity_and_payload_files_load(
@@ -685,10 +679,7 @@ def test_the_three_nodes_with_their_defaults_give_an_estimate(start_node, client
     assert "internal error" not in result.message and "sensor noise" in result.message
     com = numbers(result.message, "COM") * 1e-3
     sigma = numbers(result.message, r"COM \([-\d., ]+\) \+-") * 1e-3
-    truth = [t for t in client.truths if abs(t.inertia.com.z) < 0.2][-1].inertia
-    np.testing.assert_allclose(
-        com, [truth.com.x, truth.com.y, truth.com.z], atol=float(4.5 * sigma.max())
-    )
+    np.testing.assert_allclose(com, client.held()[1], atol=float(4.5 * sigma.max()))
     # every trajectory as a trajectory controller runs it as planned: none arrives while a
     # static window is open, every point carries velocities and accelerations
     run = read_run(Path(re.search(r"; bag (\S+)", result.message).group(1)))
@@ -819,10 +810,7 @@ def test_the_explore_action_gives_progress_the_live_sigma_and_the_estimate(
         sigma[1:] * 1e3, numbers(result.message, r"COM \([-\d., ]+\) \+-"), atol=0.006
     )
     com = result.estimate.inertia.com
-    truth = [t for t in client.truths if abs(t.inertia.com.z) < 0.2][-1].inertia
-    np.testing.assert_allclose(
-        [com.x, com.y, com.z], [truth.com.x, truth.com.y, truth.com.z], atol=4.5 * sigma[1:].max()
-    )
+    np.testing.assert_allclose([com.x, com.y, com.z], client.held()[1], atol=4.5 * sigma[1:].max())
     assert result.verification.startswith("verification 'diagonal'")
     assert (Path(result.bag) / "metadata.yaml").is_file()
 
