@@ -9,7 +9,8 @@ The node does not spin on a timer: ``run`` steps the physics at 1 kHz as fast as
 ``real_time_factor``), publishes /clock every ``1000 / clock_rate`` steps (4 ms by default:
 fine enough to sequence, a quarter of the load of every step at 5x real time) and the wrench
 every ``1000 / rate`` steps, and services its subscriptions every 50 steps with
-``spin_once(timeout_sec=0)``. The wrenches and /clock go out as serialized messages (the
+``spin_once(timeout_sec=0)`` and, while it waits for the wall clock to hold
+``real_time_factor``, each as it comes. The wrenches and /clock go out as serialized messages (the
 same messages, without rclpy's conversion of a Python one at every sample).
 
 Publishes (names in ``com_core.contract``; stamps in sim time):
