@@ -309,3 +309,91 @@ def test_a_bag_that_lacks_samples_the_node_used_is_warned_by_window(tmp_path, ca
         f"the bag holds {used - 5} of the {used} samples the estimator used in {window}"
         in (out["reason"])
     )
+
+
+# --- a recording this project did not make -----------------------------------------------
+
+
+def test_a_csv_log_of_orientations_and_wrenches_is_replayed(tmp_path, capsys):
+    """``replay LOG.csv``: the recording's fit, printed as JSON with the self-check; a log
+    without orientations is refused with exit code 2, by name."""
+    from test_core_recording import LOAD, recorded, write_csv
+
+    rec, _ = recorded(9)
+    log = tmp_path / "log.csv"
+    write_csv(log, rec, quaternions=True)
+    out = run_replay(capsys, log)
+    assert out["status"] == "OK", out["reason"]
+    assert out["windows_from"] == "recording" and out["whole_load"]
+    assert abs(out["mass"] - LOAD.mass) < 3 * out["sigma_mass"]
+    assert len(out["check_sigmas"]) == 6
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time,fx,fy,fz,tx,ty,tz\n0,1,2,3,4,5,6\n")
+    assert replay.main([str(bad)]) == 2
+    assert "qx, qy, qz, qw" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_an_unlabelled_bag_of_another_recorder_gives_the_load_and_the_bias(tmp_path, capsys):
+    """A bag rosbags wrote (250 Hz wrenches, 100 Hz joint states, the URDF on
+    /robot_description; no labels, no robot configuration) of the Panda holding a 0.4 kg
+    box and wandering slowly with rests, through the realistic sensor with a 7 N bias:
+    OK, the whole load and the bias within 3 sigma of the truth."""
+    from dataclasses import replace as replaced
+
+    from com_core.sensing.sensor_profiles import PROFILES
+    from wrench_sim.config import SimConfig
+    from wrench_sim.physics import ArmWorld
+    from wrench_sim.sensor import profile_sensor
+    from wrench_sim.studies import grasp, record_wandering, write_recording_bag
+
+    world = ArmWorld(SimConfig(object_mass=0.4, seed=11))
+    try:
+        sensor = profile_sensor(PROFILES["realistic"], seed=11, serial=11)
+        bias = np.array([4.0, -5.0, 3.0, 0.2, -0.1, 0.15])
+        sensor.model = replaced(sensor.model, bias=bias)
+        grasp(world)
+        start = world.time
+        recorded = record_wandering(world, sensor, np.random.default_rng(11), duration=25.0)
+        middle = (start + world.time) / 2  # the fit's bias is at the middle: the drift then
+        assert sensor.drift is not None
+        bias = bias + sensor.drift.at(world.time) * middle / world.time
+        mh, ch = world.hand_ground_truth()
+        mo, co = world.object_ground_truth()
+        bag = tmp_path / "wandering"
+        robot = world.config.robot
+        write_recording_bag(str(bag), recorded, robot.arm_joints, world.urdf_text)
+    finally:
+        world.close()
+    out = run_replay(capsys, bag, "--sensor-frame", robot.sensor_frame)
+    assert out["status"] == "OK", out["reason"]
+    mass, com = mh + mo, (mh * ch + mo * co) / (mh + mo)
+    assert abs(out["mass"] - mass) < 3 * out["sigma_mass"]
+    assert np.all(np.abs(np.subtract(out["com"], com)) < 3 * np.array(out["sigma_com"]))
+    assert np.all(np.abs(np.subtract(out["bias"], bias)) < 3 * np.array(out["bias_sigma"]))
+    assert out["rests"] >= 2 and out["left_out"] == 0
+
+
+def test_a_tare_recording_gives_the_object_alone_through_the_replay(tmp_path, capsys):
+    """``--tare-recording`` (a log of the empty tool): the object alone, said so."""
+    from test_core_recording import LOAD, sensor, write_csv
+
+    from com_core.paper.synthetic import Load, wandering_recording
+
+    rng = np.random.default_rng(13)
+    tool = Load(0.15, (0.0, 0.005, 0.03))
+    both = tool.mass + LOAD.mass
+    com = (tool.mass * np.array(tool.com) + LOAD.mass * np.array(LOAD.com)) / both
+    write_csv(tmp_path / "empty.csv", wandering_recording(sensor(), tool, rng), True)
+    held = wandering_recording(sensor(), Load(both, tuple(com)), rng)
+    write_csv(tmp_path / "held.csv", held, True)
+    out = run_replay(
+        capsys, tmp_path / "held.csv", "--tare-recording", str(tmp_path / "empty.csv")
+    )
+    assert out["status"] == "OK", out["reason"]
+    assert not out["whole_load"]
+    assert abs(out["mass"] - LOAD.mass) < 3 * out["sigma_mass"]
+    with pytest.raises(SystemExit) as refused:  # refused by name before any run
+        replay.main([str(tmp_path / "held.csv"), "--tare-recording", "nowhere.csv"])
+    assert refused.value.code == 2
+    assert "--tare-recording" in capsys.readouterr().err

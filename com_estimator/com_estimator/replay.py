@@ -15,7 +15,17 @@ Reads /ft_sensor/wrench and /exploration_sequencer/pose from a rosbag2 directory
 with the node's settings of that run (BAG/estimator.yaml; an option overrides one), so the
 same messages give the same numbers to the last bit.
 
-A bag without pose labels is cut into static windows by
+A recording without pose labels (a bag this project did not make, a lab's old
+recording) with joint states and a robot description (the bag's /robot_description, or
+``--robot-description``; ``--sensor-frame``, ``--base-frame``) is fitted as any
+recording is (``com_core.estimation.recording``): the rests and the slow motion between
+them, whatever the bias, with the noise learnt from the recording, what it could not
+tell named, and a self-check (each half predicting the other). So is a log of wrenches
+and the sensor's orientations that never was ROS: ``replay LOG.csv`` or ``LOG.npz``
+(columns: ``recording.CSV_COLUMNS``). ``--tare-recording`` (a bag or a log of the empty
+tool) gives the object alone; without it, the whole load beyond the sensor.
+
+A bag without pose labels nor kinematics is cut into static windows by
 ``com_core.estimation.static_windows.find_static_windows`` (blocks of 50 ms whose spread is at the
 noise level, joined while their means agree within 6 standard errors, kept when longer
 than 0.3 s) and sorted by ``split_load_levels`` into the empty hand's and the loaded
@@ -62,13 +72,22 @@ from com_core.contract import (
     WINDOW_PREFIXES,
     WRENCH_TOPIC,
 )
+from com_core.estimation.errors import EstimationError
 from com_core.estimation.exploration import Exploration
 from com_core.estimation.feed import feed_bag
 from com_core.estimation.fits import WRENCHES
 from com_core.estimation.hand_motion import HAND_MOTION_FILE, load_hand_motion
+from com_core.estimation.recording import (
+    Recording,
+    RecordingFit,
+    fit_recording,
+    read_recording_file,
+    recording_from_inbox,
+)
 from com_core.estimation.settings import (
     BAG_SETTINGS_FILE,
     SETTINGS,
+    defaults,
     exploration_from,
     read_bag_settings,
     robot_from,
@@ -83,6 +102,7 @@ from com_core.estimation.solution import (
 from com_core.estimation.static_windows import find_static_windows, split_load_levels
 from com_core.estimation.tare_cache import BAG_TARE_FILE
 from com_core.inputs import refusal, unwritable
+from com_core.report.recording import write_recording_report
 from com_core.robot.config import BAG_ROBOT_FILE, RobotConfigError, read_robot_config
 
 ROBOT_FRAMES = ("sensor_frame", "base_frame")
@@ -122,6 +142,19 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"cached tare windows (default: BAG/{BAG_TARE_FILE} if present)",
     )
     parser.add_argument(
+        "--tare-recording",
+        type=Path,
+        default=None,
+        help="a recording of the empty tool (a bag, or a CSV or .npz log) for a recording "
+        "without pose labels: the object alone comes out",
+    )
+    parser.add_argument(
+        "--report",
+        type=Path,
+        default=None,
+        help="for a recording without pose labels: write its PNG report to this file",
+    )
+    parser.add_argument(
         "--robot",
         type=Path,
         default=None,
@@ -150,8 +183,12 @@ def main(argv: list[str] | None = None) -> int:
     ]
     if args.csv is not None and (why := unwritable("--csv", args.csv)):
         refused.append(why)
+    if args.report is not None and (why := unwritable("--report", args.report)):
+        refused.append(why)
     if args.tare is not None and not args.tare.is_file():
         refused.append(refusal("--tare", str(args.tare), "is no file"))
+    if args.tare_recording is not None and not args.tare_recording.exists():
+        refused.append(refusal("--tare-recording", str(args.tare_recording), "does not exist"))
     if refused:
         parser.error("; ".join(refused))  # before any run is read: exit code 2
     runs = [run for path in args.bags for run in bag_directories(path)]
@@ -222,6 +259,10 @@ def is_bag(path: Path) -> bool:
     return (path / "metadata.yaml").is_file() or any(path.glob("*.mcap"))
 
 
+LOG_SUFFIXES = (".csv", ".npz")
+"""A log of wrenches and orientations that never was ROS (``recording.read_recording_file``)."""
+
+
 def summary_table(rows: list[tuple[Path, Solution | None]]) -> str:
     """One line per run: status, mass and COM with their sigmas, the bag; then counts."""
     lines = ["", f"{'status':7} {'mass g, COM mm (sensor frame)':>61}  bag"]
@@ -244,6 +285,8 @@ def summary_table(rows: list[tuple[Path, Solution | None]]) -> str:
 def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
     """One run replayed and printed; (exit code, its solution or None when refused)."""
     args = argparse.Namespace(**vars(args), bag=bag)
+    if args.bag.is_file() and args.bag.suffix in LOG_SUFFIXES:
+        return replay_recording(args, lambda: read_recording_file(args.bag), {})
     if not is_bag(args.bag):
         print(f"replay: {args.bag} is not a rosbag2 directory", file=sys.stderr)
         return 2, None
@@ -271,9 +314,18 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
         )
     if (cached := load_hand_motion(args.bag / HAND_MOTION_FILE)) is not None:
         exploration.hand_motion = cached.fit  # the node's, from its cache
+    if not n_label and exploration.robot is not None and exploration.joint_states:
+        robot = exploration.robot
+        return replay_recording(
+            args,
+            lambda: recording_from_inbox(exploration, robot, str(args.bag)),
+            {"messages": n_wrench, "bag": reading.as_dict()},
+        )
     if n_label:
         source = f"pose labels from the bag ({n_label})"
     else:
+        if exploration.robot_problem:
+            print(f"replay: no kinematics: {exploration.robot_problem}", file=sys.stderr)
         stamps, wrenches = exploration.samples()
         levels = split_load_levels(find_static_windows(stamps, wrenches), exploration.tares)
         for stamp, label in levels.labels:
@@ -300,6 +352,61 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
             print("bag: the cut lies after done: every window of the run was read")
         print(format_solution(solution))
     return (1 if solution.status == ERROR else 0), solution
+
+
+def replay_recording(
+    args: argparse.Namespace, read, extra: dict
+) -> tuple[int, RecordingFit | None]:
+    """A recording without labels fitted (``recording.fit_recording``) and printed, with
+    ``--tare-recording``; ``read()`` gives the ``Recording``. (exit code, the fit or None
+    when the recording or its tare cannot be read)."""
+    settings = read_bag_settings(args.bag / BAG_SETTINGS_FILE) if args.bag.is_dir() else {}
+    settings = defaults() | settings | option_settings(args)
+    exploration = exploration_from(settings)
+    try:
+        recording = read()
+        tare = None if args.tare_recording is None else tare_recording(args)
+    except (EstimationError, ValueError, OSError) as error:
+        print(f"replay: {args.bag}: {error}", file=sys.stderr)
+        return 2, None
+    fit = fit_recording(
+        recording,
+        tare,
+        exploration.calibration,
+        settings["gravity"],
+        exploration.bias_drift_rate,
+    )
+    if args.report is not None:
+        write_recording_report(recording, fit, args.report)
+    if args.json:
+        print(
+            json.dumps(
+                fit.as_dict() | {"path": str(args.bag), "windows_from": "recording"} | extra
+            )
+        )
+    else:
+        print(
+            f"{args.bag}: {len(recording.times)} wrenches; a recording without pose labels "
+            f"({'joint states' if recording.dynamic else 'orientations'})"
+        )
+        print(fit.summary())
+    return (1 if fit.status == ERROR else 0), fit
+
+
+def tare_recording(args: argparse.Namespace) -> Recording:
+    """The ``--tare-recording``: a log, or a bag with joint states and the robot model of
+    the options (or of the bag's /robot_description)."""
+    path = args.tare_recording
+    if path.is_file():
+        return read_recording_file(path)
+    settings = option_settings(args)
+    exploration = exploration_from(settings)
+    reading = BagReading()
+    feed_bag(path, exploration, args.wrench_topic, args.pose_topic, reading=reading)
+    robot, problem = robot_from(settings, reading.robot_description)
+    if robot is None:
+        raise EstimationError(f"--tare-recording {path}: no kinematics: {problem}")
+    return recording_from_inbox(exploration, robot, str(path))
 
 
 def cut_short_reasons(exploration: Exploration, n_label: int, reading: BagReading) -> list[str]:

@@ -9,7 +9,16 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from com_core.contract import DONE, MOTION_OBJECT, MOTION_TARE, MOTION_VERIFY, MOVING
+from com_core.contract import (
+    DONE,
+    JOINT_STATES_TOPIC,
+    MOTION_OBJECT,
+    MOTION_TARE,
+    MOTION_VERIFY,
+    MOVING,
+    ROBOT_DESCRIPTION_TOPIC,
+    WRENCH_TOPIC,
+)
 from com_core.estimation.exploration import Exploration
 from com_core.estimation.inbox import Inbox
 from com_core.estimation.settings import exploration_from
@@ -28,7 +37,9 @@ __all__ = [
     "grasp",
     "hold_still",
     "record_until",
+    "record_wandering",
     "run_excitation",
+    "write_recording_bag",
 ]
 
 
@@ -132,3 +143,93 @@ def explore_in_motion(calibration_accuracy: float, seed: int, joint_every: int =
     feed(exploration, world, MOTION_VERIFY, run_excitation(world, other, sensor, joint_every))
     exploration.add_label(round(world.time * 1e9), DONE)
     return MotionRun(world, sensor, model, exploration, exploration.solve())
+
+
+def record_wandering(
+    world: ArmWorld,
+    sensor: WrenchSensor,
+    rng: np.random.Generator,
+    duration: float = 40.0,
+    speed: float = 0.1,
+    tilt: float = 0.8,
+    joint_every: int = 10,
+) -> tuple[NDArray[np.float64], ...]:
+    """A teleoperated-like recording from where the arm is (the object held): slow moves
+    (the largest joint at ``speed`` rad/s, rest to rest) to random wrist targets, each
+    wrist joint within ``tilt`` rad of its start and the others within a tenth of it,
+    kept inside the joint limits, with rests of 0.3-3 s between them, for ``duration`` s;
+    ``record_until``'s arrays (joint states every ``joint_every`` steps)."""
+    robot = world.config.robot
+    start = np.array(world.joint_state()[1][: len(robot.arm_joints)])
+    limits = RobotModel(world.urdf_text, robot.sensor_frame).joint_limits()
+    low = np.array([limits[name][0] for name in robot.arm_joints]) + 0.05
+    high = np.array([limits[name][1] for name in robot.arm_joints]) - 0.05
+    spread = np.full(len(start), tilt / 10)
+    spread[-3:] = tilt
+    parts, end = [], world.time + duration
+    here = start
+    while world.time < end:
+        parts.append(hold_still(world, sensor, rng.uniform(0.3, 3.0), joint_every))
+        target = np.clip(start + rng.uniform(-1.0, 1.0, len(start)) * spread, low, high)
+        seconds = max(float(np.max(np.abs(target - here))) / speed, 0.5)
+        move_end = world.command_move(target.tolist(), seconds)
+        parts.append(record_until(world, sensor, move_end, joint_every))
+        here = target
+    return tuple(np.concatenate([part[k] for part in parts]) for k in range(4))
+
+
+def write_recording_bag(
+    path: str,
+    recorded: tuple[NDArray[np.float64], ...],
+    joint_names: tuple[str, ...],
+    urdf: str,
+    wrench_every: int = 4,
+) -> None:
+    """Write ``recorded`` (``record_until``'s arrays) as a rosbag2 (MCAP) of another
+    recorder, rosbags': /ft_sensor/wrench (every ``wrench_every``-th reading, frame
+    ``ft_sensor``), /joint_states and /robot_description (``urdf``), stamped as a
+    driver stamps them (header and log time the same)."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_JAZZY)
+    msgs = store.types
+    Time, Header = msgs["builtin_interfaces/msg/Time"], msgs["std_msgs/msg/Header"]
+    Vector3 = msgs["geometry_msgs/msg/Vector3"]
+
+    def header(t: float, frame: str):
+        ns = round(t * 1e9)
+        return Header(stamp=Time(sec=ns // 10**9, nanosec=ns % 10**9), frame_id=frame), ns
+
+    joint_times, positions, times, readings = recorded
+    messages = []
+    for t, w in zip(times[::wrench_every], readings[::wrench_every], strict=True):
+        h, ns = header(t, "ft_sensor")
+        wrench = msgs["geometry_msgs/msg/Wrench"](force=Vector3(*w[:3]), torque=Vector3(*w[3:]))
+        messages.append(
+            (
+                ns,
+                WRENCH_TOPIC,
+                msgs["geometry_msgs/msg/WrenchStamped"](header=h, wrench=wrench),
+            )
+        )
+    for t, q in zip(joint_times, positions, strict=True):
+        h, ns = header(t, "")
+        state = msgs["sensor_msgs/msg/JointState"](
+            header=h,
+            name=list(joint_names),
+            position=np.asarray(q, dtype=np.float64),
+            velocity=np.zeros(0),
+            effort=np.zeros(0),
+        )
+        messages.append((ns, JOINT_STATES_TOPIC, state))
+    description = msgs["std_msgs/msg/String"](data=urdf)
+    messages.append((round(times[0] * 1e9), ROBOT_DESCRIPTION_TOPIC, description))
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        connections = {}
+        for _, topic, msg in messages:
+            if topic not in connections:
+                connections[topic] = writer.add_connection(topic, msg.__msgtype__, typestore=store)
+        for ns, topic, msg in sorted(messages, key=lambda m: m[0]):
+            raw = store.serialize_cdr(msg, msg.__msgtype__)
+            writer.write(connections[topic], ns, raw)

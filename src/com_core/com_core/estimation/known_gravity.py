@@ -81,7 +81,11 @@ class Observation:
     and the ``epoch`` of the sensor bias it was read with (0: this run; 1: an earlier
     tare pass), its ``time`` (s, the middle of the window; any origin within an epoch),
     and for a load window its ``group``: windows of another group see the object
-    elsewhere in the hand (``locate_move``'s alternatives; the estimate is group 0's)."""
+    elsewhere in the hand (``locate_move``'s alternatives; the estimate is group 0's).
+    ``design`` (6, 4), when given, is the window's mean wrench per unit of theta = (m, c)
+    in place of the static ``A(g_i)``: a window taken in motion, whose wrench also holds
+    the load's inertial forces (m and c's columns of ``robot.dynamics``' regressor,
+    averaged over the window); not with ``fit_mount``."""
 
     window: Window
     rotation: NDArray[np.float64]
@@ -89,6 +93,7 @@ class Observation:
     epoch: int = 0
     time: float = 0.0
     group: int = 0
+    design: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True)
@@ -134,6 +139,7 @@ class KinematicFit:
         time: float,
         load: bool = True,
         measured: ArrayLike | None = None,
+        design: ArrayLike | None = None,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The wrench (6,; N, N m) the sensor reads in this run (bias epoch 0) at
         R_base_sensor ``rotation`` (3, 3) of its URDF frame and ``time`` (s, the windows'
@@ -142,9 +148,33 @@ class KinematicFit:
         included). The wrench at a pose no window saw: a verification's prediction.
         With the wrench ``measured`` there (6,) and a calibration, the covariance also
         holds what the calibration's common error adds to measured less predicted
-        (``_Model.calibration_term``)."""
+        (``_Model.calibration_term``). ``design`` (6, 4): the wrench per unit of (m, c)
+        there in place of the static one (``Observation.design``)."""
         rotation = np.asarray(rotation, dtype=np.float64)
-        return self._model.predict(self._x, self.cov, rotation, time, load, measured)
+        a = None if design is None else np.asarray(design, dtype=np.float64)
+        return self._model.predict(self._x, self.cov, rotation, time, load, measured, a)
+
+    def wrenches(
+        self, designs: ArrayLike, times: ArrayLike, load: bool = True
+    ) -> NDArray[np.float64]:
+        """(n, 6): the wrenches (N, N m) the fit gives in this run (bias epoch 0) at the
+        designs (n, 6, 4; ``Observation.design``) and ``times`` (n,; s): the bias then, the
+        hand's wrench and, with ``load``, the object's (no mounting: the designs are
+        given). For many samples at once (a recording's residual)."""
+        model, x = self._model, self._x
+        theta = x[model.hand] if model.has_hand else np.zeros(4)
+        if load and model.has_object:
+            theta = theta + x[model.object]
+        out = np.einsum("kij,j->ki", np.asarray(designs, dtype=np.float64), theta)
+        if model.epochs:
+            elapsed = np.asarray(times, dtype=np.float64) - model.epoch_time[0]
+            out += self.bias[0] + np.outer(elapsed, self.bias_rate[0])
+        return out
+
+    @property
+    def observations(self) -> tuple[Observation, ...]:
+        """The windows fitted, in the order given."""
+        return tuple(self._model.obs)
 
     def latest_bias(self) -> NDArray[np.float64]:
         """This run's bias (6,; N, N m) at its latest window: the bias of epoch 0 carried
@@ -224,9 +254,11 @@ class _Model:
         fit_mount: bool,
         drift_rate_sigma: tuple[float, float] | None,
         calibration: Calibration | None = None,
+        uncalibrated: NDArray[np.float64] | None = None,
     ) -> None:
         self.obs = list(observations)
         self.calibration = calibration
+        self.uncalibrated = np.zeros(6) if uncalibrated is None else uncalibrated
         self.gravity = gravity
         empty = [o for o in self.obs if not o.load]
         self.epochs = 1 + max((o.epoch for o in self.obs), default=0) if empty else 0
@@ -270,7 +302,7 @@ class _Model:
         for i, o in enumerate(self.obs):
             cov[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] = o.window.cov
         if self.calibration is not None and n:
-            cov += self.calibration.cov(self.means.reshape(n, 6))
+            cov += self.calibration.cov(self.means.reshape(n, 6) - self.uncalibrated)
         return np.linalg.inv(np.linalg.cholesky(cov)) if n else np.zeros((0, 0))
 
     def gravities(
@@ -294,13 +326,20 @@ class _Model:
         return list((mount_t @ rotations_t) @ base)
 
     def design_rows(
-        self, g: NDArray[np.float64], epoch: int, time: float, load: bool, group: int = 0
+        self,
+        g: NDArray[np.float64],
+        epoch: int,
+        time: float,
+        load: bool,
+        group: int = 0,
+        design: NDArray[np.float64] | None = None,
     ) -> NDArray[np.float64]:
-        """(6, size): the derivative of the wrench at gravity ``g`` read with the bias of
-        ``epoch`` at ``time`` (s), with the object at its place ``group`` if ``load``, by
-        bias, rate, hand and object (mount columns 0)."""
+        """(6, size): the derivative of the wrench at gravity ``g`` (or of ``design``,
+        ``Observation.design``) read with the bias of ``epoch`` at ``time`` (s), with the
+        object at its place ``group`` if ``load``, by bias, rate, hand and object (mount
+        columns 0)."""
         rows = np.zeros((6, self.size))
-        a = _design(g)
+        a = _design(g) if design is None else design
         if self.epochs:
             rows[:, self.bias[epoch]] = np.eye(6)
         if self.rate:
@@ -331,6 +370,9 @@ class _Model:
                 for k in groups
             ]
         a = _designs(np.asarray(gravities, dtype=np.float64).reshape(n, 3))
+        for i, o in enumerate(self.obs):
+            if o.design is not None:
+                a[i] = o.design
         rows = self._fixed_rows.copy()
         if self.has_hand:
             rows[:, :, self.hand] = a
@@ -346,14 +388,16 @@ class _Model:
         time: float,
         load: bool,
         measured: ArrayLike | None = None,
+        design: NDArray[np.float64] | None = None,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """The wrench (6,) the unknowns ``x`` give at R_base_sensor ``rotation`` and
-        ``time`` in epoch 0 (with the object if ``load``), and its covariance (6, 6) from
-        ``cov`` (and the calibration's, ``calibration_term``, for a ``measured`` wrench);
-        the mounting and the tilt enter by central differences."""
+        """The wrench (6,) the unknowns ``x`` give at R_base_sensor ``rotation`` (or with
+        ``design``) and ``time`` in epoch 0 (with the object if ``load``), and its
+        covariance (6, 6) from ``cov`` (and the calibration's, ``calibration_term``, for a
+        ``measured`` wrench); the mounting and the tilt enter by central differences."""
 
         def rows(at: NDArray[np.float64]) -> NDArray[np.float64]:
-            return self.design_rows(self.gravities(at, [rotation])[0], 0, time, load)
+            g = self.gravities(at, [rotation])[0]
+            return self.design_rows(g, 0, time, load, design=design)
 
         def wrench(at: NDArray[np.float64]) -> NDArray[np.float64]:
             return rows(at) @ at
@@ -406,11 +450,11 @@ class _Model:
         n = 6 * len(self.obs)
         jac = self.jacobian(x)[:n]
         gain = -cov @ jac.T @ self.whiten  # d x / d (window means)
-        own = self.calibration.jacobian(measured)
+        own = self.calibration.jacobian(measured - self.uncalibrated)
         through = (
             predicted_jacobian
             @ gain
-            @ self.calibration.stacked_jacobian(self.means.reshape(-1, 6))
+            @ self.calibration.stacked_jacobian(self.means.reshape(-1, 6) - self.uncalibrated)
         )
         diff = own - through
         return self.calibration.sigma**2 * diff @ diff.T - self.calibration.sigma**2 * (
@@ -449,13 +493,18 @@ def kinematic_ml(
     drift_rate_sigma: tuple[float, float] | None = None,
     iterations: int = 30,
     calibration: Calibration | None = None,
+    uncalibrated: ArrayLike | None = None,
+    positive_object: bool = True,
 ) -> KinematicFit:
     """The ML fit of bias, hand and object to ``observations`` (see module), with
     ``gravity`` (m/s^2) in the base frame; ``fit_mount`` also fits the sensor's mounting
     and the base's tilt; ``drift_rate_sigma`` (N/s, N m/s) lets each epoch's bias drift
     (see module); ``calibration`` weighs the windows with the calibration's common error
-    too (``com_core.sensing.calibration``). The covariance is the CRLB; chi2 has 6n (+ 6 per
-    epoch with a rate prior) - (unknowns) dof.
+    too (``com_core.sensing.calibration``), on the windows' means less ``uncalibrated``
+    (6,; N, N m: the sensor's bias, which its calibration does not scale, when known). The
+    covariance is the CRLB; chi2 has 6n (+ 6 per epoch with a rate prior) - (unknowns)
+    dof. ``positive_object`` False lets the object's mass be any sign: the object is then a
+    change of load between windows (``estimation.recording``).
 
     Raises TooFewPosesError when the windows' orientations do not resolve the unknowns
     (a COM needs two gravity directions; a bias beside the load needs its gravity to
@@ -463,7 +512,10 @@ def kinematic_ml(
     NonPositiveMassError for an object mass at or below zero.
     """
     g = np.asarray(gravity, dtype=np.float64).reshape(3)
-    model = _Model(observations, g, fit_mount, drift_rate_sigma, calibration)
+    offset = None if uncalibrated is None else np.asarray(uncalibrated, dtype=np.float64)
+    model = _Model(observations, g, fit_mount, drift_rate_sigma, calibration, offset)
+    if fit_mount and any(o.design is not None for o in model.obs):
+        raise ValueError("windows with their own design cannot fit the mounting")
     if not model.obs:
         raise TooFewPosesError("no windows to fit")
     x = np.zeros(model.size)
@@ -491,7 +543,7 @@ def kinematic_ml(
         else None
     )
     if model.has_object:
-        if not x[model.object][0] > 0:
+        if positive_object and not x[model.object][0] > 0:
             raise NonPositiveMassError(f"mass {x[model.object][0] * 1e3:.3g} g: at or below zero")
         estimate = _estimate(x, cov, model.object, chi2, dof, poses)
     else:

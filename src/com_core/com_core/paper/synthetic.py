@@ -16,9 +16,22 @@ from numpy.typing import ArrayLike, NDArray
 from com_core.contract import DONE, MOVING, OBJECT_PREFIX, TARE_PREFIX, VERIFY_PREFIX
 from com_core.estimation.windows import Window
 from com_core.planning.planner import Plan
-from com_core.sensing.wrench_model import STANDARD_GRAVITY, as_vector, gravity_wrench
+from com_core.sensing.wrench_model import (
+    STANDARD_GRAVITY,
+    SensorModel,
+    as_vector,
+    gravity_wrench,
+)
 
-__all__ = ["Load", "Stream", "exploration_samples", "exploration_stream", "object_windows"]
+__all__ = [
+    "Load",
+    "Stream",
+    "WanderingRecording",
+    "exploration_samples",
+    "exploration_stream",
+    "object_windows",
+    "wandering_recording",
+]
 
 
 @dataclass(frozen=True)
@@ -168,3 +181,78 @@ def exploration_stream(
     true = np.concatenate(pieces)
     stamps = start_ns + np.round(np.arange(len(true)) * dt).astype(np.int64)
     return Stream(stamps, plan.sensor.measure(true, rng), labels)
+
+
+@dataclass(frozen=True)
+class WanderingRecording:
+    """A synthetic recording without labels (``wandering_recording``): stamps (n,) s,
+    readings (n, 6) N and N m, R_base_sensor (n, 3, 3), and the truth: the load's mass (kg)
+    and COM (m, sensor frame) at each sample (n,) and (n, 3), and the bias (6,)."""
+
+    times: NDArray[np.float64]
+    wrenches: NDArray[np.float64]
+    rotations: NDArray[np.float64]
+    mass: NDArray[np.float64]
+    com: NDArray[np.float64]
+    bias: NDArray[np.float64]
+
+
+def _rotation_of(rotvec: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(n, 3, 3) of rotation vectors (n, 3), Rodrigues."""
+    angle = np.linalg.norm(rotvec, axis=1)
+    axis = rotvec / np.maximum(angle, 1e-12)[:, None]
+    k = np.zeros((len(rotvec), 3, 3))
+    k[:, 0, 1], k[:, 0, 2], k[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
+    k -= k.transpose(0, 2, 1)
+    s, c = np.sin(angle)[:, None, None], np.cos(angle)[:, None, None]
+    return np.eye(3) + s * k + (1 - c) * k @ k
+
+
+def wandering_recording(
+    sensor: SensorModel,
+    load: Load,
+    rng: np.random.Generator,
+    duration: float = 56.0,
+    tilt: float = 1.0,
+    speed: float = 0.1,
+    axes: ArrayLike | None = None,
+    change: tuple[float, float] | None = None,
+) -> WanderingRecording:
+    """A slow, teleoperated-like recording: rests of 0.3-3 s between slow moves (up to
+    ``speed`` rad/s, a smooth profile) to random orientations within ``tilt`` rad of the
+    sensor hanging straight down (z along gravity), read through ``sensor`` (its bias,
+    calibration and coloured noise) at its rate, for ``duration`` s; quasi-static (the
+    wrench model: f = m g_s, tau = p x f). ``axes`` (3,): every move turns about this
+    one axis of the hanging sensor (a recording whose orientations share one axis).
+    ``change`` (time s, mass kg): from then on the load's mass is this (a second load)."""
+    rate = sensor.rate_hz
+    t = np.arange(0.0, duration, 1.0 / rate)
+    knots_t, knots_v = [0.0], [np.zeros(3)]
+    while knots_t[-1] < duration:
+        knots_t.append(knots_t[-1] + rng.uniform(0.3, 3.0))  # a rest
+        knots_v.append(knots_v[-1])
+        if axes is None:
+            target = rng.normal(size=3) * np.array([1.0, 1.0, 0.5])
+        else:
+            target = np.asarray(axes, dtype=np.float64) * rng.normal()
+        target *= tilt / max(np.linalg.norm(target[:2]) if axes is None else 1.0, 1e-9)
+        target *= rng.uniform(0.3, 1.0)
+        step = np.linalg.norm(target - knots_v[-1])
+        knots_t.append(knots_t[-1] + max(step / (speed * rng.uniform(0.4, 1.0)), 0.2))
+        knots_v.append(target)
+    knots_t_a, knots_v_a = np.array(knots_t), np.array(knots_v)
+    k = np.clip(np.searchsorted(knots_t_a, t, side="right") - 1, 0, len(knots_t_a) - 2)
+    s = (t - knots_t_a[k]) / (knots_t_a[k + 1] - knots_t_a[k])
+    s = s * s * (3 - 2 * s)  # smooth start and stop
+    rotvec = knots_v_a[k] + s[:, None] * (knots_v_a[k + 1] - knots_v_a[k])
+    hanging = np.diag([1.0, -1.0, -1.0])  # z down: the sensor hanging from a flange
+    rotations = hanging @ _rotation_of(rotvec)
+    mass = np.full(len(t), load.mass)
+    if change is not None:
+        mass[t >= change[0]] = change[1]
+    com = np.tile(np.asarray(load.com, dtype=np.float64), (len(t), 1))
+    g = np.einsum("kji,j->ki", rotations, np.array([0.0, 0.0, -STANDARD_GRAVITY]))
+    true = np.concatenate([mass[:, None] * g, np.cross(com, mass[:, None] * g)], axis=1)
+    return WanderingRecording(
+        t, sensor.measure(true, rng), rotations, mass, com, sensor.bias.copy()
+    )
