@@ -35,6 +35,8 @@ from the joint velocities and accelerations, Savitzky-Golay differentiated,
    is larger than the noise and the calibration explain. With a tare recording (the empty
    tool) its windows are fitted beside (another bias epoch): the object alone comes out,
    else the whole load beyond the sensor, said so.
+   With joint states, what the fit leaves in the windows in motion gives the load's
+   inertia (``_inertia``), published where the motion excites it.
 5. **What the recording could not tell** (``RecordingFit.status``): a load that changed
    (the likelihood ratio of a second load from some window on, over ``CHANGE_SPLITS``
    places, at ``CHANGE_ALPHA``, scaled by the misfit the self-check sees, and large
@@ -70,11 +72,11 @@ from com_core.estimation.known_gravity import (
     Observation,
     kinematic_ml,
 )
-from com_core.estimation.motion import ORDER, WINDOW, joint_motion
+from com_core.estimation.motion import ORDER, WINDOW, joint_motion, principal_moments
 from com_core.estimation.motion_solution import joint_arrays
 from com_core.estimation.stats import chi2_isf
 from com_core.estimation.windows import settled_start, window_from_mean
-from com_core.robot.dynamics import sensor_regressors
+from com_core.robot.dynamics import load_of, sensor_regressors
 from com_core.robot.model import DEFAULT_GRAVITY, RobotModel
 from com_core.sensing.calibration import Calibration
 from com_core.sensing.noise import NoiseModel, learn_noise, white_noise
@@ -144,7 +146,9 @@ class Recording:
     (n, 6, 4) the wrench per unit of (m, c), with the motion's inertial forces where the
     joint states give them (else the static A(g)); omega and alpha (n,) the sensor's
     angular speed (rad/s) and acceleration (rad/s^2); dynamic: the designs hold the
-    motion (joint states) or not (orientations only); source: what it was read from."""
+    motion (joint states) or not (orientations only); source: what it was read from;
+    inertia_designs (n, 6, 6): with joint states, the wrench per unit of the load's
+    inertia about the sensor origin (``robot.dynamics``' last six columns)."""
 
     times: NDArray[np.float64]
     wrenches: NDArray[np.float64]
@@ -155,6 +159,7 @@ class Recording:
     dynamic: bool
     source: str
     notes: tuple[str, ...] = ()
+    inertia_designs: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True)
@@ -204,6 +209,9 @@ class RecordingFit:
     bias : (6,) the sensor's bias (N, N m) at the recording's mean time, ``bias_sigma``
         its sigma; ``drift`` (6,) how much it moved over the recording, ``drift_sigma``.
     noise : the noise model learnt (``noise_from``: where from).
+    inertia : (3, 3) the whole load's inertia about its COM (kg m^2, sensor axes) where the
+        motion excites it (``_inertia``), its principal ``moments`` (3,) and their
+        ``moments_sigma``; None where it does not (a note says why).
     """
 
     status: str
@@ -222,6 +230,9 @@ class RecordingFit:
     duration: float = 0.0
     noise: NoiseModel | None = None
     noise_from: str = ""
+    inertia: NDArray[np.float64] | None = None
+    moments: NDArray[np.float64] | None = None
+    moments_sigma: NDArray[np.float64] | None = None
     check: SelfCheck | None = None
     change: LoadChange | None = None
     notes: tuple[str, ...] = ()
@@ -249,6 +260,11 @@ class RecordingFit:
             f"{self.windows - self.rests} windows in motion used, {self.left_out} left out; "
             f"noise from {self.noise_from}"
         )
+        if self.moments is not None and self.moments_sigma is not None:
+            lines.append(
+                f"inertia about the COM: principal moments {_triple(self.moments * 1e4)} +- "
+                f"{_triple(self.moments_sigma * 1e4)} kg cm^2"
+            )
         if self.check is not None:
             lines.append(self.check.summary())
         lines += [f"note: {n}" for n in self.notes]
@@ -280,7 +296,15 @@ class RecordingFit:
                 "chi2": e.chi2,
                 "dof": e.dof,
             }
-        for name in ("bias", "bias_sigma", "drift", "drift_sigma"):
+        for name in (
+            "bias",
+            "bias_sigma",
+            "drift",
+            "drift_sigma",
+            "inertia",
+            "moments",
+            "moments_sigma",
+        ):
             if (value := getattr(self, name)) is not None:
                 out[name] = value.tolist()
         if self.check is not None:
@@ -431,7 +455,8 @@ def recording_from_joint_states(
         notes.append(f"{int((~inside).sum())} wrenches outside the joint states' span, dropped")
     t, w = t[inside], w[inside]
     q, dq, ddq = joint_motion(jt, jq, t)
-    designs = sensor_regressors(robot, q, dq, ddq)[:, :, :4]
+    regressors = sensor_regressors(robot, q, dq, ddq)
+    designs = regressors[:, :, :4]
     rotations = np.stack([robot.sensor_rotation_of(row) for row in q])
     omega, alpha = _angular_rates(t, rotations)
     if period > WINDOW / (ORDER + 1):
@@ -442,7 +467,9 @@ def recording_from_joint_states(
         )
         designs = _static_designs(rotations, robot.gravity)
         return Recording(t, w, rotations, designs, omega, alpha, False, source, tuple(notes))
-    return Recording(t, w, rotations, designs, omega, alpha, True, source, tuple(notes))
+    return Recording(
+        t, w, rotations, designs, omega, alpha, True, source, tuple(notes), regressors[:, :, 4:]
+    )
 
 
 def recording_from_inbox(inbox: Inbox, robot: RobotModel, source: str) -> Recording:
@@ -732,6 +759,12 @@ def fit_recording(
         fit=fit,
     )
     warnings, errors = [], []
+    if recording.inertia_designs is not None and not with_object:
+        inertia, why = _inertia(recording, kept[id(recording)], fit, noise, widened)
+        out = replace(out, **inertia)
+        notes_extra = [why] if why else []
+    else:
+        notes_extra = []
     check = _self_check(setup, obs, fixed)
     misfit = float(np.mean(check.sigmas**2)) if check is not None else 1.0
     change = _load_change(setup, obs, fit, misfit) if not with_object else None
@@ -755,7 +788,7 @@ def fit_recording(
             f"{left_out} of {moving} windows in motion left out: the motion is too fast for "
             "the load's inertia to be left out of them"
         )
-    notes = list(base.notes)
+    notes = list(base.notes) + notes_extra
     if not with_object:
         notes.append("no tare recording: the estimate is the whole load beyond the sensor")
     if check is None:
@@ -773,6 +806,50 @@ def fit_recording(
         estimate=None if errors else estimate,
         notes=tuple(notes),
     )
+
+
+def _inertia(
+    recording: Recording,
+    blocks: Sequence[_Block],
+    fit: KinematicFit,
+    noise: NoiseModel,
+    widened: float,
+) -> tuple[dict, str]:
+    """The whole load's inertia from what the fit of (m, c) leaves in the windows in
+    motion: weighted least squares of the windows' mean residuals on the mean of their
+    inertia designs, each window weighed by its noise (``RecordingFit`` fields, '') where
+    every principal moment exceeds 3 sigma and they make a body (the triangle inequality);
+    else ({}, why)."""
+    assert recording.inertia_designs is not None
+    info, rhs = np.zeros((6, 6)), np.zeros(6)
+    for b in blocks:
+        if b.rest:
+            continue
+        s = slice(b.start, b.stop)
+        predicted = fit.wrenches(recording.designs[s], recording.times[s], load=False)
+        residual = (recording.wrenches[s] - predicted).mean(axis=0)
+        design = recording.inertia_designs[s].mean(axis=0)
+        weight = np.linalg.inv(noise.mean_cov(b.stop - b.start))
+        info += design.T @ weight @ design
+        rhs += design.T @ weight @ residual
+    if not np.all(np.isfinite(info)) or np.linalg.cond(info) > 1e12:
+        return {}, "the inertia: the motion does not excite it"
+    cov_origin = np.linalg.inv(info) * widened
+    load = fit.estimate
+    pi = np.concatenate([[load.mass], load.mass * load.com, np.linalg.solve(info, rhs)])
+    _, _, inertia = load_of(pi)
+    order = [0, 1, 3, 2, 4, 5]  # pinocchio's (xx, xy, yy, xz, yz, zz) as INERTIA_ELEMENTS
+    moments, sigma = principal_moments(inertia, cov_origin[np.ix_(order, order)])
+    found = f"principal moments {_triple(moments * 1e4)} +- {_triple(sigma * 1e4)} kg cm^2"
+    body = moments[0] > 0 and moments[0] + moments[1] >= moments[2]  # the triangle
+    if not body and np.any(np.abs(moments) > 3 * sigma):  # what is left is another misfit
+        return {}, (
+            f"the inertia: not published, what the motion leaves is no body's ({found}): "
+            "another misfit (the calibration's error) outweighs the inertia's"
+        )
+    if not np.all(moments > 3 * sigma):
+        return {}, f"the inertia: not published, the motion excites it too little ({found})"
+    return {"inertia": inertia, "moments": moments, "moments_sigma": sigma}, ""
 
 
 def _too_fast(
