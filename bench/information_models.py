@@ -28,10 +28,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from com_core.estimation.errors import TooFewPosesError
-from com_core.estimation.estimators import crlb, ml
-from com_core.estimation.known_gravity import Observation, kinematic_ml
-from com_core.estimation.windows import window_from_mean
+from com_core.estimation.fits.errors import TooFewPosesError
+from com_core.estimation.fits.estimators import crlb, ml
+from com_core.estimation.fits.known_gravity import Observation, kinematic_ml
+from com_core.estimation.fits.windows import window_from_mean
 from com_core.paper.study import PAPER_LOAD
 from com_core.planning.planner import Plan
 from com_core.planning.prediction import plan_observations, predict

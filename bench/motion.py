@@ -9,7 +9,7 @@ drawn from the object's seed) a simulator holds the empty hand, runs the arm's D
 wrist excitation (``planning.excitation``, designed once per arm), grasps the object and
 runs it again; both read through the realistic sensor (``profile_sensor``: coloured noise,
 quantisation, drifting bias, a 1 % calibration drawn per object), the joint states taken
-at ``--joint-rate``. ``estimation.motion.fit_motion`` fits the hand, then the object with
+at ``--joint-rate``. ``estimation.fits.motion.fit_motion`` fits the hand, then the object with
 the hand taken off, the delay estimated and the noise model the profile's. Per case: the
 95th percentile of the mass, COM and principal moments' errors, the rms of error / sigma
 (mass, COM, inertia), the median sigmas the noise alone allows (the bound), and the
@@ -34,8 +34,8 @@ import time
 import numpy as np
 
 from com_core.contract import DONE, OBJECT_PREFIX, TARE_PREFIX
-from com_core.estimation.motion import fit_motion, load_vector
-from com_core.estimation.settings import exploration_from
+from com_core.estimation.fits.motion import fit_motion, load_vector
+from com_core.estimation.runs.settings import exploration_from
 from com_core.planning.excitation import design_excitation
 from com_core.planning.planner import Plan
 from com_core.robot.choreography import Choreography

@@ -23,9 +23,9 @@ import time
 
 import numpy as np
 
-from com_core.estimation.estimators import DEFAULT_ALPHA
-from com_core.estimation.motion import load_vector
-from com_core.estimation.motion_solution import MAX_CHI2_PER_DOF
+from com_core.estimation.fits.estimators import DEFAULT_ALPHA
+from com_core.estimation.fits.motion import load_vector
+from com_core.estimation.runs.motion_solution import MAX_CHI2_PER_DOF
 from com_core.robot.dynamics import inertial_parameters
 from com_core.sensing.sensor_profiles import PROFILES
 from wrench_sim.studies import explore_in_motion

@@ -32,9 +32,9 @@ from pathlib import Path
 
 import numpy as np
 
-from com_core.estimation.feed import feed_bag
-from com_core.estimation.recording import fit_recording, recording_from_inbox
-from com_core.estimation.settings import exploration_from, robot_from
+from com_core.estimation.recordings.recording import fit_recording, recording_from_inbox
+from com_core.estimation.runs.feed import feed_bag
+from com_core.estimation.runs.settings import exploration_from, robot_from
 from com_core.robot.config import read_robot_config
 from com_core.sensing.sensor_profiles import PROFILES
 from com_estimator.replay import main as replay_main

@@ -48,15 +48,15 @@ import numpy as np
 
 from com_core.bags.reader import BagReading
 from com_core.contract import OBJECT_PREFIX
-from com_core.estimation.feed import feed_bag
-from com_core.estimation.settings import (
+from com_core.estimation.runs.feed import feed_bag
+from com_core.estimation.runs.settings import (
     CALIBRATION_ACCURACY,
     FULL_SCALE,
     exploration_from,
     robot_from,
     use_cached_tares,
 )
-from com_core.estimation.tare_cache import BAG_TARE_FILE
+from com_core.estimation.runs.tare_cache import BAG_TARE_FILE
 from com_core.planning.dwell import dwell_for_target
 from com_core.planning.planner import Plan
 from com_core.report.run import read_run

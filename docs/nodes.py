@@ -4,7 +4,7 @@ The parameter tables are read from the code that declares them, so the page cann
 from what ``ros2 param describe`` says:
 
 - ``sim_node``: ``wrench_sim.parameters.PARAMETERS``;
-- ``estimator_node``: ``com_core.estimation.settings.SETTINGS`` (the replay's options too)
+- ``estimator_node``: ``com_core.estimation.runs.settings.SETTINGS`` (the replay's options too)
   and the node's own rows of ``com_estimator.estimator_node.PARAMETERS``;
 - ``sequencer_node``: ``exploration_sequencer.parameters.PARAMETERS``;
 - the robot configuration's keys (sim and sequencer, read-only):
@@ -31,7 +31,7 @@ for _tree in ("exploration_sequencer", "com_estimator", "wrench_sim", "src/com_c
     sys.path.insert(0, str(ROOT / _tree))
 
 from com_core import contract as c  # noqa: E402
-from com_core.estimation.settings import SETTINGS  # noqa: E402
+from com_core.estimation.runs.settings import SETTINGS  # noqa: E402
 from com_core.inputs import Input  # noqa: E402
 from com_core.robot.config import (  # noqa: E402
     DEFAULT_ARM_ACTION,
@@ -324,7 +324,7 @@ def estimator_node() -> list[str]:
         *table(INTERFACE_HEADER, services),
         "### Parameters",
         "",
-        "The estimator's settings, `com_core.estimation.settings.SETTINGS`: the node's "
+        "The estimator's settings, `com_core.estimation.runs.settings.SETTINGS`: the node's "
         "parameters and the replay's options alike, so the replay uses the node's defaults.",
         "",
         *table((*PARAMETER_HEADER, "replay"), settings),

@@ -10,7 +10,7 @@ sensor's x and y axes; each window is 500 samples (0.5 s at 1 kHz) of white nois
 
 import numpy as np
 
-from com_core.estimation import ml, reduce_window, subtract_tare
+from com_core.estimation.fits import ml, reduce_window, subtract_tare
 from com_core.sensing import gravity_in_sensor, gravity_wrench, rotation_about
 
 TILT = np.radians(30.0)

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from com_core.bags import BagReading
-from com_core.estimation import (
+from com_core.estimation.runs import (
     BAG_TARE_FILE,
     defaults,
     exploration_from,

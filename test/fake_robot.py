@@ -19,7 +19,7 @@ from conftest import PANDA, choreography
 
 from com_core.bags.cdr import WrenchStampedEncoder
 from com_core.contract import DONE, OK, WRENCH_TOPIC
-from com_core.estimation.settings import SETTINGS
+from com_core.estimation.runs.settings import SETTINGS
 from com_core.sensing.wrench_model import gravity_wrench
 from com_core.sequencing.errors import CancelledRunError, RunError, TimeoutRunError
 from com_core.sequencing.ports import EstimatorAnswer, GripperOutcome, JointPath

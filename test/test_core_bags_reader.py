@@ -12,8 +12,8 @@ from com_core.bags.cdr import decode_wrenches, encode_wrench_stamped
 from com_core.bags.reader import INCOMPLETE_TEXT, BagReading, read_metadata, read_raw
 from com_core.bags.writer import CrashSafeBagWriter
 from com_core.contract import OK, POSE_TOPIC, TOPIC_TYPES, WRENCH_TOPIC
-from com_core.estimation.exploration import Exploration
-from com_core.estimation.feed import feed_bag
+from com_core.estimation.runs.exploration import Exploration
+from com_core.estimation.runs.feed import feed_bag
 from com_core.paper.synthetic import Load, exploration_stream
 from com_core.planning.planner import Plan
 

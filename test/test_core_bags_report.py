@@ -32,9 +32,9 @@ from com_core.contract import (
     WARN,
     WRENCH_TOPIC,
 )
-from com_core.estimation.cutting import window_sample_counts
-from com_core.estimation.exploration import Exploration
-from com_core.estimation.solution import Solution, missing_samples
+from com_core.estimation.runs.cutting import window_sample_counts
+from com_core.estimation.runs.exploration import Exploration
+from com_core.estimation.runs.solution import Solution, missing_samples
 from com_core.paper.synthetic import Load, exploration_stream
 from com_core.planning.planner import Plan
 from com_core.report.commands import SentTrajectory, trajectory_problems

@@ -20,10 +20,10 @@ from test_core_known_gravity import (
     seen_gravity,
 )
 
-from com_core.estimation.exploration import Exploration
-from com_core.estimation.known_gravity import Observation, kinematic_ml
-from com_core.estimation.stats import chi2_isf
-from com_core.estimation.windows import window_from_mean
+from com_core.estimation.fits.known_gravity import Observation, kinematic_ml
+from com_core.estimation.fits.stats import chi2_isf
+from com_core.estimation.fits.windows import window_from_mean
+from com_core.estimation.runs.exploration import Exploration
 from com_core.paper.synthetic import Load, object_windows
 from com_core.planning.planner import Plan
 from com_core.sensing.calibration import Calibration

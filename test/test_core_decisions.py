@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from conftest import choreography
 
-from com_core.estimation.tare_cache import TareCache, save_tares
-from com_core.estimation.windows import window_from_mean
+from com_core.estimation.fits.windows import window_from_mean
+from com_core.estimation.runs.tare_cache import TareCache, save_tares
 from com_core.planning.decisions import (
     BAG_BYTES_PER_S,
     GRIPPER_HOLDING,

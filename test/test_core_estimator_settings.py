@@ -1,10 +1,11 @@
-"""com_core.estimation.settings: the node's parameters and the replay's options are one
+"""com_core.estimation.runs.settings: the node's parameters and the replay's options are one
 table, one check and one mapping to an Exploration."""
 
 from __future__ import annotations
 
-from com_core.estimation.exploration import Exploration
-from com_core.estimation.settings import (
+from com_core.estimation.fits.windows import window_from_mean
+from com_core.estimation.runs.exploration import Exploration
+from com_core.estimation.runs.settings import (
     BAG_SETTINGS_FILE,
     SETTINGS,
     defaults,
@@ -13,8 +14,7 @@ from com_core.estimation.settings import (
     read_bag_settings,
     write_bag_settings,
 )
-from com_core.estimation.tare_cache import save_tares
-from com_core.estimation.windows import window_from_mean
+from com_core.estimation.runs.tare_cache import save_tares
 
 
 def test_the_defaults_are_an_explorations_defaults():

@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from com_core.estimation.errors import (
+from com_core.estimation.fits.errors import (
     IllConditionedError,
     NonFiniteError,
     NonPositiveMassError,
     TooFewPosesError,
 )
-from com_core.estimation.estimators import check_consistency, crlb, ml, two_pose
-from com_core.estimation.windows import window_from_mean
+from com_core.estimation.fits.estimators import check_consistency, crlb, ml, two_pose
+from com_core.estimation.fits.windows import window_from_mean
 from com_core.paper.synthetic import Load, object_windows
 from com_core.planning.planner import Plan
 from com_core.sensing.wrench_model import (

@@ -1,4 +1,5 @@
-"""com_core.estimation.exploration: what an Exploration keeps, drops and says about its input."""
+"""com_core.estimation.runs.exploration: what an Exploration keeps, drops and says about its
+input."""
 
 from __future__ import annotations
 
@@ -6,9 +7,9 @@ import numpy as np
 import pytest
 
 from com_core.contract import ERROR, OK, WARN
-from com_core.estimation.exploration import Exploration
-from com_core.estimation.inbox import MAX_LABEL_GAP, MAX_LABEL_LENGTH
-from com_core.estimation.solution import verification_lines
+from com_core.estimation.runs.exploration import Exploration
+from com_core.estimation.runs.inbox import MAX_LABEL_GAP, MAX_LABEL_LENGTH
+from com_core.estimation.runs.solution import verification_lines
 from com_core.paper.synthetic import Load, Stream, exploration_stream
 from com_core.planning.planner import Plan
 
@@ -248,7 +249,7 @@ def test_a_verification_window_is_checked_against_the_fit_and_a_push_is_flagged(
 def test_before_a_window_label_only_the_lead_in_is_kept():
     """A node that only compensates (no exploration running) keeps a bounded buffer: the
     last IDLE_KEEP s of samples and joint states; once a window label came, everything."""
-    from com_core.estimation.inbox import IDLE_KEEP
+    from com_core.estimation.runs.inbox import IDLE_KEEP
 
     ex = Exploration()
     stamps = np.arange(0, 30_000_000_000, 1_000_000)  # 30 s at 1 kHz

@@ -1,4 +1,4 @@
-"""com_core.estimation.inertial: the 10 inertial parameters from wrenches in motion, exact
+"""com_core.estimation.fits.inertial: the 10 inertial parameters from wrenches in motion, exact
 without noise, within their covariance with it, physically consistent always (no ROS)."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from conftest import PANDA
 
-from com_core.estimation.inertial import fit_inertial, log_cholesky, pseudo_inertia
+from com_core.estimation.fits.inertial import fit_inertial, log_cholesky, pseudo_inertia
 from com_core.robot.config import urdf_file
 from com_core.robot.dynamics import inertial_parameters, load_of, sensor_regressor
 from com_core.robot.model import RobotModel

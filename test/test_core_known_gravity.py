@@ -1,4 +1,4 @@
-"""com_core.estimation.known_gravity: the fit of hand, bias and object with each window's
+"""com_core.estimation.fits.known_gravity: the fit of hand, bias and object with each window's
 orientation known (from kinematics) is exact without noise, reaches its Cramer-Rao bound, absorbs a
 bias drift since the tare, and with ``fit_mount`` finds a sensor mounted off its URDF
 frame and a tilted base."""
@@ -11,10 +11,15 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from com_core.estimation.errors import NonPositiveMassError, TooFewPosesError
-from com_core.estimation.estimators import crlb
-from com_core.estimation.known_gravity import Observation, kinematic_ml, locate_move, mount_rpy
-from com_core.estimation.windows import window_from_mean
+from com_core.estimation.fits.errors import NonPositiveMassError, TooFewPosesError
+from com_core.estimation.fits.estimators import crlb
+from com_core.estimation.fits.known_gravity import (
+    Observation,
+    kinematic_ml,
+    locate_move,
+    mount_rpy,
+)
+from com_core.estimation.fits.windows import window_from_mean
 from com_core.planning.planner import Plan
 from com_core.sensing.wrench_model import (
     STANDARD_GRAVITY,

@@ -1,4 +1,4 @@
-"""com_core.estimation.motion: the load's 10 parameters from one wrist motion, with the
+"""com_core.estimation.fits.motion: the load's 10 parameters from one wrist motion, with the
 delay between wrench and joint stamps estimated and the sensor's coloured noise weighed
 (no ROS, no simulator: wrenches from the regressor itself)."""
 
@@ -9,7 +9,7 @@ import pytest
 from conftest import PANDA
 from test_core_noise import ar1
 
-from com_core.estimation.motion import MAX_DELAY, fit_motion, joint_motion, regressors_along
+from com_core.estimation.fits.motion import MAX_DELAY, fit_motion, joint_motion, regressors_along
 from com_core.planning.excitation import design_excitation
 from com_core.robot.config import urdf_file
 from com_core.robot.dynamics import inertial_parameters

@@ -1,5 +1,5 @@
 """An exploration in motion solved as the estimator and the replay solve it
-(``Exploration.solve`` on ``motion/`` labels, ``estimation.motion_solution``), fed by the
+(``Exploration.solve`` on ``motion/`` labels, ``estimation.runs.motion_solution``), fed by the
 simulator in process through the realistic sensor (no ROS)."""
 
 from __future__ import annotations
@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from com_core.contract import MOTION_VERIFY, OK, WARN
-from com_core.estimation.cutting import motion_spans
-from com_core.estimation.motion import compensated, load_vector, principal_moments
-from com_core.estimation.motion_solution import joint_arrays
-from com_core.estimation.settings import exploration_from
+from com_core.estimation.fits.motion import compensated, load_vector, principal_moments
+from com_core.estimation.runs.cutting import motion_spans
+from com_core.estimation.runs.motion_solution import joint_arrays
+from com_core.estimation.runs.settings import exploration_from
 from com_core.payload.compensation import Compensator
 from com_core.payload.model import payload_from_solution
 from com_core.planning.excitation import design_excitation

@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from com_core.estimation.errors import MotionError
-from com_core.estimation.windows import reduce_window, settled_start
+from com_core.estimation.fits.errors import MotionError
+from com_core.estimation.fits.windows import reduce_window, settled_start
 from com_core.sensing.noise import COV_FLOOR, NoiseModel, ar1_noise, learn_noise, white_noise
 
 SIGMA = np.array([0.1, 0.1, 0.1, 0.005, 0.005, 0.005])

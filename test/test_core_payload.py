@@ -16,11 +16,11 @@ import pinocchio
 import pytest
 import yaml
 
-from com_core.estimation.estimators import Consistency
-from com_core.estimation.fits import KINEMATICS_MOUNT, WRENCHES
-from com_core.estimation.known_gravity import Observation, kinematic_ml
-from com_core.estimation.solution import Solution
-from com_core.estimation.windows import window_from_mean
+from com_core.estimation.fits.estimators import Consistency
+from com_core.estimation.fits.known_gravity import Observation, kinematic_ml
+from com_core.estimation.fits.windows import window_from_mean
+from com_core.estimation.runs.fit_setup import KINEMATICS_MOUNT, WRENCHES
+from com_core.estimation.runs.solution import Solution
 from com_core.payload.files import (
     GRAVITY_COMPENSATION_FILE,
     PAYLOAD_FILE,

@@ -9,8 +9,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from com_core.estimation.estimators import ml, two_pose
-from com_core.estimation.windows import reduce_window, subtract_tare
+from com_core.estimation.fits.estimators import ml, two_pose
+from com_core.estimation.fits.windows import reduce_window, subtract_tare
 from com_core.paper.synthetic import Load, exploration_samples, object_windows
 from com_core.planning.dwell import dwell_for_target
 from com_core.planning.planner import Plan

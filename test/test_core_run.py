@@ -27,8 +27,8 @@ from com_core.contract import (
     VERIFY_PREFIX,
     WINDOW_PREFIXES,
 )
-from com_core.estimation.settings import BAG_SETTINGS_FILE
-from com_core.estimation.tare_cache import BAG_TARE_FILE
+from com_core.estimation.runs.settings import BAG_SETTINGS_FILE
+from com_core.estimation.runs.tare_cache import BAG_TARE_FILE
 from com_core.planning.decisions import BIAS_AFTER_SUFFIX, BIAS_WINDOW_SUFFIX
 from com_core.planning.run_time import ESTIMATE, WALL
 from com_core.robot.choreography import VERIFY_POSE

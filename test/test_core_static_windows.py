@@ -1,5 +1,5 @@
-"""com_core.estimation.static_windows: an unlabelled stream cut into its static windows, sorted by
-load level into tare and object windows."""
+"""com_core.estimation.recordings.static_windows: an unlabelled stream cut into its static
+windows, sorted by load level into tare and object windows."""
 
 from __future__ import annotations
 
@@ -7,13 +7,13 @@ import numpy as np
 from conftest import write_stream_bag
 
 from com_core.contract import WARN
-from com_core.estimation.exploration import Exploration
-from com_core.estimation.feed import feed_bag
-from com_core.estimation.static_windows import (
+from com_core.estimation.recordings.static_windows import (
     find_static_windows,
     label_static_windows,
     split_load_levels,
 )
+from com_core.estimation.runs.exploration import Exploration
+from com_core.estimation.runs.feed import feed_bag
 from com_core.paper.synthetic import Load, exploration_stream
 from com_core.planning.planner import Plan
 

@@ -1,10 +1,10 @@
-"""com_core.estimation.stats: the chi-square tail and its inverse against tabulated values."""
+"""com_core.estimation.fits.stats: the chi-square tail and its inverse against tabulated values."""
 
 from __future__ import annotations
 
 import pytest
 
-from com_core.estimation.stats import chi2_isf, chi2_sf
+from com_core.estimation.fits.stats import chi2_isf, chi2_sf
 
 
 @pytest.mark.parametrize(

@@ -1,4 +1,5 @@
-"""com_core.estimation.tare_cache: one entry per hand and plan, the current one, the drift test."""
+"""com_core.estimation.runs.tare_cache: one entry per hand and plan, the current one, the
+drift test."""
 
 from __future__ import annotations
 
@@ -8,7 +9,8 @@ import time
 import numpy as np
 from conftest import WORKSPACE, choreography
 
-from com_core.estimation.tare_cache import (
+from com_core.estimation.fits.windows import window_from_mean
+from com_core.estimation.runs.tare_cache import (
     BAG_TARE_FILE,
     TareCache,
     drift,
@@ -20,7 +22,6 @@ from com_core.estimation.tare_cache import (
     tare_signature,
     use_tares,
 )
-from com_core.estimation.windows import window_from_mean
 from com_core.planning.planner import Plan
 
 PANDA = choreography("panda")

@@ -1,5 +1,5 @@
-"""com_core.estimation.windows: a window reduced to its mean and covariance, bad samples and motion
-refused, the per-pose tare."""
+"""com_core.estimation.fits.windows: a window reduced to its mean and covariance, bad samples
+and motion refused, the per-pose tare."""
 
 from __future__ import annotations
 
@@ -9,14 +9,14 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from com_core.estimation.errors import (
+from com_core.estimation.fits.errors import (
     MissingTareError,
     MotionError,
     NonFiniteError,
     SaturationError,
 )
-from com_core.estimation.estimators import ml
-from com_core.estimation.windows import reduce_window, subtract_tare
+from com_core.estimation.fits.estimators import ml
+from com_core.estimation.fits.windows import reduce_window, subtract_tare
 from com_core.paper.synthetic import Load, exploration_samples
 from com_core.planning.planner import Plan
 from com_core.sensing.wrench_model import SensorModel, gravity_wrench

@@ -27,7 +27,7 @@ from com_core.contract import (
     ROBOT_DESCRIPTION_TOPIC,
     WRENCH_TOPIC,
 )
-from com_core.estimation.solution import window_counts
+from com_core.estimation.runs.solution import window_counts
 from com_core.payload.files import (
     GRAVITY_COMPENSATION_FILE,
     PAYLOAD_FILE,

@@ -24,7 +24,7 @@ from conftest import PANDA as PANDA_CONFIG
 from conftest import WORKSPACE, choreography
 from fuzz_inputs import boundary_values, values_of
 
-from com_core.estimation.settings import SETTINGS
+from com_core.estimation.runs.settings import SETTINGS
 from com_core.inputs import Input
 from com_core.planning.decisions import (
     PlanInfeasible,

@@ -59,3 +59,26 @@ def test_nothing_imports_upward_nor_sideways():
             if there != here and FLOORS[there] >= FLOORS[here]:
                 wrong.append(f"{path.relative_to(CORE)} imports {module}")
     assert not wrong, "\n".join(sorted(wrong))
+
+
+SUB_WINGS = {"fits": 0, "runs": 1, "recordings": 2}
+"""The estimation wing's sub-wings from the bottom up: the sequencer's labelled runs and
+any recording end in the same fits (docs/design.md, Decisions)."""
+
+
+def test_the_estimation_sub_wings_import_downward_only():
+    estimation = CORE / "estimation"
+    packages = {p.name for p in estimation.iterdir() if (p / "__init__.py").is_file()}
+    assert packages == set(SUB_WINGS)
+    assert not [p.name for p in estimation.glob("*.py") if p.name != "__init__.py"]
+    wrong = []
+    for path in estimation.rglob("*.py"):
+        here = path.relative_to(estimation).parts[0]
+        if here == "__init__.py":
+            continue
+        for module in core_imports(path):
+            parts = module.split(".")
+            inside = parts[1] == "estimation" and len(parts) > 2
+            if inside and SUB_WINGS[parts[2]] > SUB_WINGS[here]:
+                wrong.append(f"{path.relative_to(CORE)} imports {module}")
+    assert not wrong

@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from com_core.estimation.settings import SETTINGS
+from com_core.estimation.runs.settings import SETTINGS
 from com_core.inputs import Input, problems, refusal, table_of
 from exploration_sequencer.parameters import PARAMETERS as SEQUENCER
 

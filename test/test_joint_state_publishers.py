@@ -17,8 +17,8 @@ from test_sequencer_node import (  # noqa: F401 - client: the fixture
 
 from com_core.bags.reader import read_raw
 from com_core.contract import JOINT_STATES_TOPIC
-from com_core.estimation.cutting import window_sample_counts
-from com_core.estimation.solution import window_counts
+from com_core.estimation.runs.cutting import window_sample_counts
+from com_core.estimation.runs.solution import window_counts
 from com_core.report.run import read_run
 
 pytestmark = pytest.mark.system

@@ -15,7 +15,7 @@ import yaml
 from conftest import UNCLEAN_EXIT, replay_json
 
 from com_core.contract import ARM_SENT_TOPIC
-from com_core.estimation.solution import window_counts
+from com_core.estimation.runs.solution import window_counts
 from com_core.report.run import read_run
 
 pytestmark = pytest.mark.system

@@ -16,8 +16,8 @@ from test_sequencer_node import client, start_system  # noqa: F401 - the fixture
 
 from com_core.bags.reader import read_raw
 from com_core.contract import WRENCH_TOPIC
-from com_core.estimation.cutting import window_sample_counts
-from com_core.estimation.solution import missing_samples, window_counts
+from com_core.estimation.runs.cutting import window_sample_counts
+from com_core.estimation.runs.solution import missing_samples, window_counts
 from com_core.report.run import read_run
 
 pytestmark = pytest.mark.system

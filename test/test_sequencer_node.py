@@ -29,7 +29,7 @@ from com_core.contract import (
     TRUTH_TOPIC,
     WRENCH_TOPIC,
 )
-from com_core.estimation.solution import window_counts
+from com_core.estimation.runs.solution import window_counts
 from com_core.report.run import read_run
 from com_core.robot.config import BAG_ROBOT_FILE, read_robot_config, robot_config_path
 from com_core.runtime.processes import stop

@@ -76,7 +76,7 @@ def fitted(world: ArmWorld, motion, readings) -> tuple:
     """(the fit of the readings along ``motion`` (positions, velocities, accelerations)
     with the realistic sensor's noise per sample, its load, pybullet's load): each load
     as (mass kg, COM m, inertia about the COM kg m^2)."""
-    from com_core.estimation.inertial import fit_inertial
+    from com_core.estimation.fits.inertial import fit_inertial
 
     fit = fit_inertial(regressors_of(world, *motion), readings, [0.1] * 3 + [0.005] * 3)
     return fit, load_of(fit.pi), load_of(world.load_parameters())
@@ -156,7 +156,7 @@ def test_the_ground_truth_holds_the_objects_inertia_in_the_sensor_frame(held_box
 
 def test_the_fit_in_motion_gives_the_load_pybullet_simulates(held_box):
     """Seven random wrist moves (5.6 s), the ideal sensor: the 10 parameters of hand and
-    box together from the readings (``estimation.inertial``) are pybullet's, mass to
+    box together from the readings (``estimation.fits.inertial``) are pybullet's, mass to
     0.01 %, COM to 0.01 mm, principal moments to 1 % (measured: 4e-4 %, 7e-4 mm,
     0.2 %)."""
     rng = np.random.default_rng(1)
@@ -240,13 +240,13 @@ def test_the_motion_fit_through_the_realistic_sensor_gives_the_object():
     """The designed excitation run twice on the simulator, with the empty hand and then
     holding the 0.5 kg box, read through the realistic sensor (its coloured noise,
     quantisation, drifting bias and 1 % calibration) with joint states at 100 Hz, each
-    fitted by ``estimation.motion.fit_motion``: the hand's parameters taken off the second
+    fitted by ``estimation.fits.motion.fit_motion``: the hand's parameters taken off the second
     fit, the box's mass, COM and inertia lie within 4 of their sigmas, and the delay
     found is near the sensor's low-pass and the sim's step (6.5 ms; 5.7-6.1 ms measured,
     the calibration's cross-talk pulling it). Along a motion the fit did not see, the
     wrench less the fitted load's stays within twice the sensor's noise per axis, where
     the static model of the same load leaves 3 to 14 times it."""
-    from com_core.estimation.motion import (
+    from com_core.estimation.fits.motion import (
         compensated,
         fit_motion,
         joint_motion,

@@ -27,9 +27,10 @@ Services
     ~/reset (std_srvs/Trigger): forget the current exploration.
     ~/save_payload (std_srvs/Trigger): write the payload files (``com_core.payload.files``) to
     the directory ``payload_save_dir`` (set it first); the answer names them, or why not.
-The estimation is ``com_core.estimation.exploration``; this node only moves messages in and out.
+The estimation is ``com_core.estimation.runs.exploration``; this node only moves messages in
+and out.
 After a usable exploration in motion that moved the empty hand, the hand's motion fit is
-written beside ``tare_cache`` (``com_core.estimation.hand_motion``), for the next run.
+written beside ``tare_cache`` (``com_core.estimation.runs.hand_motion``), for the next run.
 The compensation runs here, not in a node of its own: this node holds the fit (bias,
 hand, payload) the moment it is made, and already decodes every wrench.
 """
@@ -85,19 +86,23 @@ from com_core.contract import (
     WRENCH_TOPIC,
     level_of,
 )
-from com_core.estimation.exploration import Exploration
-from com_core.estimation.fits import WRENCHES
-from com_core.estimation.hand_motion import hand_motion_path, load_hand_motion, save_hand_motion
-from com_core.estimation.inbox import TIME_RESET_NS, shorten
-from com_core.estimation.motion_solution import hand_motion_of
-from com_core.estimation.settings import (
+from com_core.estimation.runs.exploration import Exploration
+from com_core.estimation.runs.hand_motion import (
+    hand_motion_path,
+    load_hand_motion,
+    save_hand_motion,
+)
+from com_core.estimation.runs.inbox import TIME_RESET_NS, shorten
+from com_core.estimation.runs.motion_solution import hand_motion_of
+from com_core.estimation.runs.settings import (
     SETTINGS,
     exploration_from,
     robot_from,
     use_cached_hand_motion,
     use_cached_tares,
 )
-from com_core.estimation.solution import Solution, format_solution
+from com_core.estimation.runs.fit_setup import WRENCHES
+from com_core.estimation.runs.solution import Solution, format_solution
 from com_core.inputs import Input, problems, table_of
 from com_core.payload.compensation import MAX_JOINT_STATE_AGE, Compensator
 from com_core.payload.files import read_payload, write_payload_files
@@ -131,7 +136,7 @@ PARAMETERS = SETTINGS | table_of([
 
 
 class EstimatorNode(Node):
-    """Thin adapter from messages to ``com_core.estimation.exploration.Exploration``."""
+    """Thin adapter from messages to ``com_core.estimation.runs.exploration.Exploration``."""
 
     def __init__(self) -> None:
         super().__init__("com_estimator")

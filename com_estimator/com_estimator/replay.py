@@ -11,14 +11,14 @@ ERROR, 2 a path that is no bag or an option out of its range, 3 an internal erro
 with its traceback).
 
 Reads /ft_sensor/wrench and /exploration_sequencer/pose from a rosbag2 directory
-(MCAP) and feeds them to the same ``com_core.estimation.exploration.Exploration`` the node uses,
-with the node's settings of that run (BAG/estimator.yaml; an option overrides one), so the
-same messages give the same numbers to the last bit.
+(MCAP) and feeds them to the same ``com_core.estimation.runs.exploration.Exploration``
+the node uses, with the node's settings of that run (BAG/estimator.yaml; an option
+overrides one), so the same messages give the same numbers to the last bit.
 
 A recording without pose labels (a bag this project did not make, a lab's old
 recording) with joint states and a robot description (the bag's /robot_description, or
 ``--robot-description``; ``--sensor-frame``, ``--base-frame``) is fitted as any
-recording is (``com_core.estimation.recording``): the rests and the slow motion between
+recording is (``com_core.estimation.recordings.recording``): the rests and the slow motion between
 them, whatever the bias, with the noise learnt from the recording, what it could not
 tell named, and a self-check (each half predicting the other). So is a log of wrenches
 and the sensor's orientations that never was ROS: ``replay LOG.csv`` or ``LOG.npz``
@@ -26,13 +26,13 @@ and the sensor's orientations that never was ROS: ``replay LOG.csv`` or ``LOG.np
 tool) gives the object alone; without it, the whole load beyond the sensor.
 
 A bag without pose labels nor kinematics is cut into static windows by
-``com_core.estimation.static_windows.find_static_windows`` (blocks of 50 ms whose spread is at the
-noise level, joined while their means agree within 6 standard errors, kept when longer
-than 0.3 s) and sorted by ``split_load_levels`` into the empty hand's and the loaded
-hand's by the magnitude of their mean force (the gravity load, N, whatever the
-orientation): each object window is tared with the tare window (of the bag or of the
-cached tare) whose force points the same way within 2 deg. With one load level the
-estimate is of the whole load beyond the sensor (hand + object), untared. The output
+``com_core.estimation.recordings.static_windows.find_static_windows`` (blocks of 50 ms
+whose spread is at the noise level, joined while their means agree within 6 standard
+errors, kept when longer than 0.3 s) and sorted by ``split_load_levels`` into the empty
+hand's and the loaded hand's by the magnitude of their mean force (the gravity load, N,
+whatever the orientation): each object window is tared with the tare window (of the bag
+or of the cached tare) whose force points the same way within 2 deg. With one load level
+the estimate is of the whole load beyond the sensor (hand + object), untared. The output
 says which it did. Tare windows of poses the bag has no fresh tare for come from the
 run's cached tare, BAG/tare.json (``--tare``).
 
@@ -72,19 +72,19 @@ from com_core.contract import (
     WINDOW_PREFIXES,
     WRENCH_TOPIC,
 )
-from com_core.estimation.errors import EstimationError
-from com_core.estimation.exploration import Exploration
-from com_core.estimation.feed import feed_bag
-from com_core.estimation.fits import WRENCHES
-from com_core.estimation.hand_motion import HAND_MOTION_FILE, load_hand_motion
-from com_core.estimation.recording import (
+from com_core.estimation.fits.errors import EstimationError
+from com_core.estimation.recordings.recording import (
     Recording,
     RecordingFit,
     fit_recording,
     read_recording_file,
     recording_from_inbox,
 )
-from com_core.estimation.settings import (
+from com_core.estimation.recordings.static_windows import find_static_windows, split_load_levels
+from com_core.estimation.runs.exploration import Exploration
+from com_core.estimation.runs.feed import feed_bag
+from com_core.estimation.runs.hand_motion import HAND_MOTION_FILE, load_hand_motion
+from com_core.estimation.runs.settings import (
     BAG_SETTINGS_FILE,
     SETTINGS,
     defaults,
@@ -93,14 +93,14 @@ from com_core.estimation.settings import (
     robot_from,
     use_cached_tares,
 )
-from com_core.estimation.solution import (
+from com_core.estimation.runs.fit_setup import WRENCHES
+from com_core.estimation.runs.solution import (
     Solution,
     format_solution,
     missing_samples,
     window_counts,
 )
-from com_core.estimation.static_windows import find_static_windows, split_load_levels
-from com_core.estimation.tare_cache import BAG_TARE_FILE
+from com_core.estimation.runs.tare_cache import BAG_TARE_FILE
 from com_core.inputs import refusal, unwritable
 from com_core.report.recording import write_recording_report
 from com_core.robot.config import BAG_ROBOT_FILE, RobotConfigError, read_robot_config

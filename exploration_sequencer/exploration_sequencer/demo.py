@@ -45,10 +45,10 @@ from com_core.contract import (
     ROBOT_DESCRIPTION_TOPIC,
     TRUTH_TOPIC,
 )
-from com_core.estimation.fits import INFORMATION
-from com_core.estimation.motion_solution import EXCITATIONS, MOTION
-from com_core.estimation.settings import SETTINGS
-from com_core.estimation.solution import noise_line, vector_value, verification_lines
+from com_core.estimation.runs.motion_solution import EXCITATIONS, MOTION
+from com_core.estimation.runs.settings import SETTINGS
+from com_core.estimation.runs.fit_setup import INFORMATION
+from com_core.estimation.runs.solution import noise_line, vector_value, verification_lines
 from com_core.inputs import Input, InputError
 from com_core.payload.files import PAYLOAD_FILE
 from com_core.robot.config import ROBOTS, RobotConfigError, read_robot_config, robot_config_path
@@ -594,7 +594,7 @@ def print_ended(ended: Sequence[Child]) -> None:
 def print_inertia(values: dict[str, str], truth) -> None:
     """The inertia about the COM (kg cm^2, ft_sensor) estimated and held, element by
     element with the error over its sigma, and the principal moments."""
-    from com_core.estimation.motion import principal_moments
+    from com_core.estimation.fits.motion import principal_moments
 
     estimate = np.array(vector_value(values, "inertia"))
     cov = np.array(vector_value(values, "inertia_cov")).reshape(6, 6)

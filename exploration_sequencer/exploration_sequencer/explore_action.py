@@ -14,8 +14,8 @@ from pathlib import Path
 
 from geometry_msgs.msg import InertiaStamped
 
-from com_core.estimation.settings import SETTINGS
-from com_core.estimation.solution import verification_lines
+from com_core.estimation.runs.settings import SETTINGS
+from com_core.estimation.runs.solution import verification_lines
 from com_core.inputs import problems, refusal
 from com_core.robot.dynamics import INERTIA_ELEMENTS
 from com_interfaces.action import Explore

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from com_core.estimation.motion_solution import EXCITATIONS, STATIC
+from com_core.estimation.runs.motion_solution import EXCITATIONS, STATIC
 from com_core.inputs import Input, table_of
 
 __all__ = ["PARAMETERS"]

@@ -19,10 +19,10 @@ from com_core.contract import (
     ROBOT_DESCRIPTION_TOPIC,
     WRENCH_TOPIC,
 )
-from com_core.estimation.exploration import Exploration
-from com_core.estimation.inbox import Inbox
-from com_core.estimation.settings import exploration_from
-from com_core.estimation.solution import Solution
+from com_core.estimation.runs.exploration import Exploration
+from com_core.estimation.runs.inbox import Inbox
+from com_core.estimation.runs.settings import exploration_from
+from com_core.estimation.runs.solution import Solution
 from com_core.planning.excitation import Excitation, design_excitation
 from com_core.robot.model import RobotModel
 from com_core.sensing.sensor_profiles import PROFILES

@@ -169,7 +169,7 @@ VERIFY_PREFIX = "verify/"
 where the compensated wrench is checked (``verification``)."""
 MOTION_PREFIX = "motion/"
 """``motion/<what>``: a span of the wrist's excitation, fitted along the motion
-(``com_core.estimation.motion_solution``): one of the three below."""
+(``com_core.estimation.runs.motion_solution``): one of the three below."""
 MOTION_TARE = MOTION_PREFIX + "tare"
 """The excitation with the empty hand."""
 MOTION_OBJECT = MOTION_PREFIX + "object"

@@ -49,8 +49,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from com_core.estimation.errors import EstimationError
-from com_core.estimation.estimators import (
+from com_core.estimation.fits.errors import EstimationError
+from com_core.estimation.fits.estimators import (
     MIN_TILT_SIGMAS,
     Estimate,
     check_consistency,
@@ -58,9 +58,9 @@ from com_core.estimation.estimators import (
     crlb,
     ml,
 )
-from com_core.estimation.estimators import two_pose as two_pose_estimate
-from com_core.estimation.known_gravity import Observation, kinematic_ml
-from com_core.estimation.windows import Window
+from com_core.estimation.fits.estimators import two_pose as two_pose_estimate
+from com_core.estimation.fits.known_gravity import Observation, kinematic_ml
+from com_core.estimation.fits.windows import Window
 from com_core.paper.synthetic import Load, object_windows
 from com_core.planning.planner import Plan
 from com_core.robot.model import DEFAULT_GRAVITY

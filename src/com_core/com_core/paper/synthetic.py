@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from com_core.contract import DONE, MOVING, OBJECT_PREFIX, TARE_PREFIX, VERIFY_PREFIX
-from com_core.estimation.windows import Window
+from com_core.estimation.fits.windows import Window
 from com_core.planning.planner import Plan
 from com_core.sensing.wrench_model import (
     STANDARD_GRAVITY,

@@ -35,7 +35,7 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from com_core.estimation.known_gravity import mount_rpy
+from com_core.estimation.fits.known_gravity import mount_rpy
 from com_core.payload.model import Payload, PayloadError
 from com_core.sensing.noise import NoiseModel
 

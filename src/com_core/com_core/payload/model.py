@@ -23,8 +23,8 @@ from datetime import UTC, datetime
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from com_core.estimation.known_gravity import _rotation
-from com_core.estimation.solution import Solution
+from com_core.estimation.fits.known_gravity import _rotation
+from com_core.estimation.runs.solution import Solution
 from com_core.robot.model import DEFAULT_GRAVITY, RobotModel
 from com_core.sensing.noise import NoiseModel
 from com_core.sensing.wrench_model import gravity_in_sensor, skew

@@ -24,15 +24,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from com_core.estimation.errors import EstimationError
-from com_core.estimation.tare_cache import (
+from com_core.estimation.fits.errors import EstimationError
+from com_core.estimation.fits.windows import Window
+from com_core.estimation.runs.tare_cache import (
     TareCache,
     drift_accepted,
     latest_hand_model,
     load_tares,
     reusable,
 )
-from com_core.estimation.windows import Window
 from com_core.planning.dwell import dwell_for_target
 from com_core.planning.planner import Plan
 from com_core.planning.prediction import Prediction, predict

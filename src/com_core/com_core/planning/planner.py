@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from com_core.estimation.known_gravity import BIAS_DRIFT_RATE
+from com_core.estimation.fits.known_gravity import BIAS_DRIFT_RATE
 from com_core.sensing.calibration import Calibration
 from com_core.sensing.noise import COV_FLOOR, NoiseModel, white_noise
 from com_core.sensing.wrench_model import SensorModel, as_vector, rotation_about

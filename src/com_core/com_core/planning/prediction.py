@@ -27,9 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from com_core.estimation.estimators import crlb, two_pose
-from com_core.estimation.known_gravity import Observation, kinematic_ml
-from com_core.estimation.windows import Window
+from com_core.estimation.fits.estimators import crlb, two_pose
+from com_core.estimation.fits.known_gravity import Observation, kinematic_ml
+from com_core.estimation.fits.windows import Window
 from com_core.planning.planner import HOME, Plan
 from com_core.robot.model import DEFAULT_GRAVITY
 from com_core.sensing.wrench_model import (
@@ -43,7 +43,7 @@ from com_core.sensing.wrench_model import (
 __all__ = ["METHODS", "Prediction", "plan_observations", "predict"]
 
 METHODS: tuple[str, ...] = ("ml", "two_pose")
-"""Estimators the planner predicts for (``com_core.estimation.estimators``)."""
+"""Estimators the planner predicts for (``com_core.estimation.fits.estimators``)."""
 
 _GRASP_TIME, _RELEASE_TIME = 4.0, 5.0
 """s from the end of a run's empty-hand window at home to its object pass (to the stand,

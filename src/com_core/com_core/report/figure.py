@@ -51,8 +51,8 @@ from com_core.contract import (
     WINDOW_PREFIXES,
     WRENCH_TOPIC,
 )
-from com_core.estimation.motion_solution import MAX_CHI2_PER_DOF, MOTION
-from com_core.estimation.solution import noise_line, vector_value, verification_lines
+from com_core.estimation.runs.motion_solution import MAX_CHI2_PER_DOF, MOTION
+from com_core.estimation.runs.solution import noise_line, vector_value, verification_lines
 from com_core.report.run import RunData, motion_fitted, read_run
 from com_core.robot.dynamics import INERTIA_ELEMENTS
 from com_core.sensing.noise import learn_noise

@@ -1,4 +1,4 @@
-"""The PNG report of a recording's fit (``com_core.estimation.recording``): what the
+"""The PNG report of a recording's fit (``com_core.estimation.recordings.recording``): what the
 recording held and how well one load explains it.
 
 ``write_recording_report(recording, fit, png)`` writes one figure (1600 x 1000 px):
@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from com_core.estimation.recording import Recording, RecordingFit
+from com_core.estimation.recordings.recording import Recording, RecordingFit
 
 __all__ = ["write_recording_report"]
 

@@ -38,8 +38,8 @@ from com_core.contract import (
     done_stamp,
     status_of,
 )
-from com_core.estimation.cutting import window_sample_counts
-from com_core.estimation.solution import missing_samples, window_counts
+from com_core.estimation.runs.cutting import window_sample_counts
+from com_core.estimation.runs.solution import missing_samples, window_counts
 from com_core.report.commands import SentTrajectory, trajectory_problems
 from com_core.robot.dynamics import INERTIA_ELEMENTS
 
@@ -288,10 +288,10 @@ def motion_fitted(
     with the bag's joint states and robot description, the frames of its robot
     configuration); [] when the run was not in motion or the bag lacks them."""
     from com_core.bags.reader import BagReading
-    from com_core.estimation.feed import feed_bag
-    from com_core.estimation.motion_solution import MOTION, fitted_wrenches
-    from com_core.estimation.settings import exploration_from, robot_from
-    from com_core.estimation.solution import vector_value
+    from com_core.estimation.runs.feed import feed_bag
+    from com_core.estimation.runs.motion_solution import MOTION, fitted_wrenches
+    from com_core.estimation.runs.settings import exploration_from, robot_from
+    from com_core.estimation.runs.solution import vector_value
     from com_core.robot.config import BAG_ROBOT_FILE, RobotConfigError, read_robot_config
 
     keys = ("parameters", "hand_parameters", "bias", "delay")

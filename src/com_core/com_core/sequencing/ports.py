@@ -69,7 +69,7 @@ class GripperOutcome:
 @dataclass(frozen=True)
 class EstimatorAnswer:
     """The estimator's answer to a run: its ``status`` (OK, WARN or ERROR), ``message``,
-    ``values`` (its diagnostic keys, ``com_core.estimation.solution``) and the ``frame``
+    ``values`` (its diagnostic keys, ``com_core.estimation.runs.solution``) and the ``frame``
     of its estimate."""
 
     status: str

@@ -50,20 +50,25 @@ from com_core.contract import (
     VERIFY_PREFIX,
     WRENCH_TOPIC,
 )
-from com_core.estimation.exploration import Exploration
-from com_core.estimation.fits import WRENCHES
-from com_core.estimation.hand_motion import (
+from com_core.estimation.fits.windows import Window
+from com_core.estimation.runs.exploration import Exploration
+from com_core.estimation.runs.hand_motion import (
     HAND_MOTION_FILE,
     HandMotion,
     hand_motion_path,
     load_hand_motion,
     save_hand_motion,
 )
-from com_core.estimation.motion_solution import MOTION
-from com_core.estimation.settings import BAG_SETTINGS_FILE, SETTINGS, write_bag_settings
-from com_core.estimation.solution import noise_line, vector_value, verification_lines
-from com_core.estimation.tare_cache import BAG_TARE_FILE, save_tares, tare_signature, use_tares
-from com_core.estimation.windows import Window
+from com_core.estimation.runs.motion_solution import MOTION
+from com_core.estimation.runs.settings import BAG_SETTINGS_FILE, SETTINGS, write_bag_settings
+from com_core.estimation.runs.fit_setup import WRENCHES
+from com_core.estimation.runs.solution import noise_line, vector_value, verification_lines
+from com_core.estimation.runs.tare_cache import (
+    BAG_TARE_FILE,
+    save_tares,
+    tare_signature,
+    use_tares,
+)
 from com_core.inputs import unwritable
 from com_core.planning.decisions import (
     BIAS_AFTER_SUFFIX,

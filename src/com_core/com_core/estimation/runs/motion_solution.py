@@ -26,19 +26,19 @@ import numpy as np
 from numpy.typing import NDArray
 
 from com_core.contract import MOTION_OBJECT, MOTION_TARE, MOTION_VERIFY
-from com_core.estimation.cutting import motion_spans
-from com_core.estimation.errors import EstimationError
-from com_core.estimation.estimators import Consistency, Estimate
-from com_core.estimation.fits import FitSetup
-from com_core.estimation.hand_motion import PATH_POINTS, HandMotion
-from com_core.estimation.inbox import Inbox
-from com_core.estimation.motion import (
+from com_core.estimation.fits.errors import EstimationError
+from com_core.estimation.fits.estimators import Consistency, Estimate
+from com_core.estimation.fits.motion import (
     WINDOW,
     MotionFit,
     fit_motion,
     joint_motion,
     regressors_along,
 )
+from com_core.estimation.runs.cutting import motion_spans
+from com_core.estimation.runs.hand_motion import PATH_POINTS, HandMotion
+from com_core.estimation.runs.inbox import Inbox
+from com_core.estimation.runs.fit_setup import FitSetup
 from com_core.robot.model import RobotModel
 from com_core.sensing.calibration import Calibration
 from com_core.sensing.noise import NoiseModel

@@ -29,7 +29,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from com_core.contract import ERROR, OK, VERIFY_PREFIX, WARN
-from com_core.estimation.cutting import (
+from com_core.estimation.fits.errors import EstimationError, MissingTareError, WindowError
+from com_core.estimation.fits.estimators import Consistency, Estimate, check_consistency
+from com_core.estimation.fits.known_gravity import KinematicFit, mount_rpy
+from com_core.estimation.fits.motion import principal_moments
+from com_core.estimation.fits.stats import chi2_isf
+from com_core.estimation.fits.windows import Window, subtract_tare
+from com_core.estimation.runs.cutting import (
     motion_spans,
     noise_model,
     reduced_windows,
@@ -37,21 +43,15 @@ from com_core.estimation.cutting import (
     window_rotation,
     window_time,
 )
-from com_core.estimation.errors import EstimationError, MissingTareError, WindowError
-from com_core.estimation.estimators import Consistency, Estimate, check_consistency
-from com_core.estimation.fits import KINEMATICS, WRENCHES, FitSetup, check_load_direction
-from com_core.estimation.inbox import Inbox, shorten
-from com_core.estimation.known_gravity import KinematicFit, mount_rpy
-from com_core.estimation.motion import principal_moments
-from com_core.estimation.motion_solution import (
+from com_core.estimation.runs.inbox import Inbox, shorten
+from com_core.estimation.runs.motion_solution import (
     MOTION,
     STATIC,
     MotionCheck,
     MotionResult,
     solve_motion,
 )
-from com_core.estimation.stats import chi2_isf
-from com_core.estimation.windows import Window, subtract_tare
+from com_core.estimation.runs.fit_setup import KINEMATICS, WRENCHES, FitSetup, check_load_direction
 from com_core.sensing.noise import NoiseModel
 
 __all__ = [

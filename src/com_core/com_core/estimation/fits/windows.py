@@ -17,13 +17,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from com_core.estimation.errors import (
+from com_core.estimation.fits.errors import (
     MissingTareError,
     MotionError,
     NonFiniteError,
     SaturationError,
 )
-from com_core.estimation.stats import chi2_isf
+from com_core.estimation.fits.stats import chi2_isf
 from com_core.sensing.noise import COV_FLOOR, NoiseModel
 from com_core.sensing.wrench_model import AXES, SensorModel
 

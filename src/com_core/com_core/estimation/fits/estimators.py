@@ -41,9 +41,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from com_core.estimation.errors import IllConditionedError, NonPositiveMassError, TooFewPosesError
-from com_core.estimation.stats import chi2_sf
-from com_core.estimation.windows import Window
+from com_core.estimation.fits.errors import (
+    IllConditionedError,
+    NonPositiveMassError,
+    TooFewPosesError,
+)
+from com_core.estimation.fits.stats import chi2_sf
+from com_core.estimation.fits.windows import Window
 from com_core.sensing.wrench_model import STANDARD_GRAVITY
 
 __all__ = [

@@ -26,7 +26,7 @@ delays slow signals by T). The fit, step by step:
    then the Cramer-Rao bound under that noise, and chi^2 tests the model.
 4. **Bias eliminated, load consistent.** b enters linearly and unconstrained; it is
    projected out (variable projection), and the 10 parameters are fitted physically
-   consistent (``estimation.inertial``: log-Cholesky when the least squares estimate is
+   consistent (``estimation.fits.inertial``: log-Cholesky when the least squares estimate is
    not). A known hand (its parameters from an empty-hand motion, ``hand``) is taken off
    first, so what is fitted, and made consistent, is the object alone.
 5. **Error bars.** The covariance adds the calibration's common error propagated through
@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from com_core.estimation.inertial import fit_whitened
+from com_core.estimation.fits.inertial import fit_whitened
 from com_core.robot.dynamics import inertia_elements, load_of, sensor_regressors
 from com_core.robot.model import RobotModel
 from com_core.sensing.calibration import Calibration

@@ -28,14 +28,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from com_core.contract import OBJECT_PREFIX, TARE_PREFIX
-from com_core.estimation.cutting import window_rotation, window_time
-from com_core.estimation.errors import (
+from com_core.estimation.fits.errors import (
     EstimationError,
     MissingTareError,
     NonPositiveMassError,
     WindowError,
 )
-from com_core.estimation.estimators import (
+from com_core.estimation.fits.estimators import (
     DEFAULT_ALPHA,
     MIN_TILT_SIGMAS,
     Consistency,
@@ -44,17 +43,18 @@ from com_core.estimation.estimators import (
     ml,
     two_pose,
 )
-from com_core.estimation.inbox import Inbox
-from com_core.estimation.known_gravity import (
+from com_core.estimation.fits.known_gravity import (
     BIAS_DRIFT_RATE,
     KinematicFit,
     Observation,
     kinematic_ml,
     locate_move,
 )
-from com_core.estimation.motion import MotionFit
-from com_core.estimation.stats import chi2_sf
-from com_core.estimation.windows import Window
+from com_core.estimation.fits.motion import MotionFit
+from com_core.estimation.fits.stats import chi2_sf
+from com_core.estimation.fits.windows import Window
+from com_core.estimation.runs.cutting import window_rotation, window_time
+from com_core.estimation.runs.inbox import Inbox
 from com_core.robot.model import KinematicsError, RobotModel
 from com_core.sensing.calibration import Calibration
 from com_core.sensing.noise import NoiseModel

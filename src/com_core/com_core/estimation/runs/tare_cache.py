@@ -26,8 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from com_core.estimation.stats import chi2_sf
-from com_core.estimation.windows import Window, window_from_mean
+from com_core.estimation.fits.stats import chi2_sf
+from com_core.estimation.fits.windows import Window, window_from_mean
 from com_core.sensing.noise import NoiseModel
 
 __all__ = [

@@ -48,10 +48,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from com_core.estimation.errors import NonPositiveMassError, TooFewPosesError
-from com_core.estimation.estimators import Estimate
-from com_core.estimation.stats import chi2_sf
-from com_core.estimation.windows import Window
+from com_core.estimation.fits.errors import NonPositiveMassError, TooFewPosesError
+from com_core.estimation.fits.estimators import Estimate
+from com_core.estimation.fits.stats import chi2_sf
+from com_core.estimation.fits.windows import Window
 from com_core.robot.model import DEFAULT_GRAVITY
 from com_core.sensing.calibration import Calibration
 from com_core.sensing.wrench_model import rotation_about, skew
@@ -504,7 +504,7 @@ def kinematic_ml(
     (6,; N, N m: the sensor's bias, which its calibration does not scale, when known). The
     covariance is the CRLB; chi2 has 6n (+ 6 per epoch with a rate prior) - (unknowns)
     dof. ``positive_object`` False lets the object's mass be any sign: the object is then a
-    change of load between windows (``estimation.recording``).
+    change of load between windows (``estimation.recordings.recording``).
 
     Raises TooFewPosesError when the windows' orientations do not resolve the unknowns
     (a COM needs two gravity directions; a bias beside the load needs its gravity to

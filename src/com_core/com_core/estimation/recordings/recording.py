@@ -63,19 +63,19 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from com_core.contract import ERROR, OK, WARN
-from com_core.estimation.errors import EstimationError, NonPositiveMassError, TooFewPosesError
-from com_core.estimation.estimators import Estimate
-from com_core.estimation.inbox import Inbox
-from com_core.estimation.known_gravity import (
+from com_core.estimation.fits.errors import EstimationError, NonPositiveMassError, TooFewPosesError
+from com_core.estimation.fits.estimators import Estimate
+from com_core.estimation.fits.known_gravity import (
     BIAS_DRIFT_RATE,
     KinematicFit,
     Observation,
     kinematic_ml,
 )
-from com_core.estimation.motion import ORDER, WINDOW, joint_motion, principal_moments
-from com_core.estimation.motion_solution import joint_arrays
-from com_core.estimation.stats import chi2_isf
-from com_core.estimation.windows import settled_start, window_from_mean
+from com_core.estimation.fits.motion import ORDER, WINDOW, joint_motion, principal_moments
+from com_core.estimation.fits.stats import chi2_isf
+from com_core.estimation.fits.windows import settled_start, window_from_mean
+from com_core.estimation.runs.inbox import Inbox
+from com_core.estimation.runs.motion_solution import joint_arrays
 from com_core.robot.dynamics import load_of, sensor_regressors
 from com_core.robot.model import DEFAULT_GRAVITY, RobotModel
 from com_core.sensing.calibration import Calibration

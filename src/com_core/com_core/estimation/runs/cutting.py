@@ -25,9 +25,9 @@ from com_core.contract import (
     STATIC_PREFIXES,
     TARE_PREFIX,
 )
-from com_core.estimation.errors import WindowError
-from com_core.estimation.inbox import Inbox, shorten
-from com_core.estimation.windows import Window, reduce_window
+from com_core.estimation.fits.errors import WindowError
+from com_core.estimation.fits.windows import Window, reduce_window
+from com_core.estimation.runs.inbox import Inbox, shorten
 from com_core.robot.model import RobotModel
 from com_core.sensing.noise import NoiseModel, learn_noise
 from com_core.sensing.wrench_model import SensorModel

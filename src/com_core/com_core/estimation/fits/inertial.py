@@ -94,7 +94,7 @@ def fit_inertial(
 def fit_whitened(A: ArrayLike, b: ArrayLike, iterations: int = 50) -> InertialFit:
     """``fit_inertial`` of the whitened system A pi = b + e, e white of unit variance
     (A (rows, 10), b (rows,)): the rows already divided by their noise, or passed through
-    its whitening filter (``estimation.motion``)."""
+    its whitening filter (``estimation.fits.motion``)."""
     A, b = np.asarray(A, dtype=np.float64), np.asarray(b, dtype=np.float64)
     rank = np.linalg.matrix_rank(A)
     if rank < 10:

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from com_core.estimation.motion import MotionFit
+from com_core.estimation.fits.motion import MotionFit
 
 __all__ = ["HAND_MOTION_FILE", "HandMotion", "hand_motion_path", "load_hand_motion",
            "save_hand_motion"]  # fmt: skip

@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from com_core.contract import MOVING, OBJECT_PREFIX, TARE_PREFIX
-from com_core.estimation.windows import Window
+from com_core.estimation.fits.windows import Window
 
 __all__ = [
     "LoadLevels",

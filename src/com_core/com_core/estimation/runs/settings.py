@@ -4,8 +4,8 @@ The estimator node declares them as ROS parameters and the offline replay as com
 line options (``--sigma-f`` for ``sigma_f``), both from ``SETTINGS``, and both build
 their explorations with ``exploration_from``: "the replay uses the node's defaults"
 holds by construction. ``tare_cache`` names a file of cached tare windows (its current
-entry, ``com_core.estimation.tare_cache``), read by ``load_cached_tares`` once per exploration,
-when it is solved (a sequencer may take or choose the tare during the exploration).
+entry, ``com_core.estimation.runs.tare_cache``), read by ``load_cached_tares`` once per
+exploration, when it is solved (a sequencer may take or choose the tare during the exploration).
 """
 
 from __future__ import annotations
@@ -15,9 +15,12 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from com_core.estimation.estimators import DEFAULT_ALPHA, MIN_TILT_SIGMAS
-from com_core.estimation.exploration import Exploration
-from com_core.estimation.fits import (
+from com_core.estimation.fits.estimators import DEFAULT_ALPHA, MIN_TILT_SIGMAS
+from com_core.estimation.fits.known_gravity import BIAS_DRIFT_RATE
+from com_core.estimation.runs.exploration import Exploration
+from com_core.estimation.runs.hand_motion import load_hand_motion
+from com_core.estimation.runs.inbox import MAX_LABEL_GAP
+from com_core.estimation.runs.fit_setup import (
     INFORMATION,
     KINEMATICS_MOUNT,
     MAX_DRIFT_F,
@@ -25,10 +28,7 @@ from com_core.estimation.fits import (
     METHODS,
     WRENCHES,
 )
-from com_core.estimation.hand_motion import load_hand_motion
-from com_core.estimation.inbox import MAX_LABEL_GAP
-from com_core.estimation.known_gravity import BIAS_DRIFT_RATE
-from com_core.estimation.tare_cache import TareCache, load_tares
+from com_core.estimation.runs.tare_cache import TareCache, load_tares
 from com_core.inputs import Input, table_of
 from com_core.robot.config import default_robot_config
 from com_core.robot.model import DEFAULT_GRAVITY, KinematicsError, RobotModel

@@ -15,12 +15,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from com_core.estimation import cutting
-from com_core.estimation.cutting import Segments
-from com_core.estimation.fits import FitSetup
-from com_core.estimation.inbox import Inbox
-from com_core.estimation.solution import Solution, solve
-from com_core.estimation.windows import Window
+from com_core.estimation.fits.windows import Window
+from com_core.estimation.runs import cutting
+from com_core.estimation.runs.cutting import Segments
+from com_core.estimation.runs.inbox import Inbox
+from com_core.estimation.runs.fit_setup import FitSetup
+from com_core.estimation.runs.solution import Solution, solve
 from com_core.sensing.noise import NoiseModel
 
 __all__ = ["Exploration"]

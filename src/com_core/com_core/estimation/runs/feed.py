@@ -15,8 +15,8 @@ from com_core.contract import (
     ROBOT_DESCRIPTION_TOPIC,
     WRENCH_TOPIC,
 )
-from com_core.estimation.exploration import Exploration
-from com_core.estimation.fits import WRENCHES
+from com_core.estimation.runs.exploration import Exploration
+from com_core.estimation.runs.fit_setup import WRENCHES
 
 __all__ = ["feed_bag"]
 
