@@ -87,6 +87,7 @@ from com_core.contract import (
     level_of,
 )
 from com_core.estimation.runs.exploration import Exploration
+from com_core.estimation.runs.fit_setup import WRENCHES
 from com_core.estimation.runs.hand_motion import (
     hand_motion_path,
     load_hand_motion,
@@ -101,7 +102,6 @@ from com_core.estimation.runs.settings import (
     use_cached_hand_motion,
     use_cached_tares,
 )
-from com_core.estimation.runs.fit_setup import WRENCHES
 from com_core.estimation.runs.solution import Solution, format_solution
 from com_core.inputs import Input, problems, table_of
 from com_core.payload.compensation import MAX_JOINT_STATE_AGE, Compensator

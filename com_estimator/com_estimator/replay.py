@@ -83,6 +83,7 @@ from com_core.estimation.recordings.recording import (
 from com_core.estimation.recordings.static_windows import find_static_windows, split_load_levels
 from com_core.estimation.runs.exploration import Exploration
 from com_core.estimation.runs.feed import feed_bag
+from com_core.estimation.runs.fit_setup import WRENCHES
 from com_core.estimation.runs.hand_motion import HAND_MOTION_FILE, load_hand_motion
 from com_core.estimation.runs.settings import (
     BAG_SETTINGS_FILE,
@@ -93,7 +94,6 @@ from com_core.estimation.runs.settings import (
     robot_from,
     use_cached_tares,
 )
-from com_core.estimation.runs.fit_setup import WRENCHES
 from com_core.estimation.runs.solution import (
     Solution,
     format_solution,

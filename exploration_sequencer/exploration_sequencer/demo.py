@@ -45,9 +45,9 @@ from com_core.contract import (
     ROBOT_DESCRIPTION_TOPIC,
     TRUTH_TOPIC,
 )
+from com_core.estimation.runs.fit_setup import INFORMATION
 from com_core.estimation.runs.motion_solution import EXCITATIONS, MOTION
 from com_core.estimation.runs.settings import SETTINGS
-from com_core.estimation.runs.fit_setup import INFORMATION
 from com_core.estimation.runs.solution import noise_line, vector_value, verification_lines
 from com_core.inputs import Input, InputError
 from com_core.payload.files import PAYLOAD_FILE

@@ -52,6 +52,7 @@ from com_core.contract import (
 )
 from com_core.estimation.fits.windows import Window
 from com_core.estimation.runs.exploration import Exploration
+from com_core.estimation.runs.fit_setup import WRENCHES
 from com_core.estimation.runs.hand_motion import (
     HAND_MOTION_FILE,
     HandMotion,
@@ -61,7 +62,6 @@ from com_core.estimation.runs.hand_motion import (
 )
 from com_core.estimation.runs.motion_solution import MOTION
 from com_core.estimation.runs.settings import BAG_SETTINGS_FILE, SETTINGS, write_bag_settings
-from com_core.estimation.runs.fit_setup import WRENCHES
 from com_core.estimation.runs.solution import noise_line, vector_value, verification_lines
 from com_core.estimation.runs.tare_cache import (
     BAG_TARE_FILE,

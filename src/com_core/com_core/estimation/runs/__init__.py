@@ -24,6 +24,18 @@ from com_core.estimation.runs.exploration import (
 from com_core.estimation.runs.feed import (
     feed_bag,
 )
+from com_core.estimation.runs.fit_setup import (
+    INFORMATION,
+    KINEMATICS,
+    KINEMATICS_MOUNT,
+    LOAD_SIGMAS,
+    MAX_DRIFT_F,
+    MAX_DRIFT_TAU,
+    METHODS,
+    WRENCHES,
+    FitSetup,
+    check_load_direction,
+)
 from com_core.estimation.runs.inbox import (
     IDLE_KEEP,
     MAX_LABEL_GAP,
@@ -39,18 +51,6 @@ from com_core.estimation.runs.settings import (
     load_cached_tares,
     robot_from,
     use_cached_tares,
-)
-from com_core.estimation.runs.fit_setup import (
-    INFORMATION,
-    KINEMATICS,
-    KINEMATICS_MOUNT,
-    LOAD_SIGMAS,
-    MAX_DRIFT_F,
-    MAX_DRIFT_TAU,
-    METHODS,
-    WRENCHES,
-    FitSetup,
-    check_load_direction,
 )
 from com_core.estimation.runs.solution import (
     ERROR,

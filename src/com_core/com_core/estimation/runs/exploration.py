@@ -18,8 +18,8 @@ from numpy.typing import NDArray
 from com_core.estimation.fits.windows import Window
 from com_core.estimation.runs import cutting
 from com_core.estimation.runs.cutting import Segments
-from com_core.estimation.runs.inbox import Inbox
 from com_core.estimation.runs.fit_setup import FitSetup
+from com_core.estimation.runs.inbox import Inbox
 from com_core.estimation.runs.solution import Solution, solve
 from com_core.sensing.noise import NoiseModel
 

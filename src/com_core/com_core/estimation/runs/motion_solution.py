@@ -36,9 +36,9 @@ from com_core.estimation.fits.motion import (
     regressors_along,
 )
 from com_core.estimation.runs.cutting import motion_spans
+from com_core.estimation.runs.fit_setup import FitSetup
 from com_core.estimation.runs.hand_motion import PATH_POINTS, HandMotion
 from com_core.estimation.runs.inbox import Inbox
-from com_core.estimation.runs.fit_setup import FitSetup
 from com_core.robot.model import RobotModel
 from com_core.sensing.calibration import Calibration
 from com_core.sensing.noise import NoiseModel

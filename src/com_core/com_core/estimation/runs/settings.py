@@ -18,8 +18,6 @@ from typing import Any
 from com_core.estimation.fits.estimators import DEFAULT_ALPHA, MIN_TILT_SIGMAS
 from com_core.estimation.fits.known_gravity import BIAS_DRIFT_RATE
 from com_core.estimation.runs.exploration import Exploration
-from com_core.estimation.runs.hand_motion import load_hand_motion
-from com_core.estimation.runs.inbox import MAX_LABEL_GAP
 from com_core.estimation.runs.fit_setup import (
     INFORMATION,
     KINEMATICS_MOUNT,
@@ -28,6 +26,8 @@ from com_core.estimation.runs.fit_setup import (
     METHODS,
     WRENCHES,
 )
+from com_core.estimation.runs.hand_motion import load_hand_motion
+from com_core.estimation.runs.inbox import MAX_LABEL_GAP
 from com_core.estimation.runs.tare_cache import TareCache, load_tares
 from com_core.inputs import Input, table_of
 from com_core.robot.config import default_robot_config

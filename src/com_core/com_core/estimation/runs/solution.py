@@ -43,6 +43,7 @@ from com_core.estimation.runs.cutting import (
     window_rotation,
     window_time,
 )
+from com_core.estimation.runs.fit_setup import KINEMATICS, WRENCHES, FitSetup, check_load_direction
 from com_core.estimation.runs.inbox import Inbox, shorten
 from com_core.estimation.runs.motion_solution import (
     MOTION,
@@ -51,7 +52,6 @@ from com_core.estimation.runs.motion_solution import (
     MotionResult,
     solve_motion,
 )
-from com_core.estimation.runs.fit_setup import KINEMATICS, WRENCHES, FitSetup, check_load_direction
 from com_core.sensing.noise import NoiseModel
 
 __all__ = [
