@@ -357,7 +357,21 @@ def estimator_node() -> list[str]:
         "it; `--robot FILE` for another, `--sensor-frame` / `--base-frame` win over both), "
         "and the tare the run reused, `tare.json` beside the bag (`--tare FILE` for another).",
         "",
-        "A bag without labels is cut into static windows by the core (blocks of 50 ms at the "
+        "A recording without labels that has joint states and a robot description (the "
+        "bag's `/robot_description`, or `--robot-description FILE`, with `--sensor-frame` "
+        "and `--base-frame`), or a log that never was ROS (`replay LOG.csv` or `LOG.npz`: "
+        "`time`, `fx fy fz tx ty tz` in the sensor frame, and the sensor's orientation as "
+        "`qx qy qz qw` or `r11`..`r33`), is fitted as any recording "
+        "(`com_core.estimation.recordings.recording`): its rests and the slow motion "
+        "between them, whatever the bias, the noise learnt from it, what it could not tell "
+        "named (a load that changed: ERROR; orientations about one axis or barely turned, "
+        "a drift beyond its prior: WARN), and a self-check (each half predicting the other: "
+        "the rms residual per axis, in N, N m and in sigmas). `--tare-recording` (a bag or a "
+        "log of the empty tool) gives the object alone, else the whole load beyond the "
+        "sensor; `--report FILE.png` draws the recording, the fit and each window's residual.",
+        "",
+        "A bag without labels nor kinematics is cut into static windows by the core (blocks "
+        "of 50 ms at the "
         "noise level, joined while their means agree within 6 standard errors, kept when "
         "longer than 0.3 s), which it sorts by load level: a window's |f| is the gravity load "
         "whatever the orientation, so the empty hand's windows and the loaded hand's form two "

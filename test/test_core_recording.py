@@ -59,24 +59,25 @@ def test_a_noiseless_recording_gives_the_load_and_the_bias_exactly():
     assert fit.status == OK, fit.reason
     assert fit.estimate is not None and fit.bias is not None
     assert fit.estimate.mass == pytest.approx(LOAD.mass, abs=1e-9)
-    np.testing.assert_allclose(fit.estimate.com, LOAD.com, atol=1e-9)
+    # the delay's search (a parabola through its grid) lands within 1e-7 s of zero
+    np.testing.assert_allclose(fit.estimate.com, LOAD.com, atol=1e-8)
     np.testing.assert_allclose(fit.bias, BIAS, atol=1e-8)
+    assert abs(fit.delay) < 1e-6
     assert fit.whole_load and fit.rests >= 2
 
 
 @pytest.mark.slow
 def test_the_error_bars_are_honest_over_50_recordings():
     """50 recordings, each with its own sensor calibration (1 %), noise and path: every
-    one OK (or its geometry named) and within 3.5 sigma (mass, COM, bias; the largest of
-    500), and rms(error / sigma) of each in 0.8-1.2
-    (each pooled over 50, or 150 for the vectors: an rms over 50 has a relative sd of 10 %,
-    so the bounds are 2 sd for the mass)."""
+    one OK and within 4 sigma (mass, COM, bias: the largest of 500 exceeds 3.5 one time in
+    four), and rms(error / sigma) of the mass, the COM, the bias's force and torque each in
+    0.8-1.2 (pooled over 50, or 150 for the vectors: an rms over 50 has a relative sd of
+    10 %, so the bounds are 2 sd for the mass)."""
     z = []
     for seed in range(50):
         rec, recording = recorded(100 + seed, calibrated=True, duration=40.0)
         fit = fit_recording(recording, calibration=Calibration(ACCURACY, *FULL_SCALE))
-        # a path whose moves happened to turn about one axis is named so, and kept
-        assert fit.status == OK or "one axis" in fit.reason, (seed, fit.reason)
+        assert fit.status == OK, (seed, fit.reason)
         e = fit.estimate
         assert e is not None and fit.bias is not None and fit.bias_sigma is not None
         z.append(
@@ -89,7 +90,7 @@ def test_the_error_bars_are_honest_over_50_recordings():
             )
         )
     z = np.array(z)
-    assert np.all(np.abs(z) < 3.5), np.abs(z).max(axis=0)
+    assert np.all(np.abs(z) < 4.0), np.abs(z).max(axis=0)
     rms = [
         math.sqrt(np.mean(z[:, part] ** 2)) for part in (0, slice(1, 4), slice(4, 7), slice(7, 10))
     ]

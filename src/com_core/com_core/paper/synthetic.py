@@ -231,12 +231,12 @@ def wandering_recording(
     while knots_t[-1] < duration:
         knots_t.append(knots_t[-1] + rng.uniform(0.3, 3.0))  # a rest
         knots_v.append(knots_v[-1])
-        if axes is None:
-            target = rng.normal(size=3) * np.array([1.0, 1.0, 0.5])
+        if axes is None:  # a tilt of 0.3-1 x ``tilt`` and a turn about the hanging axis
+            across = rng.normal(size=2)
+            across *= tilt * rng.uniform(0.3, 1.0) / max(np.linalg.norm(across), 1e-9)
+            target = np.array([*across, 0.5 * tilt * rng.normal()])
         else:
-            target = np.asarray(axes, dtype=np.float64) * rng.normal()
-        target *= tilt / max(np.linalg.norm(target[:2]) if axes is None else 1.0, 1e-9)
-        target *= rng.uniform(0.3, 1.0)
+            target = np.asarray(axes, dtype=np.float64) * tilt * rng.uniform(-1.0, 1.0)
         step = np.linalg.norm(target - knots_v[-1])
         knots_t.append(knots_t[-1] + max(step / (speed * rng.uniform(0.4, 1.0)), 0.2))
         knots_v.append(target)

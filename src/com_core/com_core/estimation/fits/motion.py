@@ -54,6 +54,7 @@ from com_core.sensing.noise import NoiseModel
 __all__ = [
     "MAX_DELAY",
     "MotionFit",
+    "best_delay",
     "compensated",
     "fit_motion",
     "joint_motion",
@@ -231,7 +232,7 @@ def fit_motion(
         r = b - A @ solution
         return float(r @ r)
 
-    delay = _best_delay(residual)
+    delay = best_delay(residual)
     Y = regressors(delay)
     object_wrench = w - Y @ hand_pi
     A, b = _whitened_system(Y, object_wrench, noise, 1)
@@ -283,15 +284,17 @@ def compensated(
     return np.asarray(wrenches, dtype=np.float64) - Y @ np.asarray(pi) - np.asarray(bias)
 
 
-def _best_delay(residual) -> float:
-    """The delay (s) minimising ``residual(delay)``: the grid, then a parabola."""
-    grid = np.arange(-MAX_DELAY, MAX_DELAY + _DELAY_STEP / 2, _DELAY_STEP)
+def best_delay(residual, step: float = _DELAY_STEP) -> float:
+    """The delay (s) minimising ``residual(delay)`` (a function of the delay, s): a grid of
+    ``step`` (s; 3 ms) over +-``MAX_DELAY``, then a parabola through the three best (step
+    2)."""
+    grid = np.arange(-MAX_DELAY, MAX_DELAY + step / 2, step)
     costs = np.array([residual(d) for d in grid])
     k = int(np.clip(np.argmin(costs), 1, len(grid) - 2))
     left, middle, right = costs[k - 1 : k + 2]
     curvature = left - 2 * middle + right
     shift = 0.5 * (left - right) / curvature if curvature > 0 else 0.0
-    return float(grid[k] + np.clip(shift, -1.0, 1.0) * _DELAY_STEP)
+    return float(grid[k] + np.clip(shift, -1.0, 1.0) * step)
 
 
 def _whitened_system(

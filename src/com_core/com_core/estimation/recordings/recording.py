@@ -29,7 +29,11 @@ from the joint velocities and accelerations, Savitzky-Golay differentiated,
    window (``inertia_bound``, from a first fit's load) and weighed as a uniform error of
    that bound; a window whose bound is ``TOO_FAST`` times its noise is left out, and
    counted.
-4. **The fit.** ``kinematic_ml`` with the calibration's common error on the load's
+4. **The fit.** The wrenches' delay behind the orientations (a sensor's filter, the
+   transport) is the one that minimises the fit's chi^2 (``motion.best_delay``: +-30 ms
+   on a ``DELAY_STEP`` grid),
+   each window's design taken that much earlier (to first order, its rate of change).
+   Then ``kinematic_ml`` with the calibration's common error on the load's
    wrench (the bias, which the calibration does not scale, taken off: a first fit gives
    it). Its covariance is the Cramer-Rao bound, widened by chi^2 / dof when the residual
    is larger than the noise and the calibration explain. With a tare recording (the empty
@@ -71,7 +75,13 @@ from com_core.estimation.fits.known_gravity import (
     Observation,
     kinematic_ml,
 )
-from com_core.estimation.fits.motion import ORDER, WINDOW, joint_motion, principal_moments
+from com_core.estimation.fits.motion import (
+    ORDER,
+    WINDOW,
+    best_delay,
+    joint_motion,
+    principal_moments,
+)
 from com_core.estimation.fits.stats import chi2_isf
 from com_core.estimation.fits.windows import settled_start, window_from_mean
 from com_core.estimation.runs.inbox import Inbox
@@ -107,6 +117,9 @@ BLOCK = 0.5
 REACH = 0.5
 """m: how far the sensor's origin may lie from the axes it turns about, for a recording
 without joint states (its linear acceleration unknown, ``inertia_bound``)."""
+DELAY_STEP = 6e-3
+"""s: the delay search's grid (a parabola through its three best points refines it; chi^2
+is a parabola in the delay where the designs change linearly, to first order)."""
 CHANGE_SPLITS = 12
 """Places (quantiles of the windows in time) a change of load is looked for at."""
 CHANGE_ALPHA = 1e-3
@@ -161,6 +174,12 @@ class Recording:
     notes: tuple[str, ...] = ()
     inertia_designs: NDArray[np.float64] | None = None
 
+    @property
+    def rates(self) -> NDArray[np.float64]:
+        """(n, 6, 4): the designs' rate of change (per s), central differences: a design
+        ``delay`` s earlier is D - delay dD/dt, to first order."""
+        return np.gradient(self.designs, self.times, axis=0)
+
 
 @dataclass(frozen=True)
 class SelfCheck:
@@ -209,6 +228,7 @@ class RecordingFit:
     bias : (6,) the sensor's bias (N, N m) at the recording's mean time, ``bias_sigma``
         its sigma; ``drift`` (6,) how much it moved over the recording, ``drift_sigma``.
     noise : the noise model learnt (``noise_from``: where from).
+    delay : s, how much later the wrenches are stamped than the orientations (estimated).
     inertia : (3, 3) the whole load's inertia about its COM (kg m^2, sensor axes) where the
         motion excites it (``_inertia``), its principal ``moments`` (3,) and their
         ``moments_sigma``; None where it does not (a note says why).
@@ -230,6 +250,7 @@ class RecordingFit:
     duration: float = 0.0
     noise: NoiseModel | None = None
     noise_from: str = ""
+    delay: float = 0.0
     inertia: NDArray[np.float64] | None = None
     moments: NDArray[np.float64] | None = None
     moments_sigma: NDArray[np.float64] | None = None
@@ -258,7 +279,8 @@ class RecordingFit:
         lines.append(
             f"{self.samples} samples over {self.duration:.1f} s: {self.rests} rests and "
             f"{self.windows - self.rests} windows in motion used, {self.left_out} left out; "
-            f"noise from {self.noise_from}"
+            f"noise from {self.noise_from}; wrenches {self.delay * 1e3:.1f} ms behind the "
+            "orientations"
         )
         if self.moments is not None and self.moments_sigma is not None:
             lines.append(
@@ -283,6 +305,7 @@ class RecordingFit:
             "samples": self.samples,
             "duration": self.duration,
             "noise_from": self.noise_from,
+            "delay": self.delay,
             "widened": self.widened,
             "notes": list(self.notes),
         }
@@ -614,9 +637,13 @@ def _observations(
     load: bool,
     epoch: int,
     inertia: tuple[float, NDArray[np.float64]] | None = None,
+    delay: float = 0.0,
+    rates: NDArray[np.float64] | None = None,
 ) -> list[Observation]:
-    """The windows of ``blocks``; with ``inertia`` (mass kg, COM m) each window's
-    covariance holds its ``inertia_bound`` as a uniform error's variance (bound^2 / 3)."""
+    """The windows of ``blocks``, their designs those of ``delay`` s earlier (the
+    wrenches stamped that much later than the orientations; first order, with the
+    designs' ``rates``); with ``inertia`` (mass kg, COM m) each window's covariance holds
+    its ``inertia_bound`` as a uniform error's variance (bound^2 / 3)."""
     w, t = recording.wrenches, recording.times
     out = []
     for k, b in enumerate(blocks):
@@ -638,7 +665,8 @@ def _observations(
                 load,
                 epoch,
                 float(t[s].mean()),
-                design=recording.designs[s].mean(axis=0),
+                design=recording.designs[s].mean(axis=0)
+                - (delay * rates[s].mean(axis=0) if rates is not None else 0.0),
             )
         )
     return out
@@ -704,25 +732,38 @@ def fit_recording(
     }
     with_object = tare is not None
 
+    rates = {id(r): r.rates for r, _ in parts}
+
     def observations(
-        kept: dict[int, list[_Block]], is_object: bool, inertia=None
+        kept: dict[int, list[_Block]], is_object: bool, inertia=None, delay: float = 0.0
     ) -> list[Observation]:
         return [
             o
             for k, (r, obj) in enumerate(parts)
             if obj == is_object
-            for o in _observations(r, kept[id(r)], noise, obj and with_object, k, inertia)
+            for o in _observations(
+                r, kept[id(r)], noise, obj and with_object, k, inertia, delay, rates[id(r)]
+            )
         ]
 
+    def both(kept: dict[int, list[_Block]], inertia=None, delay: float = 0.0):
+        return observations(kept, True, inertia, delay), observations(kept, False, inertia, delay)
+
+    def chi2_at(delay: float) -> float:
+        loaded, empty = both(blocks, None, delay)
+        return setup.fit(loaded + empty).estimate.chi2
+
     try:
-        first = setup.fit(observations(blocks, True) + observations(blocks, False))
+        delay = best_delay(chi2_at, DELAY_STEP) if motion else 0.0
+        loaded, empty = both(blocks, None, delay)
+        first = setup.fit(loaded + empty)
         mass = first.estimate.mass + (first.hand.mass if with_object and first.hand else 0.0)
         inertia = (abs(mass), first.estimate.com)
         kept = {
             key: [b for b in bs if b.rest or not _too_fast(r, b, noise, *inertia)]
             for (r, _), (key, bs) in zip(parts, blocks.items(), strict=True)
         }
-        obs, fixed = observations(kept, True, inertia), observations(kept, False, inertia)
+        obs, fixed = both(kept, inertia, delay)
         setup.calibration = calibration
         setup.uncalibrated = first.bias[0]
         fit = setup.fit(obs + fixed)
@@ -756,6 +797,7 @@ def fit_recording(
         left_out=left_out,
         noise=noise,
         noise_from=noise_from,
+        delay=delay,
         fit=fit,
     )
     warnings, errors = [], []
