@@ -46,9 +46,11 @@ def sensor(rng: np.random.Generator | None = None, noise: bool = True) -> Sensor
 
 
 def recorded(seed: int, noise: bool = True, calibrated: bool = False, **options):
+    """A wandering recording of ``LOAD`` (40 s unless ``options`` say), its sensor's
+    calibration drawn if ``calibrated``: (the synthetic recording, its ``Recording``)."""
     rng = np.random.default_rng(seed)
     model = sensor(rng if calibrated else None, noise)
-    rec = wandering_recording(model, LOAD, rng, **options)
+    rec = wandering_recording(model, LOAD, rng, **({"duration": 40.0} | options))
     return rec, recording_from_orientations(rec.times, rec.wrenches, rec.rotations)
 
 
@@ -58,11 +60,12 @@ def test_a_noiseless_recording_gives_the_load_and_the_bias_exactly():
     fit = fit_recording(recording)
     assert fit.status == OK, fit.reason
     assert fit.estimate is not None and fit.bias is not None
-    assert fit.estimate.mass == pytest.approx(LOAD.mass, abs=1e-9)
-    # the delay's search (a parabola through its grid) lands within 1e-7 s of zero
+    # exact but for the delay's search (a parabola through its grid), which lands within
+    # 1e-5 s of zero: 1e-7 of the mass, 10 nm
+    assert abs(fit.delay) < 1e-5
+    assert fit.estimate.mass == pytest.approx(LOAD.mass, rel=1e-7)
     np.testing.assert_allclose(fit.estimate.com, LOAD.com, atol=1e-8)
-    np.testing.assert_allclose(fit.bias, BIAS, atol=1e-8)
-    assert abs(fit.delay) < 1e-6
+    np.testing.assert_allclose(fit.bias, BIAS, atol=1e-7)
     assert fit.whole_load and fit.rests >= 2
 
 
@@ -75,7 +78,7 @@ def test_the_error_bars_are_honest_over_50_recordings():
     10 %, so the bounds are 2 sd for the mass)."""
     z = []
     for seed in range(50):
-        rec, recording = recorded(100 + seed, calibrated=True, duration=40.0)
+        rec, recording = recorded(100 + seed, calibrated=True)
         fit = fit_recording(recording, calibration=Calibration(ACCURACY, *FULL_SCALE))
         assert fit.status == OK, (seed, fit.reason)
         e = fit.estimate
