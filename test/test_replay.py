@@ -384,8 +384,9 @@ def test_a_tare_recording_gives_the_object_alone_through_the_replay(tmp_path, ca
     tool = Load(0.15, (0.0, 0.005, 0.03))
     both = tool.mass + LOAD.mass
     com = (tool.mass * np.array(tool.com) + LOAD.mass * np.array(LOAD.com)) / both
-    write_csv(tmp_path / "empty.csv", wandering_recording(sensor(), tool, rng), True)
-    held = wandering_recording(sensor(), Load(both, tuple(com)), rng)
+    empty = wandering_recording(sensor(), tool, rng, duration=30.0)
+    write_csv(tmp_path / "empty.csv", empty, True)
+    held = wandering_recording(sensor(), Load(both, tuple(com)), rng, duration=30.0)
     write_csv(tmp_path / "held.csv", held, True)
     out = run_replay(
         capsys, tmp_path / "held.csv", "--tare-recording", str(tmp_path / "empty.csv")

@@ -298,10 +298,16 @@ class _Model:
         """(6n, 6n) W with W^T W the inverse of the windows' joint covariance: each
         window's noise, plus the calibration's common error (``com_core.sensing.calibration``)."""
         n = len(self.obs)
+        if self.calibration is None:  # block diagonal: each window's own, inverted alone
+            whiten = np.zeros((6 * n, 6 * n))
+            for i, o in enumerate(self.obs):
+                block = np.linalg.inv(np.linalg.cholesky(o.window.cov))
+                whiten[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] = block
+            return whiten
         cov = np.zeros((6 * n, 6 * n))
         for i, o in enumerate(self.obs):
             cov[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] = o.window.cov
-        if self.calibration is not None and n:
+        if n:
             cov += self.calibration.cov(self.means.reshape(n, 6) - self.uncalibrated)
         return np.linalg.inv(np.linalg.cholesky(cov)) if n else np.zeros((0, 0))
 

@@ -57,9 +57,10 @@ from the joint velocities and accelerations, Savitzky-Golay differentiated,
 from __future__ import annotations
 
 import csv
+import functools
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -640,14 +641,15 @@ def inertia_bound(recording: Recording, block: _Block, mass: float, com: NDArray
 def _observations(
     recording: Recording,
     blocks: Sequence[_Block],
-    noise: NoiseModel,
+    mean_cov: Callable[[int], NDArray[np.float64]],
     load: bool,
     epoch: int,
     inertia: tuple[float, NDArray[np.float64]] | None = None,
     delay: float = 0.0,
     rates: NDArray[np.float64] | None = None,
 ) -> list[Observation]:
-    """The windows of ``blocks``, their designs those of ``delay`` s earlier (the
+    """The windows of ``blocks`` (``mean_cov(n)``: the noise's covariance of the mean of
+    n samples, ``NoiseModel.mean_cov``), their designs those of ``delay`` s earlier (the
     wrenches stamped that much later than the orientations; first order, with the
     designs' ``rates``); with ``inertia`` (mass kg, COM m) each window's covariance holds
     its ``inertia_bound`` as a uniform error's variance (bound^2 / 3)."""
@@ -656,7 +658,7 @@ def _observations(
     for k, b in enumerate(blocks):
         s = slice(b.start, b.stop)
         middle = (b.start + b.stop) // 2
-        cov = noise.mean_cov(b.stop - b.start)
+        cov = mean_cov(b.stop - b.start)
         if inertia is not None and not b.rest:
             cov = cov + np.diag(inertia_bound(recording, b, *inertia) ** 2 / 3.0)
         window = window_from_mean(
@@ -740,6 +742,7 @@ def fit_recording(
     with_object = tare is not None
 
     rates = {id(r): r.rates for r, _ in parts}
+    mean_cov = functools.lru_cache(maxsize=None)(noise.mean_cov)  # per window length
 
     def observations(
         kept: dict[int, list[_Block]], is_object: bool, inertia=None, delay: float = 0.0
@@ -749,7 +752,7 @@ def fit_recording(
             for k, (r, obj) in enumerate(parts)
             if obj == is_object
             for o in _observations(
-                r, kept[id(r)], noise, obj and with_object, k, inertia, delay, rates[id(r)]
+                r, kept[id(r)], mean_cov, obj and with_object, k, inertia, delay, rates[id(r)]
             )
         ]
 
@@ -916,7 +919,7 @@ def _residual_noise(recording: Recording, setup: _Setup) -> NoiseModel:
     rate = 1.0 / float(np.median(np.diff(recording.times)))
     guess = white_noise(np.diag(np.var(np.diff(recording.wrenches, axis=0), axis=0) / 2), rate)
     blocks = _blocks(recording, [], guess)
-    fit = setup.fit(_observations(recording, blocks, guess, False, 0))
+    fit = setup.fit(_observations(recording, blocks, guess.mean_cov, False, 0))
     residual = recording.wrenches - fit.wrenches(recording.designs, recording.times)
     learnt = learn_noise([residual[b.start : b.stop] for b in blocks], rate, min_samples=50)
     return learnt or guess
