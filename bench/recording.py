@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from com_core.estimation.recordings.recording import fit_recording, recording_from_inbox
+from com_core.estimation.recordings import fit_recording, recording_from_inbox
 from com_core.estimation.runs.feed import feed_bag
 from com_core.estimation.runs.settings import exploration_from, robot_from
 from com_core.robot.config import read_robot_config

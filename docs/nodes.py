@@ -362,7 +362,7 @@ def estimator_node() -> list[str]:
         "and `--base-frame`), or a log that never was ROS (`replay LOG.csv` or `LOG.npz`: "
         "`time`, `fx fy fz tx ty tz` in the sensor frame, and the sensor's orientation as "
         "`qx qy qz qw` or `r11`..`r33`), is fitted as any recording "
-        "(`com_core.estimation.recordings.recording`): its rests and the slow motion "
+        "(`com_core.estimation.recordings.recording_fit`): its rests and the slow motion "
         "between them, whatever the bias, the noise learnt from it, what it could not tell "
         "named (a load that changed: ERROR; orientations about one axis or barely turned, "
         "a drift beyond its prior: WARN), and a self-check (each half predicting the other: "

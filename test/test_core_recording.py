@@ -1,4 +1,4 @@
-"""An estimate from any recording (``com_core.estimation.recordings.recording``):
+"""An estimate from any recording (``com_core.estimation.recordings.recording_fit``):
 unlabelled wrenches with the sensor's orientations or the arm's joint states, a large
 bias, slow motion with a few rests."""
 
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from com_core.contract import ERROR, OK, WARN
-from com_core.estimation.recordings.recording import (
+from com_core.estimation.recordings import (
     CSV_COLUMNS,
     fit_recording,
     read_recording_file,
@@ -265,7 +265,7 @@ def wrist_recording(seed: int, speed: float, inertia: np.ndarray):
     ``speed`` rad/s (quintic moves): joint states at 100 Hz with jittered stamps, and
     wrenches at 250 Hz of ``LOAD`` with ``inertia`` (about its COM) through white noise
     and the 7 N bias. (robot model, recording)."""
-    from com_core.estimation.recordings.recording import recording_from_joint_states
+    from com_core.estimation.recordings import recording_from_joint_states
     from com_core.robot.dynamics import inertial_parameters, sensor_regressors
     from com_core.robot.model import RobotModel
 

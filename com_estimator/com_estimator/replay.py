@@ -15,15 +15,15 @@ Reads /ft_sensor/wrench and /exploration_sequencer/pose from a rosbag2 directory
 the node uses, with the node's settings of that run (BAG/estimator.yaml; an option
 overrides one), so the same messages give the same numbers to the last bit.
 
-A recording without pose labels (a bag this project did not make, a lab's old
-recording) with joint states and a robot description (the bag's /robot_description, or
+A recording without pose labels (a bag this project did not make, a lab's old recording)
+with joint states and a robot description (the bag's /robot_description, or
 ``--robot-description``; ``--sensor-frame``, ``--base-frame``) is fitted as any
-recording is (``com_core.estimation.recordings.recording``): the rests and the slow motion between
-them, whatever the bias, with the noise learnt from the recording, what it could not
-tell named, and a self-check (each half predicting the other). So is a log of wrenches
-and the sensor's orientations that never was ROS: ``replay LOG.csv`` or ``LOG.npz``
-(columns: ``recording.CSV_COLUMNS``). ``--tare-recording`` (a bag or a log of the empty
-tool) gives the object alone; without it, the whole load beyond the sensor.
+recording is (``com_core.estimation.recordings.recording_fit``): the rests and the slow
+motion between them, whatever the bias, with the noise learnt from the recording, what
+it could not tell named, and a self-check (each half predicting the other). So is a log
+of wrenches and the sensor's orientations that never was ROS: ``replay LOG.csv`` or
+``LOG.npz`` (columns: ``recording.CSV_COLUMNS``). ``--tare-recording`` (a bag or a log
+of the empty tool) gives the object alone; without it, the whole load beyond the sensor.
 
 A bag without pose labels nor kinematics is cut into static windows by
 ``com_core.estimation.recordings.static_windows.find_static_windows`` (blocks of 50 ms
@@ -73,7 +73,7 @@ from com_core.contract import (
     WRENCH_TOPIC,
 )
 from com_core.estimation.fits.errors import EstimationError
-from com_core.estimation.recordings.recording import (
+from com_core.estimation.recordings import (
     Recording,
     RecordingFit,
     fit_recording,

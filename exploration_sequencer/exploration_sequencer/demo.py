@@ -493,10 +493,14 @@ def run_exploration(args: argparse.Namespace, started: float, children: Sequence
         while time.monotonic() < end and not ((statuses and estimates) or exited(children)):
             executor.spin_once(timeout_sec=0.1)
         result = future.result().result
-        if args.hold and result.status == "OK":
+        if args.hold and result.status == "OK":  # 1 s of the sensor's time, 10 s at most
             compensated.clear()
-            end = time.monotonic() + 1.0
-            while time.monotonic() < end and not exited(children):
+            end = time.monotonic() + 10.0
+            while (
+                time.monotonic() < end
+                and not exited(children)
+                and not (compensated and (compensated[-1][0] - compensated[0][0]) * 1e-9 >= 1.0)
+            ):
                 executor.spin_once(timeout_sec=0.05)
         ended = exited(children)
         print_summary(result, estimates, truths, statuses, time.monotonic() - started)

@@ -1,5 +1,6 @@
-"""The PNG report of a recording's fit (``com_core.estimation.recordings.recording``): what the
-recording held and how well one load explains it.
+"""The PNG report of a recording's fit
+(``com_core.estimation.recordings.recording_fit``): what the recording held and how well
+one load explains it.
 
 ``write_recording_report(recording, fit, png)`` writes one figure (1600 x 1000 px):
 
@@ -21,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from com_core.estimation.recordings.recording import Recording, RecordingFit
+from com_core.estimation.recordings import Recording, RecordingFit
 
 __all__ = ["write_recording_report"]
 

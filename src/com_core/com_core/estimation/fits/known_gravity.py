@@ -510,7 +510,7 @@ def kinematic_ml(
     (6,; N, N m: the sensor's bias, which its calibration does not scale, when known). The
     covariance is the CRLB; chi2 has 6n (+ 6 per epoch with a rate prior) - (unknowns)
     dof. ``positive_object`` False lets the object's mass be any sign: the object is then a
-    change of load between windows (``estimation.recordings.recording``).
+    change of load between windows (``estimation.recordings.recording_fit``).
 
     Raises TooFewPosesError when the windows' orientations do not resolve the unknowns
     (a COM needs two gravity directions; a bias beside the load needs its gravity to
