@@ -119,13 +119,14 @@ def test_error_bars_chi_square_and_verification_stay_honest():
 
 @pytest.mark.slow
 def test_the_wrenches_alone_carry_the_calibrations_share():
-    """The wrench-only ML of 300 explorations read through their own 1 % calibration error:
-    with the propagated share, rms(error / sigma) of mass and COM within 0.2 of 1."""
+    """The wrench-only ML of 150 explorations read through their own 1 % calibration error:
+    with the propagated share, rms(error / sigma) of mass and COM within 0.2 of 1 (an rms
+    over 150 has a relative sd of 5.8 %: 3.5 sd)."""
     plan = Plan(tilt=math.pi / 6, dwell=0.9, mass_guess=MASS, com_guess=COM)
     exploration = Exploration(information="wrenches", calibration=CALIBRATION)
     rng = np.random.default_rng(8)
     ratios = []
-    for _ in range(300):
+    for _ in range(150):
         c = drawn_matrix(CALIBRATION, rng)
         windows, _ = object_windows(plan, Load(MASS, COM), rng)
         truth, _ = object_windows(plan, Load(MASS, COM), rng, noise=False)

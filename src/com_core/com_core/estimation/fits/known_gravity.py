@@ -300,9 +300,11 @@ class _Model:
         n = len(self.obs)
         if self.calibration is None:  # block diagonal: each window's own, inverted alone
             whiten = np.zeros((6 * n, 6 * n))
-            for i, o in enumerate(self.obs):
-                block = np.linalg.inv(np.linalg.cholesky(o.window.cov))
-                whiten[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] = block
+            if n:
+                covs = np.array([o.window.cov for o in self.obs])
+                blocks = np.linalg.inv(np.linalg.cholesky(covs))  # all at once
+                for i in range(n):
+                    whiten[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] = blocks[i]
             return whiten
         cov = np.zeros((6 * n, 6 * n))
         for i, o in enumerate(self.obs):

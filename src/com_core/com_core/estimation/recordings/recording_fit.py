@@ -493,19 +493,20 @@ def fit_recording(
     mean_cov = functools.lru_cache(maxsize=None)(noise.mean_cov)  # per window length
 
     def observations(
-        kept: dict[int, list[_Block]], is_object: bool, inertia=None, delay: float = 0.0
+        kept: dict[int, list[_Block]], is_object: bool, load=None, delay: float = 0.0
     ) -> list[Observation]:
         return [
             o
             for k, (r, obj) in enumerate(parts)
             if obj == is_object
             for o in _observations(
-                r, kept[id(r)], mean_cov, obj and with_object, k, inertia, delay, rates[id(r)]
+                r, kept[id(r)], mean_cov, obj and with_object, k, load, delay, rates[id(r)]
             )
         ]
 
-    def both(kept: dict[int, list[_Block]], inertia=None, delay: float = 0.0):
-        return observations(kept, True, inertia, delay), observations(kept, False, inertia, delay)
+    def both(kept: dict[int, list[_Block]], load=None, delay: float = 0.0):
+        """(the recording's windows, the tare recording's)."""
+        return observations(kept, True, load, delay), observations(kept, False, load, delay)
 
     def chi2_at(delay: float) -> float:
         loaded, empty = both(blocks, None, delay)
@@ -516,12 +517,12 @@ def fit_recording(
         loaded, empty = both(blocks, None, delay)
         first = setup.fit(loaded + empty)
         mass = first.estimate.mass + (first.hand.mass if with_object and first.hand else 0.0)
-        inertia = (abs(mass), first.estimate.com)
+        load = (abs(mass), first.estimate.com)  # what the inertia's bound scales with
         kept = {
-            key: [b for b in bs if b.rest or not _too_fast(r, b, noise, *inertia)]
+            key: [b for b in bs if b.rest or not _too_fast(r, b, noise, *load)]
             for (r, _), (key, bs) in zip(parts, blocks.items(), strict=True)
         }
-        obs, fixed = both(kept, inertia, delay)
+        obs, fixed = both(kept, load, delay)
         setup.calibration = calibration
         setup.uncalibrated = first.bias[0]
         fit = setup.fit(obs + fixed)
@@ -539,7 +540,8 @@ def fit_recording(
     bias_sigma = np.sqrt(np.diag(fit.bias_cov)[:nb] * widened)
     span = recording.times[-1] - recording.times[0]
     drift = fit.bias_rate[0] * span
-    drift_sigma = np.sqrt(np.diag(fit.cov)[6:12] * widened) * span
+    rate_cov = np.diag(fit.cov)[6:12] if max(drift_rate_sigma) > 0 else np.zeros(6)
+    drift_sigma = np.sqrt(rate_cov * widened) * span  # the rate follows the bias (stride 12)
     out = replace(
         base,
         status=OK,
