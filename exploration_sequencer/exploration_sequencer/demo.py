@@ -493,13 +493,18 @@ def run_exploration(args: argparse.Namespace, started: float, children: Sequence
         while time.monotonic() < end and not ((statuses and estimates) or exited(children)):
             executor.spin_once(timeout_sec=0.1)
         result = future.result().result
-        if args.hold and result.status == "OK":  # 1 s of the sensor's time, 10 s at most
+        if args.hold and result.status == "OK":
+            # 1 s of the sensor's time and 1000 samples (a best-effort stream faster than
+            # this process reads loses some), 10 s at most
             compensated.clear()
             end = time.monotonic() + 10.0
             while (
                 time.monotonic() < end
                 and not exited(children)
-                and not (compensated and (compensated[-1][0] - compensated[0][0]) * 1e-9 >= 1.0)
+                and not (
+                    len(compensated) >= 1000
+                    and (compensated[-1][0] - compensated[0][0]) * 1e-9 >= 1.0
+                )
             ):
                 executor.spin_once(timeout_sec=0.05)
         ended = exited(children)

@@ -172,6 +172,12 @@ class KinematicFit:
         return out
 
     @property
+    def whitening(self) -> NDArray[np.float64]:
+        """(6n, 6n) the windows' whitening (``_Model._whitening``): for a fit of the same
+        windows with other unknowns (``kinematic_ml``'s ``whitening``)."""
+        return self._model.whiten
+
+    @property
     def observations(self) -> tuple[Observation, ...]:
         """The windows fitted, in the order given."""
         return tuple(self._model.obs)
@@ -255,6 +261,7 @@ class _Model:
         drift_rate_sigma: tuple[float, float] | None,
         calibration: Calibration | None = None,
         uncalibrated: NDArray[np.float64] | None = None,
+        whitening: NDArray[np.float64] | None = None,
     ) -> None:
         self.obs = list(observations)
         self.calibration = calibration
@@ -284,7 +291,7 @@ class _Model:
         self.size = self.mount.stop
         self.tilt_axes = _across(gravity)
         self.means = np.concatenate([o.window.mean for o in self.obs]) if self.obs else None
-        self.whiten = self._whitening()
+        self.whiten = self._whitening() if whitening is None else whitening
         self.epoch_time = [
             float(np.mean([o.time for o in self.obs if o.epoch == e] or [0.0]))
             for e in range(self.epochs)
@@ -503,6 +510,7 @@ def kinematic_ml(
     calibration: Calibration | None = None,
     uncalibrated: ArrayLike | None = None,
     positive_object: bool = True,
+    whitening: NDArray[np.float64] | None = None,
 ) -> KinematicFit:
     """The ML fit of bias, hand and object to ``observations`` (see module), with
     ``gravity`` (m/s^2) in the base frame; ``fit_mount`` also fits the sensor's mounting
@@ -513,6 +521,8 @@ def kinematic_ml(
     covariance is the CRLB; chi2 has 6n (+ 6 per epoch with a rate prior) - (unknowns)
     dof. ``positive_object`` False lets the object's mass be any sign: the object is then a
     change of load between windows (``estimation.recordings.recording_fit``).
+    ``whitening``: that of a fit of the same windows in the same order with the same
+    calibration (``KinematicFit.whitening``), not computed again.
 
     Raises TooFewPosesError when the windows' orientations do not resolve the unknowns
     (a COM needs two gravity directions; a bias beside the load needs its gravity to
@@ -521,7 +531,7 @@ def kinematic_ml(
     """
     g = np.asarray(gravity, dtype=np.float64).reshape(3)
     offset = None if uncalibrated is None else np.asarray(uncalibrated, dtype=np.float64)
-    model = _Model(observations, g, fit_mount, drift_rate_sigma, calibration, offset)
+    model = _Model(observations, g, fit_mount, drift_rate_sigma, calibration, offset, whitening)
     if fit_mount and any(o.design is not None for o in model.obs):
         raise ValueError("windows with their own design cannot fit the mounting")
     if not model.obs:

@@ -441,7 +441,12 @@ class _Setup:
     drift_rate_sigma: tuple[float, float]
     uncalibrated: NDArray[np.float64] | None = None
 
-    def fit(self, observations: Sequence[Observation], positive: bool = True) -> KinematicFit:
+    def fit(
+        self,
+        observations: Sequence[Observation],
+        positive: bool = True,
+        whitening: NDArray[np.float64] | None = None,
+    ) -> KinematicFit:
         return kinematic_ml(
             observations,
             self.gravity,
@@ -449,6 +454,7 @@ class _Setup:
             calibration=self.calibration,
             uncalibrated=self.uncalibrated,
             positive_object=positive,
+            whitening=whitening,
         )
 
 
@@ -693,7 +699,7 @@ def _load_change(
         after = set(order[k:])
         split = [replace(o, load=i in after) for i, o in enumerate(obs)]
         try:
-            alt = setup.fit(split, positive=False)
+            alt = setup.fit(split, positive=False, whitening=fit.whitening)  # same windows
         except TooFewPosesError:
             continue
         scale = max(1.0, alt.estimate.chi2 / alt.estimate.dof, misfit)
