@@ -217,6 +217,22 @@ def test_a_csv_log_gives_the_estimate_of_its_arrays(tmp_path, quaternions):
     np.testing.assert_allclose(from_file.estimate.com, direct.estimate.com, atol=1e-9)
 
 
+def test_samples_not_finite_are_dropped_and_counted():
+    """A NaN wrench and a NaN orientation in a log: both samples dropped, said in the
+    notes, and the rest fitted: OK, the mass within 3 sigma."""
+    rec, recording = recorded(10)
+    wrenches, rotations = rec.wrenches.copy(), rec.rotations.copy()
+    wrenches[100, 2], rotations[2000, 0, 0] = np.nan, np.nan
+    damaged = recording_from_orientations(rec.times, wrenches, rotations)
+    assert len(damaged.times) == len(recording.times) - 2
+    assert "2 samples not finite, dropped" in damaged.notes
+    fit = fit_recording(damaged)
+    assert fit.status == OK, fit.reason
+    assert "2 samples not finite, dropped" in fit.notes
+    assert fit.estimate is not None
+    assert abs(fit.estimate.mass - LOAD.mass) < 3 * fit.estimate.sigma_mass
+
+
 def test_a_log_without_an_orientation_is_refused_by_name(tmp_path):
     path = tmp_path / "log.csv"
     path.write_text("time,fx,fy,fz,tx,ty,tz\n0,1,2,3,4,5,6\n")

@@ -114,15 +114,19 @@ def _static_designs(rotations: NDArray[np.float64], gravity: NDArray[np.float64]
 
 
 def _checked_samples(
-    times: ArrayLike, wrenches: ArrayLike
-) -> tuple[NDArray[np.float64], NDArray[np.float64], list[str]]:
-    """Samples in time order, non-finite ones dropped (and counted in the notes)."""
+    times: ArrayLike, wrenches: ArrayLike, orientations: NDArray[np.float64] | None = None
+) -> tuple[NDArray[np.intp], list[str]]:
+    """(the indices of the samples kept, in time order; notes): a sample whose stamp,
+    wrench or orientation (``orientations``, one row per sample) is not finite is
+    dropped, and counted in the notes."""
     t = np.asarray(times, dtype=np.float64).reshape(-1)
     w = np.asarray(wrenches, dtype=np.float64).reshape(len(t), 6)
     good = np.isfinite(t) & np.isfinite(w).all(axis=1)
+    if orientations is not None:
+        good &= np.isfinite(orientations.reshape(len(t), -1)).all(axis=1)
     notes = [f"{int((~good).sum())} samples not finite, dropped"] if not good.all() else []
-    order = np.argsort(t[good], kind="stable")
-    return t[good][order], w[good][order], notes
+    kept = np.flatnonzero(good)
+    return kept[np.argsort(t[kept], kind="stable")], notes
 
 
 def recording_from_orientations(
@@ -141,15 +145,11 @@ def recording_from_orientations(
     t = np.asarray(times, dtype=np.float64).reshape(-1)
     if len(r) != len(t):
         raise ValueError(f"{len(r)} orientations for {len(t)} wrench stamps")
-    good = np.isfinite(r).reshape(len(r), -1).all(axis=1)
-    t_all, w, notes = _checked_samples(t[good], np.asarray(wrenches, dtype=float)[good])
-    order = np.argsort(t[good], kind="stable")
-    r = r[good][order][: len(t_all)]
-    keep = np.isin(t[good][order], t_all)
-    r = r[keep]
-    omega, alpha = _angular_rates(t_all, r)
+    kept, notes = _checked_samples(t, wrenches, r)
+    t, w, r = t[kept], np.asarray(wrenches, dtype=np.float64)[kept], r[kept]
+    omega, alpha = _angular_rates(t, r)
     g = np.asarray(gravity, dtype=np.float64).reshape(3)
-    return Recording(t_all, w, r, _static_designs(r, g), omega, alpha, False, source, tuple(notes))
+    return Recording(t, w, r, _static_designs(r, g), omega, alpha, False, source, tuple(notes))
 
 
 def _quaternion_matrices(q: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -180,7 +180,9 @@ def recording_from_joint_states(
     rotations and the designs with the motion's inertial forces (``motion.joint_motion``'s
     q, dq, ddq). Wrenches outside the joint states' span (less the differentiation's
     half window) are dropped, and counted in the notes."""
-    t, w, notes = _checked_samples(times, wrenches)
+    kept, notes = _checked_samples(times, wrenches)
+    t = np.asarray(times, dtype=np.float64).reshape(-1)[kept]
+    w = np.asarray(wrenches, dtype=np.float64).reshape(-1, 6)[kept]
     jt = np.asarray(joint_times, dtype=np.float64).reshape(-1)
     jq = np.asarray(joint_positions, dtype=np.float64).reshape(len(jt), -1)
     order = np.argsort(jt, kind="stable")
