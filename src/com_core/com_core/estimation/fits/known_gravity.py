@@ -60,6 +60,7 @@ __all__ = [
     "BIAS_DRIFT_RATE",
     "KinematicFit",
     "Observation",
+    "gravity_designs",
     "kinematic_ml",
     "locate_move",
     "mount_rpy",
@@ -208,8 +209,9 @@ def _design(gravity: NDArray[np.float64]) -> NDArray[np.float64]:
     return a
 
 
-def _designs(gravity: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(n, 6, 4): ``_design`` of each of n gravities (n, 3)."""
+def gravity_designs(gravity: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(n, 6, 4): the static wrench per unit of theta = (m, c) at each of n gravities
+    (n, 3; m/s^2, sensor frame), ``_design`` of each, built for all at once."""
     x, y, z = gravity.T
     cross = np.zeros((len(gravity), 3, 3))  # skew(g) of each
     cross[:, 0, 1], cross[:, 0, 2] = -z, y
@@ -384,7 +386,7 @@ class _Model:
                 (self.moved[k], np.array([i for i in loads if self.obs[i].group == k]))
                 for k in groups
             ]
-        a = _designs(np.asarray(gravities, dtype=np.float64).reshape(n, 3))
+        a = gravity_designs(np.asarray(gravities, dtype=np.float64).reshape(n, 3))
         for i, o in enumerate(self.obs):
             if o.design is not None:
                 a[i] = o.design

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from com_core.estimation.fits.errors import EstimationError
+from com_core.estimation.fits.known_gravity import gravity_designs
 from com_core.estimation.fits.motion import (
     ORDER,
     WINDOW,
@@ -27,7 +28,6 @@ from com_core.estimation.runs.inbox import Inbox
 from com_core.estimation.runs.motion_solution import joint_arrays
 from com_core.robot.dynamics import sensor_regressors
 from com_core.robot.model import DEFAULT_GRAVITY, RobotModel
-from com_core.sensing.wrench_model import skew
 
 __all__ = [
     "CSV_COLUMNS",
@@ -106,11 +106,7 @@ def _angular_rates(
 
 def _static_designs(rotations: NDArray[np.float64], gravity: NDArray[np.float64]):
     """(n, 6, 4): A(g_k) at each R_base_sensor, g_k = R_k^T g_base."""
-    g = np.einsum("kji,j->ki", rotations, gravity)
-    a = np.zeros((len(g), 6, 4))
-    a[:, :3, 0] = g
-    a[:, 3:, 1:] = -np.stack([skew(v) for v in g])
-    return a
+    return gravity_designs(np.einsum("kji,j->ki", rotations, gravity))
 
 
 def _checked_samples(
