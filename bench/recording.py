@@ -32,9 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from com_core.estimation.recordings import fit_recording, recording_from_inbox
-from com_core.estimation.runs.feed import feed_bag
-from com_core.estimation.runs.settings import exploration_from, robot_from
+from com_core.estimation.recordings import fit_recording, recording_from_bag
+from com_core.estimation.runs.settings import exploration_from
 from com_core.robot.config import read_robot_config
 from com_core.sensing.sensor_profiles import PROFILES
 from com_estimator.replay import main as replay_main
@@ -87,18 +86,12 @@ def one_recording(robot: str, index: int, seed: int, duration: float, bias_f: fl
     seconds = time.perf_counter() - start
     result = json.loads(stdout.getvalue().splitlines()[-1])
     settings = {"sensor_frame": config.sensor_frame}
-    exploration = exploration_from(settings)
-    from com_core.bags.reader import BagReading
-
-    reading = BagReading()
-    feed_bag(bag, exploration, reading=reading)
-    model, _ = robot_from(settings, reading.robot_description)
     rests = fit_recording(
-        recording_from_inbox(exploration, model, str(bag)),
-        calibration=exploration.calibration,
+        recording_from_bag(bag, settings),
+        calibration=exploration_from(settings).calibration,
         motion=False,
     )
-    return truth, result, rests, seconds, drift
+    return truth, result, rests, seconds
 
 
 def main() -> None:
@@ -114,7 +107,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for k in range(args.recordings):
             robot = robots[k % len(robots)]
-            truth, r, rests, took, _ = one_recording(
+            truth, r, rests, took = one_recording(
                 robot, k, args.seed, args.duration, args.bias, Path(tmp)
             )
             statuses.append(r["status"])

@@ -372,6 +372,15 @@ def test_an_unlabelled_bag_of_another_recorder_gives_the_load_and_the_bias(tmp_p
     assert np.all(np.abs(np.subtract(out["com"], com)) < 3 * np.array(out["sigma_com"]))
     assert np.all(np.abs(np.subtract(out["bias"], bias)) < 3 * np.array(out["bias_sigma"]))
     assert out["rests"] >= 2 and out["left_out"] == 0
+    # the core's reader of a bag gives the replay's recording: the same fit, to the bit
+    from com_core.estimation.recordings import fit_recording, recording_from_bag
+    from com_core.estimation.runs.settings import exploration_from
+
+    settings = {"sensor_frame": robot.sensor_frame}
+    again = fit_recording(
+        recording_from_bag(bag, settings), calibration=exploration_from(settings).calibration
+    )
+    assert again.estimate is not None and again.estimate.mass == out["mass"]
 
 
 def test_a_tare_recording_gives_the_object_alone_through_the_replay(tmp_path, capsys):

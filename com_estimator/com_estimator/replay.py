@@ -78,6 +78,7 @@ from com_core.estimation.recordings import (
     RecordingFit,
     fit_recording,
     read_recording_file,
+    recording_from_bag,
     recording_from_inbox,
 )
 from com_core.estimation.recordings.static_windows import find_static_windows, split_load_levels
@@ -399,14 +400,10 @@ def tare_recording(args: argparse.Namespace) -> Recording:
     path = args.tare_recording
     if path.is_file():
         return read_recording_file(path)
-    settings = option_settings(args)
-    exploration = exploration_from(settings)
-    reading = BagReading()
-    feed_bag(path, exploration, args.wrench_topic, args.pose_topic, reading=reading)
-    robot, problem = robot_from(settings, reading.robot_description)
-    if robot is None:
-        raise EstimationError(f"--tare-recording {path}: no kinematics: {problem}")
-    return recording_from_inbox(exploration, robot, str(path))
+    try:
+        return recording_from_bag(path, option_settings(args), args.wrench_topic)
+    except EstimationError as error:
+        raise EstimationError(f"--tare-recording {error}") from error
 
 
 def cut_short_reasons(exploration: Exploration, n_label: int, reading: BagReading) -> list[str]:

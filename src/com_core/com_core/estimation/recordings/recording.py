@@ -1,22 +1,26 @@
 """A recording without pose labels, as the fit of any recording takes it
-(``recordings.recording_fit``): each wrench sample (N, N m, sensor frame, stamped s) with
-R_base_sensor and its design, the wrench per unit of the load's mass and first moment
-(m, c): from joint states through the robot's kinematics and dynamics
-(``recording_from_joint_states``, ``recording_from_inbox`` for a bag fed to an
-exploration), or from logged orientations (``recording_from_orientations``; CSV and NumPy
-logs: ``read_recording_file``, columns ``CSV_COLUMNS``).
+(``recordings.recording_fit``): each wrench sample (N, N m, sensor frame, stamped s)
+with R_base_sensor and its design, the wrench per unit of the load's mass and first
+moment (m, c): from joint states through the robot's kinematics and dynamics
+(``recording_from_joint_states``; ``recording_from_bag`` for a rosbag2,
+``recording_from_inbox`` for one already fed to an exploration), or from logged
+orientations (``recording_from_orientations``; CSV and NumPy logs:
+``read_recording_file``, columns ``CSV_COLUMNS``).
 """
 
 from __future__ import annotations
 
 import csv
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from com_core.bags.reader import BagReading
+from com_core.contract import WRENCH_TOPIC
 from com_core.estimation.fits.errors import EstimationError
 from com_core.estimation.fits.known_gravity import gravity_designs
 from com_core.estimation.fits.motion import (
@@ -24,8 +28,10 @@ from com_core.estimation.fits.motion import (
     WINDOW,
     joint_motion,
 )
+from com_core.estimation.runs.feed import feed_bag
 from com_core.estimation.runs.inbox import Inbox
 from com_core.estimation.runs.motion_solution import joint_arrays
+from com_core.estimation.runs.settings import exploration_from, robot_from
 from com_core.robot.dynamics import sensor_regressors
 from com_core.robot.model import DEFAULT_GRAVITY, RobotModel
 
@@ -33,6 +39,7 @@ __all__ = [
     "CSV_COLUMNS",
     "Recording",
     "read_recording_file",
+    "recording_from_bag",
     "recording_from_inbox",
     "recording_from_joint_states",
     "recording_from_orientations",
@@ -234,6 +241,22 @@ def recording_from_inbox(inbox: Inbox, robot: RobotModel, source: str) -> Record
     return recording_from_joint_states(
         robot, joint_times, positions, stamps * 1e-9, wrenches, source
     )
+
+
+def recording_from_bag(
+    bag: Path | str, settings: Mapping[str, Any], wrench_topic: str = WRENCH_TOPIC
+) -> Recording:
+    """``recording_from_inbox`` of a rosbag2's wrenches and joint states, fed as the replay
+    feeds a run (``runs.feed.feed_bag``), with the robot model of the estimator
+    ``settings`` (frames, gravity; its robot_description, else the bag's
+    /robot_description). EstimationError without a robot model or joint states."""
+    exploration = exploration_from(settings)
+    reading = BagReading()
+    feed_bag(bag, exploration, wrench_topic, reading=reading)
+    robot, problem = robot_from(settings, reading.robot_description)
+    if robot is None:
+        raise EstimationError(f"{bag}: no kinematics: {problem}")
+    return recording_from_inbox(exploration, robot, str(bag))
 
 
 def read_recording_file(path: Path | str, gravity: ArrayLike = DEFAULT_GRAVITY) -> Recording:
