@@ -381,6 +381,26 @@ def exited(children: Sequence[Child]) -> list[Child]:
     return [child for child in children if child.process.poll() is not None]
 
 
+def collect(
+    executor,
+    compensated: list,
+    seconds: float,
+    timeout: float,
+    samples: int = 0,
+    children: Sequence[Child] = (),
+) -> None:
+    """Spin ``executor`` until the messages ``compensated`` gathers ((stamp ns, frame,
+    wrench) each) span ``seconds`` of the sensor's time and number ``samples`` (a
+    best-effort stream faster than this process reads loses some), ``timeout`` s of wall
+    time at most, or one of ``children`` has ended."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end and not exited(children):
+        span = (compensated[-1][0] - compensated[0][0]) * 1e-9 if compensated else -1.0
+        if len(compensated) >= samples and span >= seconds:
+            return
+        executor.spin_once(timeout_sec=0.05)
+
+
 def wait_for(executor, future, children: Sequence[Child], timeout: float) -> list[Child]:
     """Spin ``executor`` until ``future`` is done, a child has ended (checked every POLL s)
     or ``timeout`` s passed: the children that ended (empty if none did)."""
@@ -494,19 +514,8 @@ def run_exploration(args: argparse.Namespace, started: float, children: Sequence
             executor.spin_once(timeout_sec=0.1)
         result = future.result().result
         if args.hold and result.status == "OK":
-            # 1 s of the sensor's time and 1000 samples (a best-effort stream faster than
-            # this process reads loses some), 10 s at most
             compensated.clear()
-            end = time.monotonic() + 10.0
-            while (
-                time.monotonic() < end
-                and not exited(children)
-                and not (
-                    len(compensated) >= 1000
-                    and (compensated[-1][0] - compensated[0][0]) * 1e-9 >= 1.0
-                )
-            ):
-                executor.spin_once(timeout_sec=0.05)
+            collect(executor, compensated, 1.0, timeout=10.0, samples=1000, children=children)
         ended = exited(children)
         print_summary(result, estimates, truths, statuses, time.monotonic() - started)
         if compensated:
@@ -551,11 +560,7 @@ def in_motion(node, executor, compensated: list, urdf: str, args, values: dict) 
     publisher = node.create_publisher(JointTrajectory, ARM_COMMAND_TOPIC, 10)
     compensated.clear()
     publisher.publish(trajectory_message(excitation_path(excitation, config.arm_joints)))
-    deadline = time.monotonic() + 30.0
-    while time.monotonic() < deadline and not (
-        compensated and (compensated[-1][0] - compensated[0][0]) * 1e-9 > excitation.period
-    ):
-        executor.spin_once(timeout_sec=0.05)
+    collect(executor, compensated, excitation.period, timeout=30.0)
     if not compensated:
         print(f"in motion: no {COMPENSATED_TOPIC} during the motion")
         return
