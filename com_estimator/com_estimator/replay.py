@@ -54,6 +54,7 @@ import argparse
 import builtins
 import csv
 import dataclasses
+import functools
 import io
 import json
 import sys
@@ -287,7 +288,8 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
     """One run replayed and printed; (exit code, its solution or None when refused)."""
     args = argparse.Namespace(**vars(args), bag=bag)
     if args.bag.is_file() and args.bag.suffix in LOG_SUFFIXES:
-        return replay_recording(args, lambda: read_recording_file(args.bag), {})
+        read = functools.partial(read_recording_file, args.bag)
+        return replay_recording(args, read, option_settings(args), {})
     if not is_bag(args.bag):
         print(f"replay: {args.bag} is not a rosbag2 directory", file=sys.stderr)
         return 2, None
@@ -320,6 +322,7 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
         return replay_recording(
             args,
             lambda: recording_from_inbox(exploration, robot, str(args.bag)),
+            settings,
             {"messages": n_wrench, "bag": reading.as_dict()},
         )
     if n_label:
@@ -356,13 +359,13 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
 
 
 def replay_recording(
-    args: argparse.Namespace, read, extra: dict
+    args: argparse.Namespace, read, settings: dict, extra: dict
 ) -> tuple[int, RecordingFit | None]:
     """A recording without labels fitted (``recording.fit_recording``) and printed, with
-    ``--tare-recording``; ``read()`` gives the ``Recording``. (exit code, the fit or None
-    when the recording or its tare cannot be read)."""
-    settings = read_bag_settings(args.bag / BAG_SETTINGS_FILE) if args.bag.is_dir() else {}
-    settings = defaults() | settings | option_settings(args)
+    ``--tare-recording``; ``read()`` gives the ``Recording``, ``settings`` the estimator's
+    (the run's and the options'; the calibration, gravity and drift prior the fit takes).
+    (exit code, the fit or None when the recording or its tare cannot be read)."""
+    settings = defaults() | settings
     exploration = exploration_from(settings)
     try:
         recording = read()
