@@ -184,12 +184,24 @@ class KinematicFit:
         return tuple(self._model.obs)
 
     def latest_bias(self) -> NDArray[np.float64]:
-        """This run's bias (6,; N, N m) at its latest window: the bias of epoch 0 carried
-        along its fitted rate from the epoch's mean time (what a compensation that goes
-        on after the run starts from)."""
+        """This run's bias (6,; N, N m) at its latest window (``bias_at``: what a
+        compensation that goes on after the run starts from)."""
+        return self.bias_at(max(o.time for o in self._model.obs if o.epoch == 0))[0]
+
+    def bias_at(self, time: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """This run's bias (6,; N, N m) at ``time`` (s, the windows' clock): the bias of
+        epoch 0 carried along its fitted rate from the epoch's mean time, with its
+        covariance (6, 6)."""
         model = self._model
-        latest = max(o.time for o in model.obs if o.epoch == 0)
-        return self.bias[0] + self.bias_rate[0] * (latest - model.epoch_time[0])
+        elapsed = time - model.epoch_time[0]
+        bias = model.bias[0]
+        if not model.rate:
+            return self.bias[0].copy(), self.cov[bias, bias].copy()
+        rate = model.rate[0]
+        index = np.r_[bias.start : bias.stop, rate.start : rate.stop]
+        jac = np.hstack([np.eye(6), elapsed * np.eye(6)])
+        cov = jac @ self.cov[np.ix_(index, index)] @ jac.T
+        return self.bias[0] + self.bias_rate[0] * elapsed, cov
 
     def drift(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(bias of this run minus that of the tare pass (6,), its covariance (6, 6)): the

@@ -29,14 +29,15 @@ from the joint velocities and accelerations, Savitzky-Golay differentiated,
    window (``inertia_bound``, from a first fit's load) and weighed as a uniform error of
    that bound; a window whose bound is ``TOO_FAST`` times its noise is left out, and
    counted.
-4. **The fit.** The wrenches' delay behind the orientations (a sensor's filter, the
-   transport) is the one that minimises the fit's chi^2 (``motion.best_delay``: +-30 ms
-   on a ``DELAY_STEP`` grid),
-   each window's design taken that much earlier (to first order, its rate of change).
-   Then ``kinematic_ml`` with the calibration's common error on the load's
+4. **The fit.** ``kinematic_ml`` with the calibration's common error on the load's
    wrench (the bias, which the calibration does not scale, taken off: a first fit gives
-   it). Its covariance is the Cramer-Rao bound, widened by chi^2 / dof when the residual
-   is larger than the noise and the calibration explain. With a tare recording (the empty
+   it). The wrenches' delay behind the orientations (a sensor's filter, the transport) is
+   the one that minimises its chi^2 (``motion.best_delay``: +-30 ms on a ``DELAY_STEP``
+   grid; the calibration's misfit weighed too, or it would pull the delay), each window's
+   design taken that much earlier (to first order, its rate of change). The covariance
+   is the Cramer-Rao bound at that delay, plus the delay's own share (its sigma from the
+   chi^2's curvature, times how far the fit moves with it: ``_delay_spread``), widened by
+   chi^2 / dof when the residual is larger than the noise and the calibration explain. With a tare recording (the empty
    tool) its windows are fitted beside (another bias epoch): the object alone comes out,
    else the whole load beyond the sensor, said so.
    With joint states, what the fit leaves in the windows in motion gives the load's
@@ -74,10 +75,7 @@ from com_core.estimation.fits.known_gravity import (
     Observation,
     kinematic_ml,
 )
-from com_core.estimation.fits.motion import (
-    best_delay,
-    principal_moments,
-)
+from com_core.estimation.fits.motion import MAX_DELAY, best_delay, principal_moments
 from com_core.estimation.fits.stats import chi2_isf
 from com_core.estimation.fits.windows import settled_start, window_from_mean
 from com_core.estimation.recordings.recording import Recording
@@ -184,10 +182,11 @@ class RecordingFit:
 
     estimate : the object's mass and COM with a tare recording, else the whole load's
         (``whole_load``); cov the CRLB widened by chi^2/dof (``widened``). None on ERROR.
-    bias : (6,) the sensor's bias (N, N m) at the recording's mean time, ``bias_sigma``
+    bias : (6,) the sensor's bias (N, N m) at the middle of the recording, ``bias_sigma``
         its sigma; ``drift`` (6,) how much it moved over the recording, ``drift_sigma``.
     noise : the noise model learnt (``noise_from``: where from).
-    delay : s, how much later the wrenches are stamped than the orientations (estimated).
+    delay : s, how much later the wrenches are stamped than the orientations (estimated),
+        ``delay_sigma`` its sigma (its share is in every covariance above).
     inertia : (3, 3) the whole load's inertia about its COM (kg m^2, sensor axes) where the
         motion excites it (``_inertia``), its principal ``moments`` (3,) and their
         ``moments_sigma``; None where it does not (a note says why).
@@ -210,6 +209,7 @@ class RecordingFit:
     noise: NoiseModel | None = None
     noise_from: str = ""
     delay: float = 0.0
+    delay_sigma: float = 0.0
     inertia: NDArray[np.float64] | None = None
     moments: NDArray[np.float64] | None = None
     moments_sigma: NDArray[np.float64] | None = None
@@ -238,8 +238,8 @@ class RecordingFit:
         lines.append(
             f"{self.samples} samples over {self.duration:.1f} s: {self.rests} rests and "
             f"{self.windows - self.rests} windows in motion used, {self.left_out} left out; "
-            f"noise from {self.noise_from}; wrenches {self.delay * 1e3:.1f} ms behind the "
-            "orientations"
+            f"noise from {self.noise_from}; wrenches {self.delay * 1e3:.1f} +- "
+            f"{self.delay_sigma * 1e3:.1f} ms behind the orientations"
         )
         if self.moments is not None and self.moments_sigma is not None:
             lines.append(
@@ -265,6 +265,7 @@ class RecordingFit:
             "duration": self.duration,
             "noise_from": self.noise_from,
             "delay": self.delay,
+            "delay_sigma": self.delay_sigma,
             "widened": self.widened,
             "notes": list(self.notes),
         }
@@ -484,6 +485,7 @@ def fit_recording(
     if any(len(r.times) < 100 for r, _ in parts):
         return replace(base, reason="fewer than 100 samples")
     rests = {id(r): _rests(r) for r, _ in parts}
+    middle = float(recording.times[0] + recording.times[-1]) / 2
     setup = _Setup(np.asarray(gravity, dtype=np.float64).reshape(3), None, drift_rate_sigma)
     noise = _learn_noise([(r, rests[id(r)]) for r, _ in parts])
     noise_from = f"{sum(map(len, rests.values()))} rests"
@@ -514,14 +516,25 @@ def fit_recording(
         """(the recording's windows, the tare recording's)."""
         return observations(kept, True, load, delay), observations(kept, False, load, delay)
 
-    def chi2_at(delay: float) -> float:
-        loaded, empty = both(blocks, None, delay)
-        return setup.fit(loaded + empty).estimate.chi2
+    def every(kept: dict[int, list[_Block]], load=None, delay: float = 0.0) -> list[Observation]:
+        """``both`` in one list: the windows of a fit."""
+        loaded, empty = both(kept, load, delay)
+        return loaded + empty
 
     try:
-        delay = best_delay(chi2_at, DELAY_STEP) if motion else 0.0
-        loaded, empty = both(blocks, None, delay)
-        first = setup.fit(loaded + empty)
+        setup.uncalibrated = setup.fit(every(blocks)).bias[0]  # the calibration leaves it
+        setup.calibration = calibration
+        first = setup.fit(every(blocks))
+        if motion:  # the delay's windows differ in their designs only: the same whitening
+
+            def chi2_at(delay: float) -> float:
+                fit = setup.fit(every(blocks, None, delay), whitening=first.whitening)
+                return fit.estimate.chi2
+
+            delay = best_delay(chi2_at, DELAY_STEP)
+            first = setup.fit(every(blocks, None, delay), whitening=first.whitening)
+        else:
+            delay = 0.0
         mass = first.estimate.mass + (first.hand.mass if with_object and first.hand else 0.0)
         load = (abs(mass), first.estimate.com)  # what the inertia's bound scales with
         kept = {
@@ -529,9 +542,12 @@ def fit_recording(
             for (r, _), (key, bs) in zip(parts, blocks.items(), strict=True)
         }
         obs, fixed = both(kept, load, delay)
-        setup.calibration = calibration
-        setup.uncalibrated = first.bias[0]
         fit = setup.fit(obs + fixed)
+        spread = (
+            _delay_spread(setup, fit, lambda d: every(kept, load, d), delay, middle)
+            if motion
+            else _DelaySpread(0.0, np.zeros(4), np.zeros(6), np.zeros(6))
+        )
     except TooFewPosesError as error:
         return replace(base, reason=f"the orientations do not resolve the load: {error}")
     except NonPositiveMassError as error:
@@ -541,19 +557,21 @@ def fit_recording(
     n_rests = sum(b.rest for bs in kept.values() for b in bs)
     e = fit.estimate
     widened = max(1.0, e.chi2 / e.dof) if e.dof > 0 else 1.0
-    estimate = replace(e, cov=e.cov * widened)
-    nb = len(fit.bias[0])
-    bias_sigma = np.sqrt(np.diag(fit.bias_cov)[:nb] * widened)
+    delay_var = spread.sigma**2
+    estimate = replace(e, cov=(e.cov + delay_var * np.outer(spread.load, spread.load)) * widened)
+    bias, bias_cov = fit.bias_at(middle)
+    bias_sigma = np.sqrt((np.diag(bias_cov) + delay_var * spread.bias**2) * widened)
     span = recording.times[-1] - recording.times[0]
     drift = fit.bias_rate[0] * span
     rate_cov = np.diag(fit.cov)[6:12] if max(drift_rate_sigma) > 0 else np.zeros(6)
+    rate_cov = rate_cov + delay_var * spread.rate**2
     drift_sigma = np.sqrt(rate_cov * widened) * span  # the rate follows the bias (stride 12)
     out = replace(
         base,
         status=OK,
         estimate=estimate,
         whole_load=not with_object,
-        bias=fit.bias[0],
+        bias=bias,
         bias_sigma=bias_sigma,
         drift=drift,
         drift_sigma=drift_sigma,
@@ -564,6 +582,7 @@ def fit_recording(
         noise=noise,
         noise_from=noise_from,
         delay=delay,
+        delay_sigma=spread.sigma * np.sqrt(widened),
         fit=fit,
     )
     warnings, errors = [], []
@@ -613,6 +632,47 @@ def fit_recording(
         change=change,
         estimate=None if errors else estimate,
         notes=tuple(notes),
+    )
+
+
+@dataclass(frozen=True)
+class _DelaySpread:
+    """What the delay's uncertainty adds: its ``sigma`` (s) and the derivatives by the
+    delay (per s) of the ``load``'s (mass, COM) (4,), the ``bias`` (6,) and its ``rate``
+    (6,)."""
+
+    sigma: float
+    load: NDArray[np.float64]
+    bias: NDArray[np.float64]
+    rate: NDArray[np.float64]
+
+
+def _delay_spread(
+    setup: _Setup,
+    fit: KinematicFit,
+    at: Callable[[float], list[Observation]],
+    delay: float,
+    middle: float,
+) -> _DelaySpread:
+    """The delay's sigma from the curvature of the fit's chi^2 in it (chi^2 grows by 1 at
+    one sigma; the search range's uniform sigma where it does not grow), and what the fit
+    moves by per second of it, from the fits ``DELAY_STEP`` / 2 to either side of
+    ``delay`` (s; ``at``: the windows at a delay, in ``fit``'s order); the bias at
+    ``middle`` (s)."""
+    h = DELAY_STEP / 2
+    plus, minus = (setup.fit(at(delay + s), whitening=fit.whitening) for s in (h, -h))
+    curvature = plus.estimate.chi2 + minus.estimate.chi2 - 2 * fit.estimate.chi2
+    searched = 2 * MAX_DELAY / math.sqrt(12)
+    sigma = min(math.sqrt(2.0 * h * h / curvature), searched) if curvature > 0 else searched
+
+    def load(f: KinematicFit) -> NDArray[np.float64]:
+        return np.array([f.estimate.mass, *f.estimate.com])
+
+    return _DelaySpread(
+        sigma,
+        (load(plus) - load(minus)) / (2 * h),
+        (plus.bias_at(middle)[0] - minus.bias_at(middle)[0]) / (2 * h),
+        (plus.bias_rate[0] - minus.bias_rate[0]) / (2 * h),
     )
 
 
