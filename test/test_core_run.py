@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import json
 import math
 import re
 from pathlib import Path
@@ -215,6 +216,23 @@ def test_a_second_run_checks_the_cached_tare_at_home_and_takes_no_tare_pass(tmp_
                      f"{TARE_PREFIX}home{BIAS_AFTER_SUFFIX}"]  # fmt: skip
     assert any(m.startswith("tare: reusing the cache") for _, m in world.sent("info"))
     assert (outcome.bag / BAG_TARE_FILE).is_file()  # the replay's tare
+
+
+def test_a_run_on_another_sensor_takes_its_own_tare_pass(tmp_path):
+    """The cache holds the tare the first sensor read: a run whose ``sensor_id`` differs (a
+    sensor swapped, or the same one set otherwise) takes a full tare pass of its own, and
+    the first sensor's entry stays beside it."""
+    world = FakeWorld()
+    assert make_run(world, tmp_path).execute().status == OK
+    first = len(world.labels)
+    outcome = make_run(world, tmp_path, run_id="run-2", sensor_id="ft-2").execute()
+    assert outcome.status == OK, outcome.message
+    second = [label for _, label in world.labels[first:] if label.startswith(TARE_PREFIX)]
+    assert len(second) > 2 and f"{TARE_PREFIX}home{BIAS_WINDOW_SUFFIX}" not in second
+    assert not any(m.startswith("tare: reusing the cache") for _, m in world.sent("info"))
+    owners = {entry.split("|")[0] for entry in json.loads((tmp_path / "tare.json").read_text())
+              ["entries"]}  # fmt: skip
+    assert owners == {"panda_hand on sim-realistic-0", "panda_hand on ft-2"}
 
 
 def test_a_full_disk_ends_the_run_by_name_with_the_arm_home_and_the_bag_closed(tmp_path):

@@ -13,6 +13,7 @@ from com_core.estimation.fits.windows import window_from_mean
 from com_core.estimation.runs.tare_cache import (
     BAG_TARE_FILE,
     TareCache,
+    cache_owner,
     drift,
     drift_accepted,
     latest_hand_model,
@@ -106,3 +107,21 @@ def test_an_entry_is_reusable_while_young_with_every_pose_and_a_drift_in_the_noi
     ok, chi2, p = drift_accepted(cached, moved)
     assert not ok and chi2 > 100 and p < 1e-3
     assert drift_accepted(cached, None) == (False, math.inf, 0.0)  # no fresh window
+
+
+def test_a_hand_model_serves_the_sensor_it_was_read_by_only(tmp_path):
+    """The same hand on two sensors: each sensor's entry models the hand on that sensor,
+    and a sensor with no entry of its own gets none (not the other's bias and noise)."""
+    path = tmp_path / "tare_cache.json"
+    joints = {"home": {"panda_joint1": 0.1}}
+    poses = PANDA.pose_joints(Plan())
+    first, second = cache_owner("panda_hand", "ft-1"), cache_owner("panda_hand", "ft-2")
+    save_tares(path, tare_signature(first, poses), windows(9.9), joints)
+    save_tares(path, tare_signature(second, poses), windows(5.0), joints)
+    for owner, fz in ((first, 9.9), (second, 5.0)):
+        model = latest_hand_model(path, owner)
+        assert model is not None and model.owner == owner
+        assert model.windows["home"].force[2] == fz
+    assert latest_hand_model(path, cache_owner("panda_hand", "ft-3")) is None
+    assert latest_hand_model(path, cache_owner("panda_hand", "")) is None
+    assert cache_owner("panda_hand", "") == "panda_hand on an unnamed sensor"

@@ -103,6 +103,7 @@ from com_core.estimation.runs.settings import (
     use_cached_tares,
 )
 from com_core.estimation.runs.solution import Solution, format_solution
+from com_core.estimation.runs.tare_cache import cache_owner
 from com_core.inputs import Input, problems, table_of
 from com_core.payload.compensation import MAX_JOINT_STATE_AGE, Compensator
 from com_core.payload.files import read_payload, write_payload_files
@@ -130,6 +131,9 @@ PARAMETERS = SETTINGS | table_of([
           kind="str"),
     Input("hand_id", default_robot_config().hand_id, "names the hand; a payload file of "
           "another hand is refused (robot configuration)", kind="str"),
+    Input("sensor_id", default_robot_config().sensor_id, "names the sensor and its settings; "
+          "a cached hand motion of another sensor is not used (robot configuration)",
+          kind="str"),
     Input("max_joint_state_age", MAX_JOINT_STATE_AGE, "a wrench this much past the latest "
           "joint state is not compensated", unit="s", low=0.0, high=60.0, low_open=True),
 ])  # fmt: skip
@@ -198,6 +202,10 @@ class EstimatorNode(Node):
     def _param(self, name: str):
         return self.get_parameter(name).value
 
+    def _owner(self) -> str:
+        """The hand on the sensor, which the cached hand motion must belong to."""
+        return cache_owner(self._param("hand_id"), self._param("sensor_id"))
+
     def validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
         """Refuse a value its row in ``PARAMETERS`` refuses (settings apply from the next
         exploration)."""
@@ -224,9 +232,7 @@ class EstimatorNode(Node):
             cache = self._param("tare_cache")
             use_cached_tares(self._exploration, cache)
             if cache:
-                use_cached_hand_motion(
-                    self._exploration, hand_motion_path(cache), self._param("hand_id")
-                )
+                use_cached_hand_motion(self._exploration, hand_motion_path(cache), self._owner())
             return self._exploration.solve(until_ns=until_ns)
         except Exception as exc:  # a defect must not kill the node: report it as ERROR
             self.internal_errors += 1
@@ -239,7 +245,7 @@ class EstimatorNode(Node):
         hand moved) beside the tare cache ``cache``, unless it holds that motion's already."""
         entry = hand_motion_of(
             self._exploration, solution.motion if solution.usable else None,
-            self._exploration.robot, self._param("hand_id"),
+            self._exploration.robot, self._owner(),
         )  # fmt: skip
         if entry is None:
             return

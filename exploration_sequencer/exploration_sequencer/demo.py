@@ -231,6 +231,15 @@ def simulated_sensor(args: argparse.Namespace) -> str:
     return args.sensor_profile or file_profile(robot_config_path(args.robot)) or DEFAULT_PROFILE
 
 
+def simulated_sensor_id(sim_params: dict[str, object]) -> str:
+    """The simulated sensor's ``sensor_id``: its profile, serial and each part the flags
+    set (a cached tare or hand motion of another sensor, or of this one set otherwise,
+    never serves it)."""
+    parts = [f"{k}={sim_params[k]:g}" for k in ("sigma_f", "sigma_tau") if k in sim_params]
+    serial = sim_params.get("sensor_serial", 0)
+    return "-".join(["sim", str(sim_params["sensor_profile"]), str(serial), *parts])
+
+
 def node_parameters(
     args: argparse.Namespace,
 ) -> tuple[dict[str, object], dict[str, object], dict[str, object]]:
@@ -251,10 +260,12 @@ def node_parameters(
         "real_time_factor": args.real_time_factor,
     } | noise
     tare_cache = str((args.bag_dir / "tare_cache.json").resolve())  # shared by both nodes
+    sensor_id = simulated_sensor_id(sim_params)
     estimator_params = {
         "use_sim_time": True,
         "method": args.method,
         "tare_cache": tare_cache,
+        "sensor_id": sensor_id,
     } | ({"information": args.information} if args.information else {})
     sequencer_params = {
         "use_sim_time": True,
@@ -265,6 +276,7 @@ def node_parameters(
         "release": not args.hold,
         "bag_dir": str(args.bag_dir.resolve()),
         "tare_cache": tare_cache,
+        "sensor_id": sensor_id,
     } | {k: v for k, v in noise.items() if v > 0}  # none: it plans for its own until a tare
     for key, value in (
         ("excitation", args.excitation),

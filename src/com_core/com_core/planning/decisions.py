@@ -138,11 +138,11 @@ def tare_cache_path(tare_cache: str, bag_dir: str) -> Path:
     return Path(tare_cache or Path(bag_dir) / "tare_cache.json")
 
 
-def newest_hand_model(path: Path | str, hand_id: str) -> TareCache | None:
-    """The newest entry of the cache in ``path`` that models ``hand_id``
-    (``latest_hand_model``); None when there is none or the file is unreadable."""
+def newest_hand_model(path: Path | str, owner: str) -> TareCache | None:
+    """The newest entry of the cache in ``path`` that models the hand on the sensor
+    ``owner`` (``latest_hand_model``); None when there is none or the file is unreadable."""
     try:
-        return latest_hand_model(path, hand_id)
+        return latest_hand_model(path, owner)
     except (ValueError, KeyError, OSError):
         return None
 
@@ -383,14 +383,15 @@ def resolving_tilt(
 
 
 def cached_tare(
-    path: Path | str, hand_id: str, signature: str, hand_model: bool
+    path: Path | str, owner: str, signature: str, hand_model: bool
 ) -> tuple[TareCache | None, str]:
     """(the cache entry that may serve the run, why the file cannot be read or ''): with
-    a ``hand_model`` the newest entry of ``hand_id`` with its joint positions, else the
-    entry of the run's ``signature`` (hand and tare poses); None when there is none."""
+    a ``hand_model`` the newest entry of ``owner`` (the hand on the sensor) with its joint
+    positions, else the entry of the run's ``signature`` (owner and tare poses); None when
+    there is none."""
     try:
         if hand_model:
-            return latest_hand_model(path, hand_id), ""
+            return latest_hand_model(path, owner), ""
         return load_tares(path, signature), ""
     except (ValueError, KeyError, OSError) as exc:
         return None, str(exc)

@@ -4,7 +4,10 @@
 holds, under ``/**: ros__parameters:`` so that every node reads the keys it uses:
 
 - ``robot``: the arm's name; ``hand_id``: names the hand (a cached tare and a payload
-  file serve this hand only).
+  file serve this hand only); ``sensor_id``: names the F/T sensor and its settings (its
+  serial, and what changes its readings: a filter, a new calibration), so that a cached
+  tare or hand motion serves the sensor it was read by only; optional, '' (an unnamed
+  sensor) when a file lacks it.
 - ``urdf``: the URDF the sim loads (a file, ``pybullet_data:<path>`` in pybullet_data, or
   ``com_core:<path>`` in CONFIG_DIR, where the URDFs written for shipped arms lie beside
   their files); a real arm's nodes take it from /robot_description instead.
@@ -110,6 +113,7 @@ class RobotConfig:
     home_joints: tuple[float, ...]
     pick_joints: tuple[float, ...]
     hand_id: str
+    sensor_id: str = ""
     joint_state_rate: float = 100.0
     gripper_action: str = DEFAULT_GRIPPER_ACTION
     gripper_joint_state_rate: float = 30.0
@@ -192,7 +196,7 @@ class RobotConfig:
 KEYS = tuple(RobotConfig.__dataclass_fields__)
 """Every key of a robot configuration, in the file's order."""
 OPTIONAL_KEYS = frozenset(
-    {"joint_state_rate", "gripper_action", "gripper_joint_state_rate", "arm_action",
+    {"sensor_id", "joint_state_rate", "gripper_action", "gripper_joint_state_rate", "arm_action",
      "goal_tolerance", "stopped_velocity_tolerance"}
 )  # fmt: skip
 """Keys a file may leave out (added after files were written): their defaults stand."""

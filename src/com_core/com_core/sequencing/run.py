@@ -65,6 +65,7 @@ from com_core.estimation.runs.settings import BAG_SETTINGS_FILE, SETTINGS, write
 from com_core.estimation.runs.solution import noise_line, vector_value, verification_lines
 from com_core.estimation.runs.tare_cache import (
     BAG_TARE_FILE,
+    cache_owner,
     save_tares,
     tare_signature,
     use_tares,
@@ -297,6 +298,10 @@ class ExplorationRun:
     def _cache_path(self) -> Path:
         return tare_cache_path(self.p("tare_cache"), self.p("bag_dir"))
 
+    def _owner(self) -> str:
+        """The hand on the sensor, which every cached thing of this run belongs to."""
+        return cache_owner(self.p("hand_id"), self.p("sensor_id"))
+
     def _ready(self) -> Choreography:
         """The paths the run writes are writable, the arm's joint states come, the
         estimator hears the sensor and the labels, and is reset for the run; returns the
@@ -356,7 +361,7 @@ class ExplorationRun:
         calibration = estimator_calibration(values["accuracy"], values["full_scale"])
         settings = RunSettings.from_parameters(self.p)
         noise, source = planning_noise(
-            newest_hand_model(self._cache_path(), self.p("hand_id")), settings
+            newest_hand_model(self._cache_path(), self._owner()), settings
         )
         plan, poses, prediction = self._planned(
             settings, noise, method, information, drift_rate, motion, calibration
@@ -616,7 +621,7 @@ class ExplorationRun:
                 "one tare_cache)"
             )
             return None
-        why = entry.serves(self.p("hand_id"), motion.robot.urdf_sha256,
+        why = entry.serves(self._owner(), motion.robot.urdf_sha256,
                            lambda t: excitation.at(t)[0], self.p("tare_max_age"))  # fmt: skip
         if why:
             log.info(f"the empty hand's motion fit in {path} not reused: {why}")
@@ -673,8 +678,8 @@ class ExplorationRun:
         path = self._cache_path()
         tare_poses = motion.pose_joints(plan.tare_plan())
         home_name, home = tare_poses[0]
-        signature = tare_signature(self.p("hand_id"), tare_poses)
-        cache, unreadable = cached_tare(path, self.p("hand_id"), signature, hand_model)
+        signature = tare_signature(self._owner(), tare_poses)
+        cache, unreadable = cached_tare(path, self._owner(), signature, hand_model)
         if unreadable:
             log.warning(f"tare cache {path} unreadable ({unreadable}): taking a new tare")
         decision = tare_decision(

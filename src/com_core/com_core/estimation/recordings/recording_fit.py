@@ -37,9 +37,9 @@ from the joint velocities and accelerations, Savitzky-Golay differentiated,
    design taken that much earlier (to first order, its rate of change). The covariance
    is the Cramer-Rao bound at that delay, plus the delay's own share (its sigma from the
    chi^2's curvature, times how far the fit moves with it: ``_delay_spread``), widened by
-   chi^2 / dof when the residual is larger than the noise and the calibration explain. With a tare recording (the empty
-   tool) its windows are fitted beside (another bias epoch): the object alone comes out,
-   else the whole load beyond the sensor, said so.
+   chi^2 / dof when the residual is larger than the noise and the calibration explain.
+   With a tare recording (the empty tool) its windows are fitted beside (another bias
+   epoch): the object alone comes out, else the whole load beyond the sensor, said so.
    With joint states, what the fit leaves in the windows in motion gives the load's
    inertia (``_inertia``), published where the motion excites it.
 5. **What the recording could not tell** (``RecordingFit.status``): a load that changed

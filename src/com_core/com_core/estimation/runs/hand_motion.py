@@ -44,12 +44,13 @@ the wrist's motion stand some 3 rad apart."""
 @dataclass(frozen=True)
 class HandMotion:
     """The empty hand's ``fit`` along a motion that began at ``stamp_ns`` (sensor time),
-    of the hand ``hand_id`` on the robot model of URDF ``urdf_sha256``; ``times`` (s
+    of the hand on the sensor ``owner`` (``tare_cache.cache_owner``) on the robot model
+    of URDF ``urdf_sha256``; ``times`` (s
     from the motion's start) and ``positions`` (rad, ``joint_names`` of the model) are
     ``PATH_POINTS`` of its joint states, the path it took; saved at ``saved`` (unix
     time, s)."""
 
-    hand_id: str
+    owner: str
     urdf_sha256: str
     stamp_ns: int
     times: NDArray[np.float64]
@@ -61,11 +62,11 @@ class HandMotion:
         """s since it was saved."""
         return time.time() - self.saved
 
-    def other_hand(self, hand_id: str, urdf_sha256: str) -> str:
-        """'' when it is of the hand ``hand_id`` on the robot model of URDF
+    def other_owner(self, owner: str, urdf_sha256: str) -> str:
+        """'' when it is of the hand on the sensor ``owner`` on the robot model of URDF
         ``urdf_sha256``; else which differs."""
-        if self.hand_id != hand_id:
-            return f"it is of another hand ({self.hand_id!r}, this run's {hand_id!r})"
+        if self.owner != owner:
+            return f"it is of another hand or sensor ({self.owner!r}, this run's {owner!r})"
         if self.urdf_sha256 != urdf_sha256:
             return (f"it is of another robot model ({self.urdf_sha256[:12]!r}, this run's "
                     f"{urdf_sha256[:12]!r})")  # fmt: skip
@@ -73,15 +74,15 @@ class HandMotion:
 
     def serves(
         self,
-        hand_id: str,
+        owner: str,
         urdf_sha256: str,
         path: Callable[[NDArray[np.float64]], NDArray[np.float64]],
         max_age: float,
     ) -> str:
-        """'' when it serves a run of ``hand_id`` on that model whose motion is commanded
+        """'' when it serves a run of ``owner`` on that model whose motion is commanded
         to ``path(t)`` (rad, s from its start; ``joint_names``' positions), within
         ``PATH_TOLERANCE`` of the kept path, no older than ``max_age`` s; else why not."""
-        if other := self.other_hand(hand_id, urdf_sha256):
+        if other := self.other_owner(owner, urdf_sha256):
             return other
         apart = float(np.max(np.abs(path(self.times) - self.positions)))
         if not apart <= PATH_TOLERANCE:
@@ -133,7 +134,7 @@ def load_hand_motion(path: str | Path) -> HandMotion | None:
             or not all(np.all(np.isfinite(a)) for a in arrays)
         ):
             return None
-        return HandMotion(str(data["hand_id"]), str(data["urdf_sha256"]), int(data["stamp_ns"]),
+        return HandMotion(str(data["owner"]), str(data["urdf_sha256"]), int(data["stamp_ns"]),
                           times, positions, float(data["saved"]), MotionFit(**fit))  # fmt: skip
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None

@@ -350,11 +350,12 @@ def fitted_wrenches(
 
 
 def hand_motion_of(
-    inbox: Inbox, solution_motion: MotionResult | None, robot: RobotModel | None, hand_id: str
+    inbox: Inbox, solution_motion: MotionResult | None, robot: RobotModel | None, owner: str
 ) -> HandMotion | None:
-    """The ``HandMotion`` to cache from an exploration whose empty hand moved
-    (``motion/tare``) and whose solution in motion is ``solution_motion`` (of a usable
-    solution), with ``PATH_POINTS`` of its joint states; None otherwise."""
+    """The ``HandMotion`` of ``owner`` (the hand on the sensor) to cache from an exploration
+    whose empty hand moved (``motion/tare``) and whose solution in motion is
+    ``solution_motion`` (of a usable solution), with ``PATH_POINTS`` of its joint states;
+    None otherwise."""
     parts = motion_spans(inbox).get(MOTION_TARE)
     if solution_motion is None or robot is None or not parts:
         return None
@@ -364,5 +365,5 @@ def hand_motion_of(
     except EstimationError:
         return None
     kept = np.linspace(0, len(times) - 1, PATH_POINTS).round().astype(int)
-    return HandMotion(hand_id, robot.urdf_sha256, start, times[kept] - start * 1e-9,
+    return HandMotion(owner, robot.urdf_sha256, start, times[kept] - start * 1e-9,
                       positions[kept], time.time(), solution_motion.hand)  # fmt: skip

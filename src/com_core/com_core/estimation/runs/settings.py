@@ -223,13 +223,14 @@ def use_cached_tares(exploration: Exploration, path: str | Path) -> None:
     exploration.tare_times, exploration.noise = cache.times, cache.noise
 
 
-def use_cached_hand_motion(exploration: Exploration, path: str | Path, hand_id: str) -> None:
+def use_cached_hand_motion(exploration: Exploration, path: str | Path, owner: str) -> None:
     """Give ``exploration`` the empty hand's motion fit in the file ``path``
-    (``hand_motion``) when it is of ``hand_id`` and of its robot model; else none."""
+    (``hand_motion``) when it is of ``owner`` (the hand on the sensor,
+    ``tare_cache.cache_owner``) and of its robot model; else none."""
     entry, robot = load_hand_motion(path), exploration.robot
     fits = entry is not None and robot is not None
     exploration.hand_motion = (
-        entry.fit if fits and not entry.other_hand(hand_id, robot.urdf_sha256) else None
+        entry.fit if fits and not entry.other_owner(owner, robot.urdf_sha256) else None
     )
 
 

@@ -1,8 +1,10 @@
 """Tare passes kept in a file and reused while they stay valid.
 
 The empty hand's wrench in every pose of a plan (its tare windows) depends on the hand
-and the plan only, so one tare pass serves many objects. The file holds one entry per
-hand and plan: the windows (mean and covariance of the mean per pose, to the last bit:
+and the plan only, so one tare pass serves many objects, on the sensor it was read by: its
+bias, noise and calibration are the sensor's (``cache_owner``: the hand on the sensor,
+named by the robot configuration's ``hand_id`` and ``sensor_id``). The file holds one
+entry per owner and plan: the windows (mean and covariance of the mean per pose, to the last bit:
 JSON floats round-trip) with their joint positions and times, the signature of what
 they were taken for (``signature``), and when; and which entry is ``current`` (the one
 the running exploration uses, which the estimator reads). With the wrenches alone a run
@@ -34,6 +36,7 @@ __all__ = [
     "BAG_TARE_FILE",
     "DRIFT_ALPHA",
     "TareCache",
+    "cache_owner",
     "drift",
     "drift_accepted",
     "latest_hand_model",
@@ -68,7 +71,8 @@ class TareCache:
         return time.time() - self.created
 
     @property
-    def hand_id(self) -> str:
+    def owner(self) -> str:
+        """The hand on the sensor it was taken with (``cache_owner``)."""
         return self.signature.split("|", 1)[0]
 
     @property
@@ -105,12 +109,20 @@ class TareCache:
         return TareCache(data["signature"], float(data["created"]), windows, joints, times, noise)
 
 
-def tare_signature(hand_id: str, poses: Sequence[tuple[str, Sequence[float]]]) -> str:
-    """What a tare pass was taken for: the hand, and each pose's name and joints (rad, to
-    0.1 mrad), so a plan with another tilt, other axes or another choreography has an
-    entry of its own."""
+def cache_owner(hand_id: str, sensor_id: str) -> str:
+    """What a cached tare, hand model or hand motion belongs to: the hand ``hand_id`` on
+    the sensor ``sensor_id`` (its serial or name and settings; '' an unnamed one). Another
+    sensor, or the same one recalibrated, has its own bias, noise and calibration: none
+    of its cached things serves another."""
+    return f"{hand_id} on {sensor_id or 'an unnamed sensor'}"
+
+
+def tare_signature(owner: str, poses: Sequence[tuple[str, Sequence[float]]]) -> str:
+    """What a tare pass was taken for: the hand on the sensor (``cache_owner``), and each
+    pose's name and joints (rad, to 0.1 mrad), so a plan with another tilt, other axes or
+    another choreography has an entry of its own."""
     joints = "|".join(f"{name} {[round(q, 4) for q in js]}" for name, js in poses)
-    return f"{hand_id}|{joints}"
+    return f"{owner}|{joints}"
 
 
 def _read(path: Path) -> tuple[dict[str, TareCache], str | None]:
@@ -176,12 +188,12 @@ def load_tares(path: Path | str, signature: str | None = None) -> TareCache | No
     return entries.get(signature if signature is not None else current or "")
 
 
-def latest_hand_model(path: Path | str, hand_id: str) -> TareCache | None:
-    """The newest entry of ``path`` for ``hand_id`` whose windows all have their joint
-    positions: it gives the hand's wrench at any pose, whatever plan it was taken for
-    (None when there is none or no file; a broken file raises)."""
+def latest_hand_model(path: Path | str, owner: str) -> TareCache | None:
+    """The newest entry of ``path`` of ``owner`` (``cache_owner``) whose windows all have
+    their joint positions: it gives the hand's wrench at any pose, whatever plan it was
+    taken for (None when there is none or no file; a broken file raises)."""
     entries, _ = _read(Path(path))
-    usable = [e for e in entries.values() if e.hand_id == hand_id and e.has_joints]
+    usable = [e for e in entries.values() if e.owner == owner and e.has_joints]
     return max(usable, key=lambda e: e.created, default=None)
 
 

@@ -1,0 +1,40 @@
+"""com_core.estimation.runs.hand_motion: the empty hand's motion fit serves the hand on the
+sensor it was read by, on its robot model, along its motion, while young enough."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from com_core.estimation.fits.motion import MotionFit
+from com_core.estimation.runs.hand_motion import HandMotion, load_hand_motion, save_hand_motion
+from com_core.estimation.runs.tare_cache import cache_owner
+
+OWNER = cache_owner("panda_hand", "ft-1")
+
+
+def entry(owner: str = OWNER) -> HandMotion:
+    zeros = np.zeros((10, 10))
+    fit = MotionFit(np.ones(10), zeros, zeros, zeros, np.zeros((10, 36)), np.zeros(6), 0.0,
+                    10.0, 10, False, 1000)  # fmt: skip
+    times = np.linspace(0.0, 3.0, 7)
+    return HandMotion(owner, "sha", 5, times, np.zeros((7, 2)), 0.0, fit)
+
+
+def path(t: np.ndarray) -> np.ndarray:
+    return np.zeros((len(t), 2))
+
+
+def test_the_hand_motion_serves_its_own_hand_on_its_own_sensor_only(tmp_path):
+    """Saved and read back, it serves its owner along its path; the same hand on another
+    sensor, or another robot model, is told why not."""
+    file = tmp_path / "hand_motion.json"
+    save_hand_motion(file, entry())
+    saved = load_hand_motion(file)
+    assert saved is not None and saved.owner == OWNER
+    assert saved.serves(OWNER, "sha", path, max_age=np.inf) == ""
+    other = cache_owner("panda_hand", "ft-2")
+    assert saved.serves(other, "sha", path, np.inf).startswith("it is of another hand or sensor")
+    assert saved.serves(OWNER, "other", path, np.inf).startswith("it is of another robot model")
+    assert saved.serves(OWNER, "sha", lambda t: path(t) + 1.0, np.inf).startswith(
+        "it is of another motion"
+    )
