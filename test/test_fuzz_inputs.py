@@ -294,3 +294,18 @@ def test_every_replay_option_it_takes_replays_the_sample_run(name):
         code, said = replay_answer([str(SAMPLE), option, *values, "--json"])
         assert code in (0, 1, 2), (option, values, said)
         assert "internal error" not in said and "Traceback" not in said, said
+
+
+def test_the_demo_names_the_simulated_sensor_by_its_profile_serial_and_set_parts(tmp_path):
+    """Both nodes that cache take the sim sensor's ``sensor_id``; another profile, or the
+    same one with other noise, is another sensor (a cached tare never crosses)."""
+
+    def sensor_ids(*flags: str) -> set[str]:
+        args = demo.build_parser().parse_args([*flags, "--bag-dir", str(tmp_path)])
+        _, estimator, sequencer = demo.node_parameters(args)
+        return {estimator["sensor_id"], sequencer["sensor_id"]}
+
+    assert sensor_ids() == {"sim-realistic-0"}  # the robot file's
+    ideal = sensor_ids("--sensor-profile", "ideal", "--sigma-f", "1e-6", "--sigma-tau", "1e-7")
+    assert ideal == {"sim-ideal-0-sigma_f=1e-06-sigma_tau=1e-07"}
+    assert sensor_ids("--sigma-f", "0.2") == {"sim-realistic-0-sigma_f=0.2"}
