@@ -64,15 +64,14 @@ def one_recording(robot: str, index: int, seed: int, duration: float, bias_f: fl
                 direction[3:] / np.linalg.norm(direction[3:]) * bias_f * 0.03,
             ]
         )
-        start = world.time
         sensor.model = replace(sensor.model, bias=bias)
         grasp(world)
         recorded = record_wandering(world, sensor, rng, duration)
         mh, ch = world.hand_ground_truth()
         mo, co = world.object_ground_truth()
         # the drift's warm-up is linear over a recording (600 s time constant): the bias at
-        # the recording's middle, the fit's
-        middle = (start + world.time) / 2
+        # the middle of the recording (of its wrenches' stamps), the fit's
+        middle = (recorded[2][0] + recorded[2][-1]) / 2
         drift = sensor.drift.at(world.time) * middle / world.time
         truth = np.concatenate([[mh + mo], (mh * ch + mo * co) / (mh + mo), bias + drift])
         bag = out / f"{robot}_{index}"

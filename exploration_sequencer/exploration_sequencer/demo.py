@@ -522,7 +522,9 @@ def run_exploration(args: argparse.Namespace, started: float, children: Sequence
             print(f"demo: no answer within {args.timeout:g} s", file=sys.stderr)
             return 1
         end = time.monotonic() + 2.0  # the status, and the estimate if it is published
-        while time.monotonic() < end and not ((statuses and estimates) or exited(children)):
+        while time.monotonic() < end and not (
+            (statuses and "mass" in status_values(statuses) and estimates) or exited(children)
+        ):  # a status heard during the run carries no answer: wait for the one after it
             executor.spin_once(timeout_sec=0.1)
         result = future.result().result
         if args.hold and result.status == "OK":
@@ -540,7 +542,7 @@ def run_exploration(args: argparse.Namespace, started: float, children: Sequence
                 f"({', '.join(f'{v * 1e3:+.2f}' for v in mean[3:])}) +- "
                 f"({', '.join(f'{v * 1e3:.2f}' for v in sd[3:])}) mN m (contact: none)"
             )
-            values = {kv.key: kv.value for kv in statuses[-1][1].values} if statuses else {}
+            values = status_values(statuses)
             if values.get("excitation") == MOTION and urdf and not exited(children):
                 in_motion(node, executor, compensated, urdf[-1], args, values)
         if ended:
@@ -646,13 +648,17 @@ def summarise_ended(ended: Sequence[Child], started: float) -> None:
     print(f"time:     {time.monotonic() - started:.1f} s wall in all", flush=True)
 
 
+def status_values(statuses: list) -> dict[str, str]:
+    """The latest of ``statuses`` ((stamp ns, DiagnosticStatus)) as its values by key."""
+    return {kv.key: kv.value for kv in statuses[-1][1].values} if statuses else {}
+
+
 def print_summary(result, estimates, truths, statuses, wall: float) -> None:
     """The service's answer, the estimate (from the estimator's status, with whether it
     was published on ~/estimate), the ground truth held in the hand, the error."""
     print("\n=== summary ===")
     print(f"explore: {'success' if result.status == 'OK' else 'FAILED'}: {result.message}")
-    stamp, status = statuses[-1] if statuses else (0, None)
-    values = {kv.key: kv.value for kv in status.values} if status else {}
+    stamp, values = (statuses[-1][0] if statuses else 0), status_values(statuses)
     if "mass" in values:
         com = [float(values[f"com_{a}"]) for a in "xyz"]
         sig = [float(values[f"sigma_com_{a}"]) * 1e3 for a in "xyz"]
