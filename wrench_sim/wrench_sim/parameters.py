@@ -115,6 +115,18 @@ PARAMETERS = table_of([
     Input("vibration_damping", [-1.0], f"damping ratio per mode ([-1.0]: the profile's); "
           f"{_START}", kind="floats", low=0.0, high=1.0, high_open=True, keep=([-1.0],),
           read_only=True),
+    Input("hysteresis", [-1.0], "the gauges' band between loading and unloading over the "
+          "range, per axis fx fy fz tx ty tz (wrench_sim.gauges; [-1.0]: the profile's; "
+          f"[0.0]: none); {_START}", kind="floats", unit="N, N m", low=0.0, high=1e4,
+          lengths=(6,), keep=([-1.0], [0.0]), read_only=True),
+    Input("nonlinearity", [-1.0], "the gauges' largest deviation from the line through zero "
+          "and full scale, per axis (as hysteresis)", kind="floats", unit="N, N m", low=0.0,
+          high=1e4, lengths=(6,), keep=([-1.0], [0.0]), read_only=True),
+    Input("sensitivity_drift", math.nan, "each axis's gain moves up to this much per kelvin "
+          f"the sensor warms; {_OF}; {_START}", unit="1/K", high=0.1, read_only=True,
+          **_PROFILE),
+    Input("warmup_kelvin", math.nan, "how far the sensor warms from power-on, with "
+          f"warmup_time; {_OF}; {_START}", unit="K", high=100.0, read_only=True, **_PROFILE),
     Input("rate", 1000.0, "wrench publish rate", **_RATE),
     Input("clock_rate", 250.0, f"/clock publish rate (sim); {_START}", read_only=True, **_RATE),
     Input("real_time_factor", 0.0, "sim s per wall s; 0 = as fast as possible", low=0.01,
@@ -147,6 +159,9 @@ def sensor_profile(values: dict) -> SensorProfile:
     }
     if parts.get("vibration_hz") == (0.0,):
         parts["vibration_hz"], parts["vibration_damping"] = (), ()
+    for name in ("hysteresis", "nonlinearity"):
+        if parts.get(name) == (0.0,):
+            parts[name] = ()
     profile = PROFILES[values["sensor_profile"]].with_overrides(**parts)
     if problems := profile.problems():
         raise InputError("; ".join(problems))

@@ -27,6 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from com_core.sensing.sensor_profiles import SensorProfile
 from com_core.sensing.wrench_model import SensorModel, calibration_matrix
+from wrench_sim.gauges import GaugeErrors, profile_gauges
 
 __all__ = [
     "BiasDrift",
@@ -37,13 +38,13 @@ __all__ = [
     "random_streams",
 ]
 
-_STREAMS = ("object", "sensor", "slip", "calibration", "drift")
+_STREAMS = ("object", "sensor", "slip", "calibration", "drift", "gauges")
 _BLOCK = 1000  # samples of unit normals drawn at once
 
 
 def random_streams(seed: int) -> dict[str, np.random.Generator]:
     """Independent generators for the object draw, the sensor noise, the grasp shifts, the
-    calibration error and the bias's drift.
+    calibration error, the bias's drift and the gauges' errors (``wrench_sim.gauges``).
 
     Separate streams keep the noise sequence of a seed the same whether or not the COM offset
     is drawn, shifts are on or the sensor drifts (later names were appended: SeedSequence's
@@ -111,13 +112,20 @@ class WrenchSensor:
         be replaced at any time.
     rng : the noise stream (``random_streams(seed)["sensor"]``).
     drift : the bias's warm-up and random walk (None: none).
+    gauges : hysteresis, non-linearity and the gain's temperature drift, applied to the
+        true wrench first (None: none).
     """
 
     def __init__(
-        self, model: SensorModel, rng: np.random.Generator, drift: BiasDrift | None = None
+        self,
+        model: SensorModel,
+        rng: np.random.Generator,
+        drift: BiasDrift | None = None,
+        gauges: GaugeErrors | None = None,
     ) -> None:
         self.model = model
         self.drift = drift
+        self.gauges = gauges
         self._rng = rng
         self._normals = np.empty((0, 6))
         self._next = 0
@@ -147,6 +155,8 @@ class WrenchSensor:
         self._next += 1
         model = self._model
         signal = np.asarray(true_wrench, dtype=np.float64)
+        if self.gauges is not None:
+            signal = self.gauges.apply(signal, t)
         phi = self._phi
         if phi:
             if self._coloured is None or self._signal is None:
@@ -196,4 +206,6 @@ def profile_sensor(
         limit_f=p.limit_f, limit_tau=p.limit_tau, rate_hz=rate_hz,
         correlation_time=p.correlation_time, calibration=profile_calibration(p, serial),
     )  # fmt: skip
-    return WrenchSensor(model, streams["sensor"], profile_drift(p, streams["drift"]))
+    drift = profile_drift(p, streams["drift"])
+    gauges = profile_gauges(p, random_streams(serial)["gauges"])
+    return WrenchSensor(model, streams["sensor"], drift, gauges)

@@ -114,6 +114,7 @@ from com_core.runtime.rosenv import discovery_line, keep_dds_local, start_refusa
 from com_core.sensing.sensor_profiles import SensorProfile
 from com_core.sensing.wrench_model import SensorModel, rotation_about
 from wrench_sim.arm_action import ArmController
+from wrench_sim.gauges import profile_gauges
 from wrench_sim.gripper import GripperGoal, GripperOutcome
 from wrench_sim.parameters import (
     SENSOR_PARAMETERS,
@@ -172,7 +173,8 @@ class SimNode(Node):
         )
         self._mount_identity = bool(np.array_equal(self._mount, np.eye(3)))
         drift = profile_drift(p, streams["drift"])
-        self.sensor = WrenchSensor(self._sensor_model(), streams["sensor"], drift)
+        gauges = profile_gauges(p, random_streams(parameter("sensor_serial").value)["gauges"])
+        self.sensor = WrenchSensor(self._sensor_model(), streams["sensor"], drift, gauges)
         self._drift = np.array(parameter("bias_drift").value, dtype=np.float64)  # per s
         self._real_time_factor = parameter("real_time_factor").value
         self._publish_every = round(1000.0 / parameter("rate").value)

@@ -34,6 +34,19 @@
   - the rest UR does not state: the 5 ms low-pass, the warming bias, its random walk and
     the arm's modes are the realistic profile's; no quantisation.
 
+- ``xarm_ft``: UFACTORY's 6-axis F/T sensor for the xArm, from the specifications of its
+  user manual (6-Axis Force Torque Sensor, Specifications): load capacity 150 N (Fx, Fy),
+  200 N (Fz), 4 N m; resolution 100 mN (Fx, Fy), 150 mN (Fz), 5 mN m; hysteresis 2.5 % FS
+  (Fx, Fy), 1 % FS (Fz, torques); cross-talk 3 % FS. From these:
+  - range 150 N and 4 N m (one force range: the lateral axes'), quantisation 0.1 N and
+    5 mN m;
+  - hysteresis 3.75, 3.75 and 2 N, 40 mN m (the stated fractions of each axis's range,
+    ``wrench_sim.gauges``);
+  - calibration accuracy 3 % of full scale (95 %): the cross-talk, taken as the
+    calibration's error;
+  - the rest UFACTORY does not state (noise, low-pass, drift, non-linearity, the arm's
+    modes) is the realistic profile's: noise 0.1 N and 5 mN m, at the resolution.
+
 Except where a datasheet is named, these are assumptions of a sensor's class: each part is
 a parameter of the simulator that a user sets to their sensor's figures.
 """
@@ -54,7 +67,16 @@ __all__ = ["DEFAULT_PROFILE", "PROFILES", "SensorProfile", "file_profile"]
 
 @dataclass(frozen=True)
 class SensorProfile:
-    """Every part of a simulated sensor (units: N, N m, s, Hz)."""
+    """Every part of a simulated sensor (units: N, N m, s, Hz).
+
+    The strain gauges' own errors (``wrench_sim.gauges``), before the calibration:
+    ``hysteresis`` (6,; N, N m) the band between loading and unloading over a full-scale
+    excursion, per axis (fx fy fz tx ty tz; a datasheet's "hysteresis, % FS" times the
+    axis's range); ``nonlinearity`` (6,; N, N m) the largest deviation from the straight
+    line through zero and full scale; ``sensitivity_drift`` (1/K) how far each axis's gain
+    moves per kelvin, and ``warmup_kelvin`` (K) how far the sensor warms from power-on,
+    with the bias's ``warmup_time``. Empty or 0: none.
+    """
 
     sigma_f: float = 0.0
     sigma_tau: float = 0.0
@@ -72,6 +94,10 @@ class SensorProfile:
     vibration_hz: tuple[float, ...] = ()
     vibration_damping: tuple[float, ...] = ()
     vibration_gain: float = 1.0
+    hysteresis: tuple[float, ...] = ()
+    nonlinearity: tuple[float, ...] = ()
+    sensitivity_drift: float = 0.0
+    warmup_kelvin: float = 0.0
 
     def with_overrides(self, **values: object) -> SensorProfile:
         """This profile with the parts in ``values`` changed (names of its fields)."""
@@ -84,8 +110,9 @@ class SensorProfile:
     def problems(self) -> list[str]:
         """Why these parts make no sensor ([] when they do), each naming a part, its value
         and the fix (``com_core.inputs.refusal``): a vibration mode without its damping,
-        and a quantised axis without the noise that dithers it (a reading that only
-        steps, which the estimator's motion test reads as motion)."""
+        a hysteresis or non-linearity that is not six values >= 0, and a quantised axis
+        without the noise that dithers it (a reading that only steps, which the
+        estimator's motion test reads as motion)."""
         out = []
         if len(self.vibration_hz) != len(self.vibration_damping):
             out.append(
@@ -95,6 +122,16 @@ class SensorProfile:
                     f"one damping ratio per mode of vibration_hz {list(self.vibration_hz)}",
                 )
             )
+        for name in ("hysteresis", "nonlinearity"):
+            values = getattr(self, name)
+            if len(values) not in (0, 6) or any(not v >= 0 for v in values):
+                out.append(
+                    refusal(
+                        name,
+                        list(values),
+                        "six values >= 0 (N for fx fy fz, N m for tx ty tz), or none",
+                    )
+                )
         for axis, unit in (("f", "N"), ("tau", "N m")):
             sigma, step = getattr(self, f"sigma_{axis}"), getattr(self, f"resolution_{axis}")
             if step > 0 and sigma < step / 2:
@@ -162,6 +199,15 @@ PROFILES["ur_e_series"] = replace(  # UR's figures (module); the rest the realis
     resolution_tau=0.0,
     limit_f=50.0,
     calibration_accuracy=0.03,
+)
+PROFILES["xarm_ft"] = replace(  # UFACTORY's figures (module); the rest the realistic sensor's
+    PROFILES["realistic"],
+    resolution_f=0.1,
+    resolution_tau=0.005,
+    limit_f=150.0,
+    limit_tau=4.0,
+    calibration_accuracy=0.03,
+    hysteresis=(0.025 * 150.0, 0.025 * 150.0, 0.01 * 200.0, 0.04, 0.04, 0.04),
 )
 DEFAULT_PROFILE = "realistic"
 

@@ -1,0 +1,106 @@
+"""wrench_sim.gauges: the strain gauges' hysteresis, non-linearity and temperature, each
+the size its profile states; and the xArm F/T profile's figures."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from com_core.sensing.sensor_profiles import PROFILES, SensorProfile
+from wrench_sim.gauges import SATURATION, GaugeErrors, profile_gauges
+from wrench_sim.sensor import profile_sensor, random_streams
+
+RANGE = SensorProfile(limit_f=150.0, limit_tau=4.0)
+BAND = (3.75, 3.75, 2.0, 0.04, 0.04, 0.04)
+
+
+def gauges(**parts: object) -> GaugeErrors:
+    return GaugeErrors(RANGE.with_overrides(**parts), np.random.default_rng(3))
+
+
+def loops(steps: int, cycles: int = 4, reach: float = 1.0) -> np.ndarray:
+    """(n, 6): 0 -> ``reach`` of the range, then ``cycles`` times -reach -> reach, and
+    down to 0, on every axis, ``steps`` samples per quarter of a loop."""
+    quarter, half = np.linspace(0.0, 1.0, steps + 1)[1:], np.linspace(0.0, 1.0, 2 * steps + 1)[1:]
+    cycle = [1 - 2 * half, -1 + 2 * half]
+    path = reach * np.concatenate([[0.0], quarter, *cycle * cycles, 1 - quarter])
+    return np.outer(path, [RANGE.limit_f] * 3 + [RANGE.limit_tau] * 3)
+
+
+def openings(g: GaugeErrors, path: np.ndarray, steps: int) -> np.ndarray:
+    """(6,) rising less falling reading at no load in the last loop of ``loops``."""
+    out = np.array([g.apply(x) for x in path]) - path
+    return out[len(path) - 1 - 2 * steps] - out[-1]
+
+
+def test_a_loop_over_the_range_opens_the_stated_band_whatever_the_sampling():
+    """Through no load on the way up and on the way down of a steady loop over the range
+    the readings differ by the band (the datasheet's hysteresis; rising reads low), the
+    same read at 100 or 1000 samples a quarter: the state's way to the band's edge
+    composes across steps (rate-independent)."""
+    readings = {}
+    for steps in (100, 1000):
+        g, path = gauges(hysteresis=BAND), loops(steps)
+        assert_allclose(openings(g, path, steps), -np.array(BAND), rtol=1e-9)
+        g = gauges(hysteresis=BAND)
+        readings[steps] = np.array([g.apply(x) for x in path])[:: steps // 100]
+    assert_allclose(readings[100], readings[1000], rtol=1e-9, atol=1e-12)
+
+
+def test_a_small_loop_is_narrow_but_reads_with_the_turns_gain():
+    """Loops of 2 % of the range open a band of 0.1 % of the datasheet's (it grows with
+    the excursion's square), and each branch reads its excursion with a gain off by
+    edge / (SATURATION range): the reading's largest error b tanh(0.02 / SATURATION)."""
+    g, path = gauges(hysteresis=BAND), loops(25, cycles=100, reach=0.02)  # steady at last
+    assert np.all(np.abs(openings(g, path, 25)) < 2e-3 * np.array(BAND))
+    g = gauges(hysteresis=BAND)
+    error = np.array([g.apply(x) for x in path]) - path
+    assert_allclose(np.abs(error[-100:]).max(axis=0), g.edge * np.tanh(0.02 / SATURATION),
+                    rtol=1e-3)  # fmt: skip
+
+
+def test_the_nonlinearity_is_the_stated_largest_deviation_from_the_terminal_line():
+    """Zero at no load and at full scale, and its largest deviation over the range the
+    profile's figure (to the grid's 1e-3 of the range)."""
+    stated = np.array([1.5, 1.5, 2.0, 0.02, 0.02, 0.02])
+    g = gauges(nonlinearity=tuple(stated))
+    x = np.linspace(-1.0, 1.0, 4001)[:, None] * g.range
+    deviation = np.array([g.apply(w) for w in x]) - x
+    assert_allclose(np.abs(deviation).max(axis=0), stated, rtol=1e-5)
+    for load in (np.zeros(6), g.range, -g.range):
+        assert_allclose(g.apply(load) - load, 0.0, atol=1e-12)
+
+
+def test_the_gain_warms_with_the_sensor():
+    """The gain is 1 at power-on and 1 + k dT once warm, |k| within the stated 1/K."""
+    g = gauges(sensitivity_drift=2e-4, warmup_kelvin=10.0, warmup_time=600.0)
+    load = np.array([10.0, -20.0, 30.0, 0.5, -0.5, 1.0])
+    assert_allclose(g.apply(load, 0.0), load, rtol=1e-12)
+    warm = g.apply(load, 1e6) / load - 1
+    assert np.all(np.abs(warm) <= 2e-4 * 10.0) and np.any(warm != 0)
+    assert_allclose(warm, g.coefficient * 10.0, rtol=1e-9)
+
+
+def test_a_sensor_without_gauge_errors_has_none_and_a_bad_band_is_refused_by_name():
+    assert profile_gauges(PROFILES["realistic"], np.random.default_rng(0)) is None
+    (problem,) = RANGE.with_overrides(hysteresis=(1.0,) * 5).problems()
+    assert problem.startswith("hysteresis")
+    (problem,) = RANGE.with_overrides(nonlinearity=(1.0,) * 5 + (-1.0,)).problems()
+    assert problem.startswith("nonlinearity")
+    with pytest.raises(ValueError, match="range"):
+        GaugeErrors(SensorProfile(hysteresis=BAND), np.random.default_rng(0))
+
+
+def test_the_xarm_sensor_carries_ufactorys_figures_and_its_own_hysteresis():
+    """Ranges, resolution, hysteresis (of each axis's range) and cross-talk of UFACTORY's
+    specifications; a sensor of the profile has the band, its serial's shapes."""
+    p = PROFILES["xarm_ft"]
+    assert (p.limit_f, p.limit_tau, p.resolution_f, p.resolution_tau) == (150.0, 4.0, 0.1, 0.005)
+    assert p.calibration_accuracy == 0.03 and p.problems() == []
+    assert_allclose(p.hysteresis, [0.025 * 150, 0.025 * 150, 0.01 * 200, 0.04, 0.04, 0.04])
+    sensor = profile_sensor(p, seed=1, serial=7)
+    assert sensor.gauges is not None
+    assert_allclose(openings(sensor.gauges, loops(100), 100), -np.array(p.hysteresis), rtol=1e-9)
+    again = GaugeErrors(p, random_streams(7)["gauges"])
+    assert_allclose(again.shape(np.full(6, 0.4)), sensor.gauges.shape(np.full(6, 0.4)))
