@@ -8,8 +8,9 @@ In process, no ROS: for each recording a simulator (the arms in turn; a box, cyl
 mug of 0.1-1 kg, its COM offset drawn from the seed) grasps the object and wanders
 (``wrench_sim.studies.record_wandering``: slow wrist moves to random targets, rests of
 0.3-3 s) through the realistic sensor (coloured noise, quantisation, drifting bias, a 1 %
-calibration drawn per recording) with a static bias of ``--bias`` N in a random direction
-(and a tenth of it in N m); the recording is written as a rosbag2 by rosbags' writer
+calibration drawn per recording; the arm ringing at the profile's modes after each move)
+with a static bias of ``--bias`` N in a random direction (and 0.03 times it in N m in
+another: 0.21 N m for 7 N); the recording is written as a rosbag2 by rosbags' writer
 (250 Hz wrenches, 100 Hz joint states, the URDF on /robot_description: no pose labels, no
 robot configuration) and replayed (``replay BAG --json --sensor-frame F``). Per
 recording: the whole load's mass and COM and the bias against the truth, in sigmas; the
@@ -53,7 +54,14 @@ def one_recording(robot: str, index: int, seed: int, duration: float, bias_f: fl
     config = read_robot_config(robot)
     shape, mass = SHAPES[index % 3], float(rng.uniform(0.1, 1.0))
     world = ArmWorld(
-        SimConfig(robot=config, object_shape=shape, object_mass=mass, seed=seed * 1000 + index)
+        SimConfig(
+            robot=config,
+            object_shape=shape,
+            object_mass=mass,
+            seed=seed * 1000 + index,
+            vibration=PROFILE.modes,  # the arm rings as the sim node's does
+            vibration_gain=PROFILE.vibration_gain,
+        )
     )
     try:
         sensor = profile_sensor(PROFILE, seed=seed * 1000 + index, serial=seed * 1000 + index)

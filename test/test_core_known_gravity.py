@@ -286,3 +286,27 @@ def test_the_latest_bias_carries_the_fitted_rate_to_the_runs_last_window():
     last = max(o.time for o in observations() if o.epoch == 0)
     truth = TARE_BIAS + rate * last
     assert np.all(np.abs(fit.latest_bias() - truth) < 0.5 * np.abs(fit.bias[0] - truth))
+
+
+def test_a_nuisance_every_window_shares_is_marginalised_not_left_to_pull_the_load():
+    """Each load window's mean also holds N_i nu, unknowns nu no fit solves for (a load's
+    inertia): marginalised under a wide prior, the load comes out as without them (to 1e-9
+    of the mass, 1 nm), and its covariance holds their share; left out, they pull the COM
+    off by more than 10 sigma."""
+    rng = np.random.default_rng(7)
+    nu = np.array([0.3, -0.2])
+    shifted, marked = [], []
+    for o in observations():
+        design = rng.normal(size=(6, 2)) * 0.01 if o.load else np.zeros((6, 2))
+        window = replace(o.window, mean=o.window.mean + design @ nu)
+        shifted.append(replace(o, window=window))
+        marked.append(replace(o, window=window, nuisance=design))
+    clean = kinematic_ml(observations(), BASE_GRAVITY)
+    left_out = kinematic_ml(shifted, BASE_GRAVITY).estimate
+    e = kinematic_ml(marked, BASE_GRAVITY, nuisance_cov=1e4 * np.eye(2)).estimate
+    assert e.mass == pytest.approx(MASS, abs=1e-9 * MASS)  # the prior's pull: 1 / its width
+    np.testing.assert_allclose(e.com, COM, atol=1e-9)
+    assert np.all(np.abs(left_out.com - COM) > 10 * left_out.sigma_com)
+    assert (
+        np.all(e.sigma_com > clean.estimate.sigma_com) and e.sigma_mass > clean.estimate.sigma_mass
+    )

@@ -86,7 +86,11 @@ class Observation:
     ``design`` (6, 4), when given, is the window's mean wrench per unit of theta = (m, c)
     in place of the static ``A(g_i)``: a window taken in motion, whose wrench also holds
     the load's inertial forces (m and c's columns of ``robot.dynamics``' regressor,
-    averaged over the window); not with ``fit_mount``."""
+    averaged over the window); not with ``fit_mount``. ``nuisance`` (6, k), when given,
+    is the window's mean wrench per unit of k unknowns every window shares and no fit
+    solves for (the load's inertia: ``robot.dynamics``' last six columns), of prior
+    covariance ``kinematic_ml``'s ``nuisance_cov``: they are weighed as a common error of
+    the windows, correlated across them (marginalised)."""
 
     window: Window
     rotation: NDArray[np.float64]
@@ -95,6 +99,7 @@ class Observation:
     time: float = 0.0
     group: int = 0
     design: NDArray[np.float64] | None = None
+    nuisance: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True)
@@ -276,9 +281,11 @@ class _Model:
         calibration: Calibration | None = None,
         uncalibrated: NDArray[np.float64] | None = None,
         whitening: NDArray[np.float64] | None = None,
+        nuisance_cov: NDArray[np.float64] | None = None,
     ) -> None:
         self.obs = list(observations)
         self.calibration = calibration
+        self.nuisance_cov = nuisance_cov
         self.uncalibrated = np.zeros(6) if uncalibrated is None else uncalibrated
         self.gravity = gravity
         empty = [o for o in self.obs if not o.load]
@@ -317,9 +324,11 @@ class _Model:
 
     def _whitening(self) -> NDArray[np.float64]:
         """(6n, 6n) W with W^T W the inverse of the windows' joint covariance: each
-        window's noise, plus the calibration's common error (``com_core.sensing.calibration``)."""
+        window's noise, plus the calibration's common error (``com_core.sensing.calibration``)
+        and the nuisance unknowns' (``Observation.nuisance``)."""
         n = len(self.obs)
-        if self.calibration is None:  # block diagonal: each window's own, inverted alone
+        nuisance = self._nuisance()
+        if self.calibration is None and nuisance is None:  # block diagonal: each its own
             whiten = np.zeros((6 * n, 6 * n))
             if n:
                 covs = np.array([o.window.cov for o in self.obs])
@@ -330,9 +339,20 @@ class _Model:
         cov = np.zeros((6 * n, 6 * n))
         for i, o in enumerate(self.obs):
             cov[6 * i : 6 * i + 6, 6 * i : 6 * i + 6] = o.window.cov
-        if n:
+        if n and self.calibration is not None:
             cov += self.calibration.cov(self.means.reshape(n, 6) - self.uncalibrated)
+        if nuisance is not None:
+            cov += nuisance @ self.nuisance_cov @ nuisance.T
         return np.linalg.inv(np.linalg.cholesky(cov)) if n else np.zeros((0, 0))
+
+    def _nuisance(self) -> NDArray[np.float64] | None:
+        """(6n, k): the windows' ``nuisance`` designs stacked (zeros where a window has
+        none); None without a ``nuisance_cov`` or any window with one."""
+        k = None if self.nuisance_cov is None else len(self.nuisance_cov)
+        if k is None or all(o.nuisance is None for o in self.obs):
+            return None
+        zeros = np.zeros((6, k))
+        return np.concatenate([zeros if o.nuisance is None else o.nuisance for o in self.obs])
 
     def gravities(
         self, x: NDArray[np.float64], rotations: Sequence[NDArray[np.float64]] | None = None
@@ -525,6 +545,7 @@ def kinematic_ml(
     uncalibrated: ArrayLike | None = None,
     positive_object: bool = True,
     whitening: NDArray[np.float64] | None = None,
+    nuisance_cov: NDArray[np.float64] | None = None,
 ) -> KinematicFit:
     """The ML fit of bias, hand and object to ``observations`` (see module), with
     ``gravity`` (m/s^2) in the base frame; ``fit_mount`` also fits the sensor's mounting
@@ -536,7 +557,8 @@ def kinematic_ml(
     dof. ``positive_object`` False lets the object's mass be any sign: the object is then a
     change of load between windows (``estimation.recordings.recording_fit``).
     ``whitening``: that of a fit of the same windows in the same order with the same
-    calibration (``KinematicFit.whitening``), not computed again.
+    calibration (``KinematicFit.whitening``), not computed again. ``nuisance_cov`` (k, k):
+    the prior covariance of the unknowns the windows' ``nuisance`` designs multiply.
 
     Raises TooFewPosesError when the windows' orientations do not resolve the unknowns
     (a COM needs two gravity directions; a bias beside the load needs its gravity to
@@ -545,7 +567,9 @@ def kinematic_ml(
     """
     g = np.asarray(gravity, dtype=np.float64).reshape(3)
     offset = None if uncalibrated is None else np.asarray(uncalibrated, dtype=np.float64)
-    model = _Model(observations, g, fit_mount, drift_rate_sigma, calibration, offset, whitening)
+    model = _Model(
+        observations, g, fit_mount, drift_rate_sigma, calibration, offset, whitening, nuisance_cov
+    )
     if fit_mount and any(o.design is not None for o in model.obs):
         raise ValueError("windows with their own design cannot fit the mounting")
     if not model.obs:

@@ -24,11 +24,17 @@ from the joint velocities and accelerations, Savitzky-Golay differentiated,
 3. **Windows.** Each rest is one window; the motion between rests is cut into windows
    of ``BLOCK`` s. A window's mean has the noise model's covariance for its length, and
    its design is the mean of its samples' D_k (the model is linear: the mean of the
-   wrenches is D theta at the mean design, exactly). What D leaves out, the load's
-   rotational inertia (and without joint states its linear acceleration), is bounded per
-   window (``inertia_bound``, from a first fit's load) and weighed as a uniform error of
-   that bound; a window whose bound is ``TOO_FAST`` times its noise is left out, and
-   counted.
+   wrenches is D theta at the mean design, exactly). What D leaves out is the load's
+   rotational inertia. With joint states its wrench is known per unit of the inertia
+   (``robot.dynamics``' last six columns): the inertia is an unknown every window
+   shares, marginalised (``Observation.nuisance``: its prior mean the first fit's
+   parallel-axis term, ``origin_inertia``, its spread m a^2 per element,
+   ``inertia_variance``), so its torque is weighed as one error common to the windows,
+   not as each window's own (which would let a systematic torque pull the COM: 2.5 sigma
+   along the hanging axis in sim recordings with a perfect calibration). Without joint
+   states (and the sensor's linear acceleration unknown too) it is bounded per window
+   (``inertia_bound``) and weighed as a uniform error of that bound. A window whose
+   bound is ``TOO_FAST`` times its noise is left out, and counted.
 4. **The fit.** ``kinematic_ml`` with the calibration's common error on the load's
    wrench (the bias, which the calibration does not scale, taken off: a first fit gives
    it). The wrenches' delay behind the orientations (a sensor's filter, the transport) is
@@ -396,26 +402,33 @@ def _observations(
     inertia: tuple[float, NDArray[np.float64]] | None = None,
     delay: float = 0.0,
     rates: NDArray[np.float64] | None = None,
+    parts: int = 1,
 ) -> list[Observation]:
     """The windows of ``blocks`` (``mean_cov(n)``: the noise's covariance of the mean of
     n samples, ``NoiseModel.mean_cov``), their designs those of ``delay`` s earlier (the
     wrenches stamped that much later than the orientations; first order, with the
-    designs' ``rates``); with ``inertia`` (mass kg, COM m) each window's covariance holds
-    its ``inertia_bound`` as a uniform error's variance (bound^2 / 3)."""
+    designs' ``rates``). With ``inertia`` (mass kg, COM m), what the designs leave out:
+    with joint states, the load's inertia about the sensor origin, a nuisance of this
+    recording's (``Observation.nuisance``: columns 6 ``epoch`` on of 6 ``parts``) whose
+    prior mean, the COM's parallel-axis term (``origin_inertia``), is taken off each
+    window's mean; without, each window's ``inertia_bound`` as a uniform error's variance
+    (bound^2 / 3)."""
     w, t = recording.wrenches, recording.times
+    dynamic = inertia is not None and recording.inertia_designs is not None
     out = []
     for k, b in enumerate(blocks):
         s = slice(b.start, b.stop)
         middle = (b.start + b.stop) // 2
-        cov = mean_cov(b.stop - b.start)
-        if inertia is not None and not b.rest:
+        cov, mean, nuisance = mean_cov(b.stop - b.start), w[s].mean(axis=0), None
+        if dynamic:
+            part = recording.inertia_designs[s].mean(axis=0)  # type: ignore[index]
+            mean = mean - part @ origin_inertia(*inertia)  # type: ignore[misc]
+            nuisance = np.zeros((6, 6 * parts))
+            nuisance[:, 6 * epoch : 6 * epoch + 6] = part
+        elif inertia is not None and not b.rest:
             cov = cov + np.diag(inertia_bound(recording, b, *inertia) ** 2 / 3.0)
-        window = window_from_mean(
-            f"{'rest' if b.rest else 'motion'} {k} at {t[middle]:.2f} s",
-            w[s].mean(axis=0),
-            cov,
-            b.stop - b.start,
-        )
+        name = f"{'rest' if b.rest else 'motion'} {k} at {t[middle]:.2f} s"
+        window = window_from_mean(name, mean, cov, b.stop - b.start)
         out.append(
             Observation(
                 window,
@@ -425,9 +438,40 @@ def _observations(
                 float(t[s].mean()),
                 design=recording.designs[s].mean(axis=0)
                 - (delay * rates[s].mean(axis=0) if rates is not None else 0.0),
+                nuisance=nuisance,
             )
         )
     return out
+
+
+def _loads(
+    first: KinematicFit, recording: Recording, tare: Recording | None
+) -> dict[int, tuple[float, NDArray[np.float64]]]:
+    """(mass kg, COM m) of the whole load each recording's sensor held, by recording, from
+    a ``first`` fit: without a tare recording its estimate, with one the hand and the
+    object together for the recording and the hand for the tare."""
+    e, hand = first.estimate, first.hand
+    if tare is None or hand is None:
+        return {id(recording): (abs(e.mass), e.com)}
+    mass = hand.mass + e.mass
+    whole = (abs(mass), (hand.mass * hand.com + e.mass * e.com) / mass)
+    return {id(recording): whole, id(tare): (abs(hand.mass), hand.com)}
+
+
+def origin_inertia(mass: float, com: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(6,) kg m^2: the inertia about the sensor origin of a point ``mass`` (kg) at ``com``
+    (m), m (|c|^2 I - c c^T), as ``robot.dynamics`` orders it (xx, xy, yy, xz, yz, zz)."""
+    c = np.asarray(com, dtype=np.float64)
+    full = mass * (float(c @ c) * np.eye(3) - np.outer(c, c))
+    return full[[0, 0, 1, 0, 1, 2], [0, 1, 1, 2, 2, 2]]
+
+
+def inertia_variance(mass: float, com: NDArray[np.float64]) -> float:
+    """(kg m^2)^2: the prior variance of each element of the load's inertia about its COM
+    (its departure from ``origin_inertia``): m a^2 at one sigma, a = max(|c|, 5 cm), the
+    scale ``inertia_bound`` takes."""
+    arm = max(float(np.linalg.norm(com)), 0.05)
+    return (abs(mass) * arm**2) ** 2
 
 
 # ---------------------------------------------------------------------------- the fit
@@ -441,6 +485,7 @@ class _Setup:
     calibration: Calibration | None
     drift_rate_sigma: tuple[float, float]
     uncalibrated: NDArray[np.float64] | None = None
+    nuisance_cov: NDArray[np.float64] | None = None
 
     def fit(
         self,
@@ -456,6 +501,7 @@ class _Setup:
             uncalibrated=self.uncalibrated,
             positive_object=positive,
             whitening=whitening,
+            nuisance_cov=self.nuisance_cov,
         )
 
 
@@ -501,14 +547,24 @@ def fit_recording(
     mean_cov = functools.lru_cache(maxsize=None)(noise.mean_cov)  # per window length
 
     def observations(
-        kept: dict[int, list[_Block]], is_object: bool, load=None, delay: float = 0.0
+        kept: dict[int, list[_Block]], is_object: bool, loads=None, delay: float = 0.0
     ) -> list[Observation]:
+        """The windows of the recording (``is_object``) or of the tare recording, with
+        ``loads`` (by recording: mass kg, COM m) what their inertia scales with."""
         return [
             o
             for k, (r, obj) in enumerate(parts)
             if obj == is_object
             for o in _observations(
-                r, kept[id(r)], mean_cov, obj and with_object, k, load, delay, rates[id(r)]
+                r,
+                kept[id(r)],
+                mean_cov,
+                obj and with_object,
+                k,
+                None if loads is None else loads[id(r)],
+                delay,
+                rates[id(r)],
+                len(parts),
             )
         ]
 
@@ -535,10 +591,11 @@ def fit_recording(
             first = setup.fit(every(blocks, None, delay), whitening=first.whitening)
         else:
             delay = 0.0
-        mass = first.estimate.mass + (first.hand.mass if with_object and first.hand else 0.0)
-        load = (abs(mass), first.estimate.com)  # what the inertia's bound scales with
+        load = _loads(first, recording, tare)  # what the inertia scales with
+        variances = [inertia_variance(*load[id(r)]) for r, _ in parts]
+        setup.nuisance_cov = np.diag(np.repeat(variances, 6))  # each recording's inertia
         kept = {
-            key: [b for b in bs if b.rest or not _too_fast(r, b, noise, *load)]
+            key: [b for b in bs if b.rest or not _too_fast(r, b, noise, *load[key])]
             for (r, _), (key, bs) in zip(parts, blocks.items(), strict=True)
         }
         obs, fixed = both(kept, load, delay)
