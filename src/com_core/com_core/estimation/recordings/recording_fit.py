@@ -578,9 +578,10 @@ def fit_recording(
         return loaded + empty
 
     try:
-        setup.uncalibrated = setup.fit(every(blocks)).bias[0]  # the calibration leaves it
-        setup.calibration = calibration
         first = setup.fit(every(blocks))
+        if calibration is not None:  # on the load's wrench: less the bias a first fit gives
+            setup.uncalibrated, setup.calibration = first.bias[0], calibration
+            first = setup.fit(every(blocks))
         if motion:  # the delay's windows differ in their designs only: the same whitening
 
             def chi2_at(delay: float) -> float:
