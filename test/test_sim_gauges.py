@@ -80,6 +80,8 @@ def test_the_gain_warms_with_the_sensor():
     warm = g.apply(load, 1e6) / load - 1
     assert np.all(np.abs(warm) <= 2e-4 * 10.0) and np.any(warm != 0)
     assert_allclose(warm, g.coefficient * 10.0, rtol=1e-9)
+    at_once = gauges(sensitivity_drift=2e-4, warmup_kelvin=10.0, warmup_time=0.0)
+    assert_allclose(at_once.apply(load, 0.0), load * (1 + at_once.coefficient * 10.0))
 
 
 def test_a_sensor_without_gauge_errors_has_none_and_a_bad_band_is_refused_by_name():

@@ -90,10 +90,12 @@ class GaugeErrors:
         return self._mix[0] * _odd(u) + self._mix[1] * _even(u)
 
     def temperature(self, t: float) -> float:
-        """dT (K) at sim time ``t`` (s) from power-on."""
+        """dT (K) at sim time ``t`` (s) from power-on (warm at once for a ``warmup_time``
+        of 0, as the bias's warm-up, ``sensor.BiasDrift``)."""
         if self.warmup_kelvin == 0.0:
             return 0.0
-        return self.warmup_kelvin * (1.0 - math.exp(-t / self.warmup_time))
+        warm = 1.0 - math.exp(-t / self.warmup_time) if self.warmup_time > 0 else 1.0
+        return self.warmup_kelvin * warm
 
     def apply(self, wrench: ArrayLike, t: float = 0.0) -> NDArray[np.float64]:
         """What the gauges give (6,) for the true wrench (6,; N, N m) at sim time ``t``
