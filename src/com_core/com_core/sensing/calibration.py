@@ -24,12 +24,18 @@ common error is E applied to the object's wrench (the hand's cancels in the subt
 its share of the estimate's covariance is propagated through the estimator's Jacobian by
 the window means (``propagated``), and the chi-square test widens each window by its own
 share (``widened``; the correlation across windows is left out of that test).
+
+A sensor calibrated in place (``estimation.fits.in_place``) has an estimate E^ of E and
+what is left of it, E - E^, of covariance ``residual_cov`` (36, 36) in place of
+sigma^2 I: its readings are corrected by C^-1 = (I + S E^ S^-1)^-1 (``correct``), and the
+common error above is that of the rest (first order: C^-1 C = I + S (E - E^) S^-1), each
+formula with ``error_cov`` for sigma^2 I.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -43,11 +49,15 @@ _STEP = 1e-3
 @dataclass(frozen=True)
 class Calibration:
     """The sensor's stated ``accuracy`` (fraction of full scale, 95 %) and its full
-    scales (N, N m), which weigh the cross-talk between forces and torques."""
+    scales (N, N m), which weigh the cross-talk between forces and torques; for a sensor
+    calibrated in place, the estimate E^ (6, 6) of its error (``estimate``) and the
+    covariance of the rest (``residual_cov``, (36, 36), row-major vec(E))."""
 
     accuracy: float
     full_scale_f: float
     full_scale_tau: float
+    estimate: NDArray[np.float64] | None = field(default=None, compare=False)
+    residual_cov: NDArray[np.float64] | None = field(default=None, compare=False)
 
     @property
     def scale(self) -> NDArray[np.float64]:
@@ -56,8 +66,38 @@ class Calibration:
 
     @property
     def sigma(self) -> float:
-        """The spread of each element of E."""
+        """The prior spread of each element of E (the stated accuracy's)."""
         return self.accuracy / 2.0
+
+    @property
+    def error_cov(self) -> NDArray[np.float64]:
+        """(36, 36): the covariance of what is left of vec(E) (sigma^2 I uncalibrated)."""
+        if self.residual_cov is None:
+            return self.sigma**2 * np.eye(36)
+        return self.residual_cov
+
+    def spread(self, gain: ArrayLike) -> NDArray[np.float64]:
+        """(k, k): the covariance of k numbers that move with vec(E) by ``gain`` (k, 36)."""
+        g = np.asarray(gain, dtype=np.float64)
+        if self.residual_cov is None:
+            return self.sigma**2 * g @ g.T
+        return g @ self.residual_cov @ g.T
+
+    def draws(self, rng: np.random.Generator, n: int) -> NDArray[np.float64]:
+        """(n, 36): draws of what is left of vec(E)."""
+        if self.residual_cov is None:
+            return self.sigma * rng.standard_normal((n, 36))
+        return rng.multivariate_normal(np.zeros(36), self.residual_cov, n, method="eigh")
+
+    def correct(self, wrenches: ArrayLike) -> NDArray[np.float64]:
+        """Readings (..., 6; N, N m) corrected by the in-place estimate: C^-1 w with
+        C = I + S E^ S^-1; unchanged without one."""
+        w = np.asarray(wrenches, dtype=np.float64)
+        if self.estimate is None:
+            return w
+        s = self.scale
+        reading = np.eye(6) + s[:, None] * self.estimate / s[None, :]
+        return w @ np.linalg.inv(reading).T
 
     def jacobian(self, wrench: ArrayLike) -> NDArray[np.float64]:
         """(6, 36): d(C w) / d vec(E) at the wrench ``wrench`` (6,); row-major vec(E)."""
@@ -77,6 +117,8 @@ class Calibration:
         """(6 n, 6 n): the covariance of the common error of windows with ``wrenches``
         (n, 6) as their means (module)."""
         w = np.asarray(wrenches, dtype=np.float64).reshape(-1, 6)
+        if self.residual_cov is not None:
+            return self.spread(self.stacked_jacobian(w))
         s = self.scale
         normalised = w / s
         return self.sigma**2 * np.kron(normalised @ normalised.T, np.diag(s**2))

@@ -60,6 +60,7 @@ __all__ = [
     "BIAS_DRIFT_RATE",
     "KinematicFit",
     "Observation",
+    "Reference",
     "gravity_designs",
     "kinematic_ml",
     "locate_move",
@@ -100,6 +101,30 @@ class Observation:
     group: int = 0
     design: NDArray[np.float64] | None = None
     nuisance: NDArray[np.float64] | None = None
+
+
+@dataclass(frozen=True)
+class Reference:
+    """What is known of the object beforehand (a reference weight: a calibration in
+    place, ``estimation.fits.in_place``): its ``mass`` (kg) within ``mass_sigma`` (kg,
+    1 sigma) and, when known, its ``com`` (m, sensor frame) within ``com_sigma`` (m, per
+    axis). It enters the fit as a Gaussian prior on theta = (m, c = m p): pseudo-
+    observations, as the drift rate's prior does (c's sigma m com_sigma, first order)."""
+
+    mass: float
+    mass_sigma: float
+    com: tuple[float, float, float] | None = None
+    com_sigma: float = 0.0
+
+    def prior_rows(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(the prior's mean of theta (4,), its whitening rows (k, 4))."""
+        mean = np.zeros(4)
+        mean[0] = self.mass
+        rows = [np.eye(4)[0] / self.mass_sigma]
+        if self.com is not None:
+            mean[1:] = self.mass * np.asarray(self.com, dtype=np.float64)
+            rows += list(np.eye(4)[1:] / (self.mass * self.com_sigma))
+        return mean, np.array(rows)
 
 
 @dataclass(frozen=True)
@@ -217,6 +242,27 @@ class KinematicFit:
         cov = c[:6, :6] + c[6:12, 6:12] - c[:6, 6:12] - c[6:12, :6]
         return self.bias[0] - self.bias[1], cov
 
+    def calibration_error(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(E^ (6, 6), the covariance of vec(E) - vec(E^) (36, 36)): what the windows'
+        misfit says of the calibration's error E (``com_core.sensing.calibration``; the
+        fit's ``calibration`` its prior): its best linear unbiased prediction
+        P J^T Sigma^-1 (y - X x^), and the covariance of its error
+        P - P J^T Sigma^-1 J P + P J^T Sigma^-1 X cov(x^) X^T Sigma^-1 J P (Henderson's
+        mixed model: P the prior's covariance, J the windows' ``stacked_jacobian``, Sigma
+        their joint covariance, X the design of the fit's unknowns). Where the windows
+        say nothing of a part of E, the prior is left. ValueError without a calibration."""
+        model = self._model
+        if model.calibration is None:
+            raise ValueError("a fit without a calibration says nothing of its error")
+        n = 6 * len(model.obs)
+        reading = model.means.reshape(-1, 6) - model.uncalibrated
+        error_cov = model.calibration.error_cov
+        gain = error_cov @ (model.whiten @ model.calibration.stacked_jacobian(reading)).T
+        estimate = gain @ model.residuals(self._x)[:n]
+        through = gain @ model.jacobian(self._x)[:n]
+        cov = error_cov - gain @ gain.T + through @ self.cov @ through.T
+        return estimate.reshape(6, 6), (cov + cov.T) / 2
+
 
 def _design(gravity: NDArray[np.float64]) -> NDArray[np.float64]:
     """A (6, 4): the wrench of theta = (m, c) at gravity g (m/s^2, sensor frame)."""
@@ -282,6 +328,7 @@ class _Model:
         uncalibrated: NDArray[np.float64] | None = None,
         whitening: NDArray[np.float64] | None = None,
         nuisance_cov: NDArray[np.float64] | None = None,
+        reference: Reference | None = None,
     ) -> None:
         self.obs = list(observations)
         self.calibration = calibration
@@ -301,6 +348,7 @@ class _Model:
         )
         self.has_hand = bool(empty)
         self.has_object = any(o.load for o in self.obs)
+        self.prior = reference.prior_rows() if reference and self.has_object else None
         groups = 1 + max((o.group for o in self.obs if o.load), default=0)
         start = stride * self.epochs
         self.hand = slice(start, start + 4) if self.has_hand else slice(start, start)
@@ -466,16 +514,22 @@ class _Model:
         the rate prior."""
         predicted = self.linear_design(self.gravities(x)) @ x
         prior = [-x[r] / self.rate_sigma for r in self.rate]
+        if self.prior is not None:
+            mean, rows = self.prior
+            prior.append(rows @ (mean - x[self.object]))
         return np.concatenate([self.whiten @ (self.means - predicted), *prior])
 
     def jacobian(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """d residuals / d x: exact for the linear unknowns, central differences for the
         mounting and the tilt."""
         n = 6 * len(self.obs)
-        whitened = np.zeros((n + 6 * len(self.rate), self.size))
+        rows = 0 if self.prior is None else len(self.prior[1])
+        whitened = np.zeros((n + 6 * len(self.rate) + rows, self.size))
         whitened[:n] = -self.whiten @ self.linear_design(self.gravities(x))
         for e, r in enumerate(self.rate):
             whitened[n + 6 * e : n + 6 * e + 6, r] = -np.diag(1.0 / self.rate_sigma)
+        if rows:
+            whitened[len(whitened) - rows :, self.object] = -self.prior[1]
         for k in range(self.mount.start, self.mount.stop):
             step = np.zeros(self.size)
             step[k] = 1e-6
@@ -506,9 +560,7 @@ class _Model:
             @ self.calibration.stacked_jacobian(self.means.reshape(-1, 6) - self.uncalibrated)
         )
         diff = own - through
-        return self.calibration.sigma**2 * diff @ diff.T - self.calibration.sigma**2 * (
-            through @ through.T
-        )
+        return self.calibration.spread(diff) - self.calibration.spread(through)
 
 
 def _estimate(
@@ -546,6 +598,7 @@ def kinematic_ml(
     positive_object: bool = True,
     whitening: NDArray[np.float64] | None = None,
     nuisance_cov: NDArray[np.float64] | None = None,
+    reference: Reference | None = None,
 ) -> KinematicFit:
     """The ML fit of bias, hand and object to ``observations`` (see module), with
     ``gravity`` (m/s^2) in the base frame; ``fit_mount`` also fits the sensor's mounting
@@ -559,6 +612,8 @@ def kinematic_ml(
     ``whitening``: that of a fit of the same windows in the same order with the same
     calibration (``KinematicFit.whitening``), not computed again. ``nuisance_cov`` (k, k):
     the prior covariance of the unknowns the windows' ``nuisance`` designs multiply.
+    ``reference``: what is known of the object beforehand, a prior (``Reference``; its
+    pseudo-observations count in chi2's dof).
 
     Raises TooFewPosesError when the windows' orientations do not resolve the unknowns
     (a COM needs two gravity directions; a bias beside the load needs its gravity to
@@ -568,8 +623,9 @@ def kinematic_ml(
     g = np.asarray(gravity, dtype=np.float64).reshape(3)
     offset = None if uncalibrated is None else np.asarray(uncalibrated, dtype=np.float64)
     model = _Model(
-        observations, g, fit_mount, drift_rate_sigma, calibration, offset, whitening, nuisance_cov
-    )
+        observations, g, fit_mount, drift_rate_sigma, calibration, offset, whitening,
+        nuisance_cov, reference,
+    )  # fmt: skip
     if fit_mount and any(o.design is not None for o in model.obs):
         raise ValueError("windows with their own design cannot fit the mounting")
     if not model.obs:

@@ -250,7 +250,7 @@ def fit_motion(
         if calibration is None
         else _calibration_gain(calibration, Y @ fit.pi, noise, project, fit.cov, A_pi)
     )
-    calibration_cov = (0.0 if calibration is None else calibration.sigma**2) * gain @ gain.T
+    calibration_cov = 0.0 if calibration is None else calibration.spread(gain)
     cov = fit.cov + calibration_cov
     expected = 1.0  # chi^2 / dof the noise model and the encoders' noise explain
     if position_sigma > 0:
@@ -338,7 +338,7 @@ def _calibration_gain(
 ) -> NDArray[np.float64]:
     """(10, 36) d pi / d vec(E): the calibration's common error E on the object's wrench
     (n, 6) through the whitened least squares (``sensing.calibration``); its share of the
-    covariance is sigma_E^2 gain gain^T."""
+    covariance is ``calibration.spread(gain)``."""
     J = np.stack([calibration.jacobian(x) for x in object_wrench])  # (n, 6, 36)
     return cov @ project(A_pi).T @ project(_whiten(J, noise))
 

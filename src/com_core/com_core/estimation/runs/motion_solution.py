@@ -231,7 +231,7 @@ def check_motion(
     if calibration is not None:
         J = calibration.stacked_jacobian(wrenches[::every]).reshape(len(Y), 6, 36)
         read = J - np.einsum("nai,ij->naj", Y, hand.calibration_gain + fit.calibration_gain)
-        E = calibration.sigma * rng.standard_normal((_DRAWS, 36))
+        E = calibration.draws(rng, _DRAWS)
         errors += np.einsum("naj,dj->dna", read, E)
     errors -= errors.mean(axis=1, keepdims=True)
     learnt_from = 1 / noise.samples if noise.samples > 0 else 0.0  # 0: assumed, not learnt
