@@ -95,12 +95,19 @@ from com_core.estimation.runs.hand_motion import (
 )
 from com_core.estimation.runs.inbox import TIME_RESET_NS, shorten
 from com_core.estimation.runs.motion_solution import hand_motion_of
+from com_core.estimation.runs.sensor_calibration import (
+    SensorCalibration,
+    calibrated_owner,
+    calibration_path,
+    load_calibration,
+)
 from com_core.estimation.runs.settings import (
     SETTINGS,
     exploration_from,
     robot_from,
     use_cached_hand_motion,
     use_cached_tares,
+    use_sensor_calibration,
 )
 from com_core.estimation.runs.solution import Solution, format_solution
 from com_core.estimation.runs.tare_cache import cache_owner
@@ -202,9 +209,16 @@ class EstimatorNode(Node):
     def _param(self, name: str):
         return self.get_parameter(name).value
 
-    def _owner(self) -> str:
-        """The hand on the sensor, which the cached hand motion must belong to."""
-        return cache_owner(self._param("hand_id"), self._param("sensor_id"))
+    def _calibration(self) -> SensorCalibration | None:
+        """The sensor's calibration in place, kept beside the tare cache; None without."""
+        cache, sensor = self._param("tare_cache"), self._param("sensor_id")
+        return load_calibration(calibration_path(cache), sensor) if cache and sensor else None
+
+    def _owner(self, calibration: SensorCalibration | None) -> str:
+        """The hand on the sensor as ``calibration`` left it, which the cached hand motion
+        must belong to."""
+        owner = cache_owner(self._param("hand_id"), self._param("sensor_id"))
+        return calibrated_owner(owner, calibration)
 
     def validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
         """Refuse a value its row in ``PARAMETERS`` refuses (settings apply from the next
@@ -229,10 +243,12 @@ class EstimatorNode(Node):
         """The current exploration solved up to ``until_ns`` with the parameters in force
         now; a defect is an ERROR solution, with its traceback in the log."""
         try:
-            cache = self._param("tare_cache")
+            cache, calibration = self._param("tare_cache"), self._calibration()
+            use_sensor_calibration(self._exploration, calibration)
             use_cached_tares(self._exploration, cache)
             if cache:
-                use_cached_hand_motion(self._exploration, hand_motion_path(cache), self._owner())
+                owner = self._owner(calibration)
+                use_cached_hand_motion(self._exploration, hand_motion_path(cache), owner)
             return self._exploration.solve(until_ns=until_ns)
         except Exception as exc:  # a defect must not kill the node: report it as ERROR
             self.internal_errors += 1
@@ -245,7 +261,7 @@ class EstimatorNode(Node):
         hand moved) beside the tare cache ``cache``, unless it holds that motion's already."""
         entry = hand_motion_of(
             self._exploration, solution.motion if solution.usable else None,
-            self._exploration.robot, self._owner(),
+            self._exploration.robot, self._owner(self._calibration()),
         )  # fmt: skip
         if entry is None:
             return

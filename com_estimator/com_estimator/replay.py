@@ -39,7 +39,8 @@ run's cached tare, BAG/tare.json (``--tare``).
 The robot model of a kinematic fit is the bag's /robot_description with the sensor and
 base frames of the run's robot configuration, BAG/robot.yaml (``--robot``), unless
 ``--sensor-frame`` or ``--base-frame`` set them. A run in motion that reused the empty
-hand's motion fit of an earlier run has it in BAG/hand_motion.json.
+hand's motion fit of an earlier run has it in BAG/hand_motion.json, and a run of a sensor
+calibrated in place its calibration in BAG/sensor_calibration.json.
 
 A bag whose MCAP file was cut short (no Footer) is read up to the cut, and one with a
 damaged chunk (a bad sector, a copy gone wrong) is read around it
@@ -58,6 +59,7 @@ import functools
 import io
 import json
 import sys
+import time
 import traceback
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import nullcontext, redirect_stderr, redirect_stdout
@@ -74,6 +76,7 @@ from com_core.contract import (
     WRENCH_TOPIC,
 )
 from com_core.estimation.fits.errors import EstimationError
+from com_core.estimation.fits.known_gravity import Reference
 from com_core.estimation.recordings import (
     Recording,
     RecordingFit,
@@ -87,6 +90,14 @@ from com_core.estimation.runs.exploration import Exploration
 from com_core.estimation.runs.feed import feed_bag
 from com_core.estimation.runs.fit_setup import WRENCHES
 from com_core.estimation.runs.hand_motion import HAND_MOTION_FILE, load_hand_motion
+from com_core.estimation.runs.sensor_calibration import (
+    CALIBRATION_FILE,
+    SensorCalibration,
+    calibrate_exploration,
+    calibration_path,
+    load_calibration,
+    save_calibration,
+)
 from com_core.estimation.runs.settings import (
     BAG_SETTINGS_FILE,
     SETTINGS,
@@ -95,6 +106,7 @@ from com_core.estimation.runs.settings import (
     read_bag_settings,
     robot_from,
     use_cached_tares,
+    use_sensor_calibration,
 )
 from com_core.estimation.runs.solution import (
     Solution,
@@ -108,6 +120,11 @@ from com_core.report.recording import write_recording_report
 from com_core.robot.config import BAG_ROBOT_FILE, RobotConfigError, read_robot_config
 
 ROBOT_FRAMES = ("sensor_frame", "base_frame")
+REFERENCE_MASS_SHARE = 1e-4
+"""A reference weight's default 1-sigma, of its mass (an OIML class M1 weight of 1 kg is
+within 50 mg)."""
+DEFAULT_TARE_CACHE = "tare_cache.json"
+"""The nodes' tare cache in their bag directory (``planning.decisions.tare_cache_path``)."""
 """The settings a run's robot configuration gives the replay."""
 
 
@@ -163,6 +180,26 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"robot configuration whose frames the fit takes (default: BAG/{BAG_ROBOT_FILE} "
         "if present)",
     )
+    calibration = parser.add_argument_group(
+        "calibration in place",
+        "the run's object was a reference weight: identify the sensor's calibration from "
+        "it and keep it for the sensor (estimation.fits.in_place), in place of an estimate",
+    )
+    calibration.add_argument("--reference-mass", type=float, metavar="KG",
+                             help="the reference's known mass")  # fmt: skip
+    calibration.add_argument(
+        "--reference-mass-sigma", type=float, metavar="KG",
+        help=f"its 1-sigma (default: {REFERENCE_MASS_SHARE:g} of it)",
+    )  # fmt: skip
+    calibration.add_argument("--reference-com", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                             help="its COM when known, m, sensor frame")  # fmt: skip
+    calibration.add_argument("--reference-com-sigma", type=float, default=0.002, metavar="M",
+                             help="the COM's 1-sigma per axis (default: 0.002)")  # fmt: skip
+    calibration.add_argument(
+        "--calibration", type=Path, metavar="FILE",
+        help=f"where to keep it (default: {CALIBRATION_FILE} beside the bag's directory, "
+        f"where the nodes' default tare cache is)",
+    )  # fmt: skip
     parser.add_argument(
         "--json", action="store_true", help="print one JSON object per run (JSON Lines)"
     )
@@ -191,9 +228,17 @@ def main(argv: list[str] | None = None) -> int:
         refused.append(refusal("--tare", str(args.tare), "is no file"))
     if args.tare_recording is not None and not args.tare_recording.exists():
         refused.append(refusal("--tare-recording", str(args.tare_recording), "does not exist"))
+    if args.reference_mass is not None and not args.reference_mass > 0:
+        refused.append(refusal("--reference-mass", args.reference_mass, "must be > 0 kg"))
+    for name in ("reference_mass_sigma", "reference_com_sigma"):
+        value = getattr(args, name)
+        if value is not None and not value > 0:
+            refused.append(refusal("--" + name.replace("_", "-"), value, "must be > 0"))
     if refused:
         parser.error("; ".join(refused))  # before any run is read: exit code 2
     runs = [run for path in args.bags for run in bag_directories(path)]
+    if args.reference_mass is not None and len(runs) != 1:
+        parser.error(f"--reference-mass calibrates from one run, not {len(runs)}")
     codes, rows = [], []
     with ProcessPoolExecutor(args.jobs) if args.jobs > 1 else nullcontext() as pool:
         mapped = (pool or builtins).map(replay_captured, runs, [args] * len(runs))
@@ -306,6 +351,11 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
         if name not in settings:
             settings[name] = getattr(robot, name) if robot else SETTINGS[name].default
     exploration = exploration_from(settings)
+    sensor_id = robot.sensor_id if robot else ""  # the run's calibration, as the node took it
+    if args.reference_mass is None:  # a calibration reads the sensor as it reads
+        use_sensor_calibration(
+            exploration, load_calibration(args.bag / CALIBRATION_FILE, sensor_id)
+        )
     use_cached_tares(exploration, args.tare or args.bag / BAG_TARE_FILE)
     reading = BagReading()
     n_wrench, n_label = feed_bag(
@@ -315,6 +365,8 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
         exploration.robot, exploration.robot_problem = robot_from(
             settings, reading.robot_description
         )
+    if args.reference_mass is not None:
+        return calibrate(args, exploration, sensor_id), None
     if (cached := load_hand_motion(args.bag / HAND_MOTION_FILE)) is not None:
         exploration.hand_motion = cached.fit  # the node's, from its cache
     if not n_label and exploration.robot is not None and exploration.joint_states:
@@ -356,6 +408,39 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
             print("bag: the cut lies after done: every window of the run was read")
         print(format_solution(solution))
     return (1 if solution.status == ERROR else 0), solution
+
+
+def calibrate(args: argparse.Namespace, exploration: Exploration, sensor_id: str) -> int:
+    """The sensor's calibration identified from the run in ``args.bag``, whose object was
+    the reference weight (``--reference-mass``), printed and kept for ``sensor_id``
+    (``sensor_calibration``) unless its problems say not to; the exit code."""
+    if not sensor_id:
+        why = f"the run's {BAG_ROBOT_FILE} names no sensor_id (give one with --robot)"
+        print(f"replay: {args.bag}: a calibration is kept per sensor: {why}", file=sys.stderr)
+        return 2
+    com_sigma = args.reference_com_sigma if args.reference_com is not None else 0.0
+    reference = Reference(
+        args.reference_mass,
+        args.reference_mass_sigma or REFERENCE_MASS_SHARE * args.reference_mass,
+        None if args.reference_com is None else tuple(args.reference_com),
+        com_sigma,
+    )
+    try:
+        result, notes = calibrate_exploration(exploration, reference)
+    except ValueError as error:
+        print(f"{args.bag}: calibration ERROR: {error}")
+        return 1
+    print(f"{args.bag}: {result.summary()}")
+    for note in notes:
+        print(f"  {note}")
+    if problems := result.problems(exploration.alpha):
+        print("calibration not kept: " + "; ".join(problems))
+        return 1
+    path = args.calibration or calibration_path(args.bag.parent / DEFAULT_TARE_CACHE)
+    save_calibration(path, SensorCalibration(sensor_id, time.time(), result))
+    print(f"calibration of {sensor_id!r} kept in {path}: the estimator applies it to that "
+          "sensor's runs (with the tare cache beside it)")  # fmt: skip
+    return 0
 
 
 def replay_recording(

@@ -89,15 +89,20 @@ class Calibration:
             return self.sigma * rng.standard_normal((n, 36))
         return rng.multivariate_normal(np.zeros(36), self.residual_cov, n, method="eigh")
 
-    def correct(self, wrenches: ArrayLike) -> NDArray[np.float64]:
-        """Readings (..., 6; N, N m) corrected by the in-place estimate: C^-1 w with
-        C = I + S E^ S^-1; unchanged without one."""
-        w = np.asarray(wrenches, dtype=np.float64)
+    @property
+    def correction(self) -> NDArray[np.float64]:
+        """(6, 6) C^-1 with C = I + S E^ S^-1: what corrects a reading (I without an
+        estimate)."""
         if self.estimate is None:
-            return w
+            return np.eye(6)
         s = self.scale
-        reading = np.eye(6) + s[:, None] * self.estimate / s[None, :]
-        return w @ np.linalg.inv(reading).T
+        return np.linalg.inv(np.eye(6) + s[:, None] * self.estimate / s[None, :])
+
+    def correct(self, wrenches: ArrayLike) -> NDArray[np.float64]:
+        """Readings (..., 6; N, N m) corrected by the in-place estimate (``correction``);
+        unchanged without one."""
+        w = np.asarray(wrenches, dtype=np.float64)
+        return w if self.estimate is None else w @ self.correction.T
 
     def jacobian(self, wrench: ArrayLike) -> NDArray[np.float64]:
         """(6, 36): d(C w) / d vec(E) at the wrench ``wrench`` (6,); row-major vec(E)."""

@@ -61,6 +61,14 @@ from com_core.estimation.runs.hand_motion import (
     save_hand_motion,
 )
 from com_core.estimation.runs.motion_solution import MOTION
+from com_core.estimation.runs.sensor_calibration import (
+    CALIBRATION_FILE,
+    SensorCalibration,
+    calibrated_owner,
+    calibration_path,
+    load_calibration,
+    save_calibration,
+)
 from com_core.estimation.runs.settings import BAG_SETTINGS_FILE, SETTINGS, write_bag_settings
 from com_core.estimation.runs.solution import noise_line, vector_value, verification_lines
 from com_core.estimation.runs.tare_cache import (
@@ -298,9 +306,16 @@ class ExplorationRun:
     def _cache_path(self) -> Path:
         return tare_cache_path(self.p("tare_cache"), self.p("bag_dir"))
 
+    def _calibration(self) -> SensorCalibration | None:
+        """The sensor's calibration in place, kept beside the tare cache; None without."""
+        sensor = self.p("sensor_id")
+        return load_calibration(calibration_path(self._cache_path()), sensor) if sensor else None
+
     def _owner(self) -> str:
-        """The hand on the sensor, which every cached thing of this run belongs to."""
-        return cache_owner(self.p("hand_id"), self.p("sensor_id"))
+        """The hand on the sensor as calibrated, which every cached thing of this run
+        belongs to."""
+        owner = cache_owner(self.p("hand_id"), self.p("sensor_id"))
+        return calibrated_owner(owner, self._calibration())
 
     def _ready(self) -> Choreography:
         """The paths the run writes are writable, the arm's joint states come, the
@@ -495,6 +510,8 @@ class ExplorationRun:
         self.progress.recording(planned_s)
         write_robot_config(self.config, bag / BAG_ROBOT_FILE)  # the replay's frames
         write_bag_settings(settings, bag / BAG_SETTINGS_FILE)  # the replay's defaults
+        if (calibration := self._calibration()) is not None:
+            save_calibration(bag / CALIBRATION_FILE, calibration)  # the replay's
         return bag
 
     def _estimate(self, end: int, plan_line: str, bag: Path) -> tuple[bool, str]:

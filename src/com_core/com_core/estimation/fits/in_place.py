@@ -4,7 +4,7 @@ A sensor reads C w = (I + S E S^-1) w (``com_core.sensing.calibration``): E, its
 cross-talk error, is what limits the accuracy of every estimate once the noise has been
 averaged down, and repeating runs does not average it away. A reference weight of known
 mass, held through the poses of a static exploration with the empty hand at the same poses
-(one bias epoch), is fitted by ``known_gravity.kinematic_ml`` with the reference as a
+(its tare pass), is fitted by ``known_gravity.kinematic_ml`` with the reference as a
 prior on the object (``Reference``) and the sensor's stated accuracy as the prior of E;
 what the windows' misfit says of E is its best linear unbiased prediction
 (``KinematicFit.calibration_error``), with the covariance of what is left.
@@ -128,15 +128,12 @@ def calibrate_in_place(
 ) -> tuple[InPlaceCalibration, KinematicFit]:
     """The calibration the windows identify (module): ``observations`` of the empty hand
     and of the ``reference`` at static poses, read raw (not corrected by an earlier
-    calibration) in one bias epoch; ``stated`` the sensor's stated accuracy and full
-    scales, the prior of E. With the fit it came from. ValueError without both empty-hand
-    and reference windows, or with more than one epoch; the fit's own errors
-    (``kinematic_ml``) when the poses do not resolve it."""
+    calibration); ``stated`` the sensor's stated accuracy and full scales, the prior of E.
+    With the fit it came from. ValueError without both empty-hand and reference windows;
+    the fit's own errors (``kinematic_ml``) when the poses do not resolve it."""
     observations = list(observations)
     if not any(o.load for o in observations) or all(o.load for o in observations):
         raise ValueError("a calibration in place needs the empty hand and the reference")
-    if any(o.epoch for o in observations):
-        raise ValueError("a calibration in place fits one bias epoch (its own tare pass)")
     prior = Calibration(stated.accuracy, stated.full_scale_f, stated.full_scale_tau)
     fit = kinematic_ml(
         observations, gravity, drift_rate_sigma=drift_rate_sigma, calibration=prior,

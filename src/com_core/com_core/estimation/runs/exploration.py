@@ -31,6 +31,14 @@ class Exploration(Inbox, FitSetup):
     """Collects one exploration's samples and labels (``Inbox``) and solves it with its
     ``FitSetup`` (attributes of both; ``method`` first)."""
 
+    def samples(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        """All kept samples (``Inbox.samples``), corrected by the sensor's calibration in
+        place when it has one (``sensing.calibration``; kept as read)."""
+        stamps, wrenches = Inbox.samples(self)
+        if self.calibration is None:
+            return stamps, wrenches
+        return stamps, self.calibration.correct(wrenches)
+
     def spans(self, until_ns: int | None = None) -> dict[str, list[tuple[int, int]]]:
         """[start, stop) stamps (ns) of every tare, object and verify window, per label
         (``cutting.spans``)."""

@@ -234,25 +234,22 @@ class FitSetup:
         )
         return Consistency(False, e.chi2, e.dof, e.p_value, self.alpha, None, message)
 
-    def kinematic_fit(
+    def kinematic_observations(
         self,
         inbox: Inbox,
         objects: list[Window],
         subtracted: list[Window],
         fresh_tares: Mapping[str, Window],
-        information: str,
         until_ns: int | None,
         notes: list[str],
-    ) -> tuple[KinematicFit, list[Observation]]:
-        """The hand, the bias and the object fitted to every window with its orientation
-        (``known_gravity.kinematic_ml``; orientations and times from ``inbox``): this
-        run's empty-hand windows (its tare pass, or the window that checks a cached tare)
-        share this run's bias, a cached tare pass has its own; a window without an
-        orientation is left out, with the reason in ``notes``. A cached tare without joint
-        positions cannot give the hand at other poses: the tare-subtracted windows
-        (``subtracted``) are fitted, as the load alone. A bias drift beyond
-        ``max_drift_f`` or ``max_drift_tau`` is noted (a WARN). Returns the fit and its
-        observations."""
+    ) -> list[Observation]:
+        """Every window with its orientation and time (from ``inbox``) for
+        ``known_gravity.kinematic_ml``: this run's empty-hand windows (its tare pass, or
+        the window that checks a cached tare) share this run's bias, a cached tare pass
+        has its own; a window without an orientation is left out, with the reason in
+        ``notes``. A cached tare without joint positions cannot give the hand at other
+        poses: the tare-subtracted windows (``subtracted``) stand for the objects', as the
+        load alone (MissingTareError without them)."""
         assert self.robot is not None
         robot = self.robot
         observations: list[Observation] = []
@@ -294,6 +291,27 @@ class FitSetup:
             loads = subtracted
         for window in loads:
             add(window, OBJECT_PREFIX + window.pose, True, 0)
+        return observations
+
+    def kinematic_fit(
+        self,
+        inbox: Inbox,
+        objects: list[Window],
+        subtracted: list[Window],
+        fresh_tares: Mapping[str, Window],
+        information: str,
+        until_ns: int | None,
+        notes: list[str],
+    ) -> tuple[KinematicFit, list[Observation]]:
+        """The hand, the bias and the object fitted to every window with its orientation
+        (``kinematic_observations``; ``known_gravity.kinematic_ml``). A bias drift beyond
+        ``max_drift_f`` or ``max_drift_tau`` is noted (a WARN). Returns the fit and its
+        observations."""
+        assert self.robot is not None
+        robot = self.robot
+        observations = self.kinematic_observations(
+            inbox, objects, subtracted, fresh_tares, until_ns, notes
+        )
         fit = kinematic_ml(
             observations,
             robot.gravity,

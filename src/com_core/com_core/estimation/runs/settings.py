@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +29,7 @@ from com_core.estimation.runs.fit_setup import (
 )
 from com_core.estimation.runs.hand_motion import load_hand_motion
 from com_core.estimation.runs.inbox import MAX_LABEL_GAP
+from com_core.estimation.runs.sensor_calibration import SensorCalibration
 from com_core.estimation.runs.tare_cache import TareCache, load_tares
 from com_core.inputs import Input, table_of
 from com_core.robot.config import default_robot_config
@@ -46,6 +48,7 @@ __all__ = [
     "robot_from",
     "use_cached_hand_motion",
     "use_cached_tares",
+    "use_sensor_calibration",
     "write_bag_settings",
 ]
 
@@ -215,12 +218,26 @@ def load_cached_tares(path: str | Path) -> TareCache | None:
 
 
 def use_cached_tares(exploration: Exploration, path: str | Path) -> None:
-    """Give ``exploration`` the current entry of the cache file ``path``: its tare windows,
-    their joint positions and times, and the noise learnt from them (none for '', no file
-    or a broken one)."""
+    """Give ``exploration`` the current entry of the cache file ``path``: its tare windows
+    (corrected by a calibration in place, ``use_sensor_calibration``), their joint
+    positions and times, and the noise learnt from them (none for '', no file or a broken
+    one)."""
     cache = load_cached_tares(path) or TareCache("", 0.0, {})
     exploration.tares, exploration.tare_joints = cache.windows, cache.joints
+    if exploration.calibration is not None and exploration.calibration.estimate is not None:
+        m = exploration.calibration.correction  # the cache keeps the windows as read
+        exploration.tares = {pose: replace(w, mean=m @ w.mean, cov=m @ w.cov @ m.T)
+                             for pose, w in cache.windows.items()}  # fmt: skip
     exploration.tare_times, exploration.noise = cache.times, cache.noise
+
+
+def use_sensor_calibration(exploration: Exploration, entry: SensorCalibration | None) -> None:
+    """Give ``exploration`` its sensor's calibration in place (``sensor_calibration``):
+    its samples read corrected (and the cached tare windows ``use_cached_tares`` gives it
+    after), its fits weighing what is left of the error; None leaves the stated accuracy
+    of its settings."""
+    if entry is not None:
+        exploration.calibration = entry.calibration
 
 
 def use_cached_hand_motion(exploration: Exploration, path: str | Path, owner: str) -> None:
