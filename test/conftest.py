@@ -324,3 +324,23 @@ def write_stream_bag(path: Path, stream: Any, labels: bool = True, **writer: Any
     with CrashSafeBagWriter(path, **writer) as bag:
         for stamp, topic, raw in sorted(messages, key=lambda m: m[0]):
             bag.write(topic, TOPIC_TYPES[topic], stamp, raw)
+
+
+def made_up_calibration(sensor: str, share: float = 0.1) -> Any:
+    """A calibration of ``sensor`` as one in place would give: an estimate drawn from the
+    stated prior, ``share`` of the prior's variance left."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from com_core.estimation.fits.in_place import InPlaceCalibration
+    from com_core.estimation.fits.known_gravity import Reference
+    from com_core.estimation.runs.sensor_calibration import SensorCalibration
+    from com_core.sensing.calibration import Calibration
+
+    stated = Calibration(0.01, 290.0, 10.0)
+    estimate = np.random.default_rng(7).normal(0.0, stated.sigma, (6, 6))
+    left = share * stated.error_cov
+    result = InPlaceCalibration(replace(stated, estimate=estimate, residual_cov=left),
+                                Reference(1.0, 1e-4), 40.0, 42, ("home", "tilt_x+"))  # fmt: skip
+    return SensorCalibration(sensor, 1.8e9, result)

@@ -12,7 +12,7 @@ import re
 from pathlib import Path
 
 import pytest
-from conftest import PANDA
+from conftest import PANDA, made_up_calibration
 from fake_robot import HOME, MS, NOISE, OBJECT, PICK, SAMPLE, FakeWorld
 
 from com_core.contract import (
@@ -27,6 +27,12 @@ from com_core.contract import (
     TARE_PREFIX,
     VERIFY_PREFIX,
     WINDOW_PREFIXES,
+)
+from com_core.estimation.runs.sensor_calibration import (
+    CALIBRATION_FILE,
+    calibration_path,
+    load_calibration,
+    save_calibration,
 )
 from com_core.estimation.runs.settings import BAG_SETTINGS_FILE
 from com_core.estimation.runs.tare_cache import BAG_TARE_FILE
@@ -233,6 +239,29 @@ def test_a_run_on_another_sensor_takes_its_own_tare_pass(tmp_path):
     owners = {entry.split("|")[0] for entry in json.loads((tmp_path / "tare.json").read_text())
               ["entries"]}  # fmt: skip
     assert owners == {"panda_hand on sim-realistic-0", "panda_hand on ft-2"}
+
+
+def test_a_sensor_calibrated_in_place_takes_a_tare_of_its_own_and_its_bag_keeps_the_calibration(
+    tmp_path,
+):
+    """A calibration kept for the run's sensor beside the tare cache changes what its
+    cached things belong to: the uncalibrated tare is not reused, and the bag keeps a copy
+    of the calibration for the replay."""
+    world = FakeWorld()
+    assert make_run(world, tmp_path).execute().status == OK
+    first = len(world.labels)
+    entry = made_up_calibration("sim-realistic-0")
+    save_calibration(calibration_path(tmp_path / "tare.json"), entry)
+    outcome = make_run(world, tmp_path, run_id="run-2").execute()
+    assert outcome.status == OK, outcome.message
+    second = [label for _, label in world.labels[first:] if label.startswith(TARE_PREFIX)]
+    assert len(second) > 2 and f"{TARE_PREFIX}home{BIAS_WINDOW_SUFFIX}" not in second
+    copy = load_calibration(tmp_path / "bags" / "run-2" / CALIBRATION_FILE, "sim-realistic-0")
+    assert copy is not None and copy.as_json() == entry.as_json()
+    owners = {entry.split("|")[0] for entry in json.loads((tmp_path / "tare.json").read_text())
+              ["entries"]}  # fmt: skip
+    assert owners == {"panda_hand on sim-realistic-0",
+                      "panda_hand on sim-realistic-0 calibrated 2027-01-15T08:00:00Z"}  # fmt: skip
 
 
 def test_a_full_disk_ends_the_run_by_name_with_the_arm_home_and_the_bag_closed(tmp_path):

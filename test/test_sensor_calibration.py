@@ -7,19 +7,15 @@ from __future__ import annotations
 
 import json
 import shutil
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import WORKSPACE, replay_json
+from conftest import WORKSPACE, made_up_calibration, replay_json
 
-from com_core.estimation.fits.in_place import InPlaceCalibration
-from com_core.estimation.fits.known_gravity import Reference
 from com_core.estimation.runs.exploration import Exploration
 from com_core.estimation.runs.sensor_calibration import (
     CALIBRATION_FILE,
-    SensorCalibration,
     calibrated_owner,
     load_calibration,
     save_calibration,
@@ -27,7 +23,6 @@ from com_core.estimation.runs.sensor_calibration import (
 from com_core.estimation.runs.settings import use_cached_tares, use_sensor_calibration
 from com_core.estimation.runs.tare_cache import BAG_TARE_FILE, load_tares
 from com_core.report.run import read_run
-from com_core.sensing.calibration import Calibration
 from com_estimator import replay
 
 SAMPLE = WORKSPACE / "bags" / "sample"
@@ -51,23 +46,12 @@ def calibrate(bag: Path, mass: float, capsys, *options: str) -> tuple[int, str]:
     return code, captured.out + captured.err
 
 
-def made_up(sensor: str = SENSOR, share: float = 0.1) -> SensorCalibration:
-    """A calibration of ``sensor`` as one in place would give: an estimate drawn from the
-    stated prior, ``share`` of the prior's variance left."""
-    stated = Calibration(0.01, 290.0, 10.0)
-    estimate = np.random.default_rng(7).normal(0.0, stated.sigma, (6, 6))
-    left = share * stated.error_cov
-    result = InPlaceCalibration(replace(stated, estimate=estimate, residual_cov=left),
-                                Reference(1.0, 1e-4), 40.0, 42, ("home", "tilt_x+"))  # fmt: skip
-    return SensorCalibration(sensor, 1.8e9, result)
-
-
 def test_a_calibration_is_kept_per_sensor_to_the_last_bit(tmp_path):
     path = tmp_path / CALIBRATION_FILE
     assert load_calibration(path, SENSOR) is None
-    entry = made_up()
+    entry = made_up_calibration(SENSOR)
     save_calibration(path, entry)
-    save_calibration(path, made_up("another-sensor", 0.2))
+    save_calibration(path, made_up_calibration("another-sensor", 0.2))
     again = load_calibration(path, SENSOR)
     assert again is not None and again.as_json() == entry.as_json()
     np.testing.assert_array_equal(again.calibration.residual_cov, entry.calibration.residual_cov)
@@ -81,18 +65,18 @@ def test_a_calibration_is_kept_per_sensor_to_the_last_bit(tmp_path):
 
 def test_a_run_of_a_calibrated_sensor_reads_through_the_copy_beside_its_bag(sample):
     raw = replay_json(sample)
-    save_calibration(sample / CALIBRATION_FILE, made_up())
+    save_calibration(sample / CALIBRATION_FILE, made_up_calibration(SENSOR))
     calibrated = replay_json(sample)
     assert calibrated == replay_json(sample)  # the same numbers, to the last bit
     assert calibrated["mass"] != raw["mass"]
     assert calibrated["sigma_mass"] < raw["sigma_mass"]  # a tenth of the error is left
     (sample / CALIBRATION_FILE).unlink()
-    save_calibration(sample / CALIBRATION_FILE, made_up("another-sensor"))
+    save_calibration(sample / CALIBRATION_FILE, made_up_calibration("another-sensor"))
     assert replay_json(sample) == raw  # another sensor's is not this run's
 
 
 def test_the_samples_and_the_cached_tare_read_corrected(sample):
-    entry = made_up()
+    entry = made_up_calibration(SENSOR)
     exploration = Exploration()
     exploration.add_samples([1, 2], np.array([[1.0, 2, 3, 0.1, 0.2, 0.3]] * 2), "")
     raw = exploration.samples()[1]
