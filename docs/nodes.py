@@ -438,7 +438,10 @@ def sequencer_node() -> list[str]:
                   "the result: `status` (OK, WARN, ERROR, CANCELLED), `message`, `estimate` "
                   "with its 4x4 `covariance`, `verification` and `bag`; one goal at a time "
                   "(another is answered ERROR, still running); cancel puts back what the hand "
-                  "holds, goes home, labels the bag `cancelled` and closes it",
+                  "holds, goes home, labels the bag `cancelled` and closes it; "
+                  "`information` and `reference_mass` (kg: the object is a reference weight, "
+                  "the run calibrates the sensor in place) are the estimator's settings for "
+                  "the run, restored after it",
                   "com_interfaces/action/Explore"),
         interface(c.EXPLORE_SERVICE, "server", "the same exploration with the parameters, "
                   "for scripts; answers with the one-line summary, `success` only for OK",

@@ -91,22 +91,23 @@ def test_the_samples_and_the_cached_tare_read_corrected(sample):
 
 def test_a_reference_too_light_for_the_gains_is_not_kept(sample, capsys):
     code, out = calibrate(sample, read_run(sample).truth.mass, capsys)  # a 100 g object
-    assert code == 1 and "calibration not kept" in out and "heavier reference" in out, out
+    assert code == 0 and "calibration not kept" in out and "heavier reference" in out, out
     assert "identified force from force" in out
     assert not (sample.parent / CALIBRATION_FILE).exists()
 
 
 def test_a_reference_the_readings_disagree_with_is_not_kept(sample, capsys):
     code, out = calibrate(sample, 1.5 * read_run(sample).truth.mass, capsys)
-    assert code == 1 and "calibration not kept" in out and "chi^2" in out, out
+    assert code == 0 and "calibration not kept" in out and "chi^2" in out, out
     assert not (sample.parent / CALIBRATION_FILE).exists()
 
 
 def test_a_calibration_needs_a_named_sensor_and_a_mass(sample, capsys):
     robot = sample / "robot.yaml"
     robot.write_text(robot.read_text().replace(f"    sensor_id: {SENSOR}\n", ""))
-    code, out = calibrate(sample, 1.0, capsys)
-    assert code == 2 and "names no sensor_id" in out, out
+    out = calibrate(sample, 1.0, capsys)[1]
+    assert "calibration not kept" in out and "names no sensor_id" in out, out
+    assert not (sample.parent / CALIBRATION_FILE).exists()
     with pytest.raises(SystemExit) as stop:
         replay.main([str(sample), "--reference-mass", "-1"])
     assert stop.value.code == 2

@@ -100,6 +100,7 @@ from com_core.estimation.runs.sensor_calibration import (
     calibrated_owner,
     calibration_path,
     load_calibration,
+    save_calibration,
 )
 from com_core.estimation.runs.settings import (
     SETTINGS,
@@ -139,8 +140,8 @@ PARAMETERS = SETTINGS | table_of([
     Input("hand_id", default_robot_config().hand_id, "names the hand; a payload file of "
           "another hand is refused (robot configuration)", kind="str"),
     Input("sensor_id", default_robot_config().sensor_id, "names the sensor and its settings; "
-          "a cached hand motion of another sensor is not used (robot configuration)",
-          kind="str"),
+          "a cached hand motion of another sensor is not used, and its calibration in place "
+          "is kept and read under it (robot configuration)", kind="str"),
     Input("max_joint_state_age", MAX_JOINT_STATE_AGE, "a wrench this much past the latest "
           "joint state is not compensated", unit="s", low=0.0, high=60.0, low_open=True),
 ])  # fmt: skip
@@ -164,6 +165,7 @@ class EstimatorNode(Node):
         self._compensator: Compensator | None = None
         self._compensation_problem = ""  # why a payload file was refused
         self._exploration = self._new_exploration()
+        self._calibration_of: Exploration | None = None  # whose calibration was kept
         self._done_stamp: int | None = None
         self._done_wall = 0.0
         self._live_stamp: int | None = None  # an object window closed here: solve so far
@@ -244,7 +246,8 @@ class EstimatorNode(Node):
         now; a defect is an ERROR solution, with its traceback in the log."""
         try:
             cache, calibration = self._param("tare_cache"), self._calibration()
-            use_sensor_calibration(self._exploration, calibration)
+            if self._exploration.reference is None:  # a calibration reads the sensor raw
+                use_sensor_calibration(self._exploration, calibration)
             use_cached_tares(self._exploration, cache)
             if cache:
                 owner = self._owner(calibration)
@@ -275,14 +278,34 @@ class EstimatorNode(Node):
         except OSError as exc:
             self.get_logger().error(f"the empty hand's motion fit not saved: {exc}")
 
+    def _keep_calibration(self, solution: Solution, cache: str) -> None:
+        """Keep the calibration in place that ``solution`` (of a reference weight)
+        identified, for the sensor ``sensor_id``, beside the tare cache ``cache``
+        (``sensor_calibration``): once per exploration."""
+        if solution.calibration is None or self._calibration_of is self._exploration:
+            return
+        sensor = self._param("sensor_id")
+        if not sensor:
+            self.get_logger().error("the calibration in place not kept: no sensor_id names "
+                                    "the sensor it belongs to")  # fmt: skip
+            return
+        path = calibration_path(cache)
+        try:
+            save_calibration(path, SensorCalibration(sensor, time.time(), solution.calibration))
+            self._calibration_of = self._exploration
+            self.get_logger().info(f"the calibration in place of {sensor!r} kept in {path}")
+        except OSError as exc:
+            self.get_logger().error(f"the calibration in place not kept: {exc}")
+
     def _solve(self, until_ns: int) -> Solution:
         """Solve the current exploration and publish it (``_publish``); the empty hand's
         motion fit of a usable exploration in motion goes to the cache beside the tare
         cache (``hand_motion``), once per motion (a later ~/solve of the same run does
-        not make it younger)."""
+        not make it younger), as a calibration in place does (``_keep_calibration``)."""
         solution = self._solution(until_ns)
         if cache := self._param("tare_cache"):
             self._keep_hand_motion(solution, cache)
+            self._keep_calibration(solution, cache)
         payload = self._payload_of(solution)
         if payload is not None:
             self._payload, self._payload_source = payload, f"estimate of {payload.time}"

@@ -76,7 +76,6 @@ from com_core.contract import (
     WRENCH_TOPIC,
 )
 from com_core.estimation.fits.errors import EstimationError
-from com_core.estimation.fits.known_gravity import Reference
 from com_core.estimation.recordings import (
     Recording,
     RecordingFit,
@@ -93,7 +92,6 @@ from com_core.estimation.runs.hand_motion import HAND_MOTION_FILE, load_hand_mot
 from com_core.estimation.runs.sensor_calibration import (
     CALIBRATION_FILE,
     SensorCalibration,
-    calibrate_exploration,
     calibration_path,
     load_calibration,
     save_calibration,
@@ -120,9 +118,6 @@ from com_core.report.recording import write_recording_report
 from com_core.robot.config import BAG_ROBOT_FILE, RobotConfigError, read_robot_config
 
 ROBOT_FRAMES = ("sensor_frame", "base_frame")
-REFERENCE_MASS_SHARE = 1e-4
-"""A reference weight's default 1-sigma, of its mass (an OIML class M1 weight of 1 kg is
-within 50 mg)."""
 DEFAULT_TARE_CACHE = "tare_cache.json"
 """The nodes' tare cache in their bag directory (``planning.decisions.tare_cache_path``)."""
 """The settings a run's robot configuration gives the replay."""
@@ -180,25 +175,11 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"robot configuration whose frames the fit takes (default: BAG/{BAG_ROBOT_FILE} "
         "if present)",
     )
-    calibration = parser.add_argument_group(
-        "calibration in place",
-        "the run's object was a reference weight: identify the sensor's calibration from "
-        "it and keep it for the sensor (estimation.fits.in_place), in place of an estimate",
-    )
-    calibration.add_argument("--reference-mass", type=float, metavar="KG",
-                             help="the reference's known mass")  # fmt: skip
-    calibration.add_argument(
-        "--reference-mass-sigma", type=float, metavar="KG",
-        help=f"its 1-sigma (default: {REFERENCE_MASS_SHARE:g} of it)",
-    )  # fmt: skip
-    calibration.add_argument("--reference-com", type=float, nargs=3, metavar=("X", "Y", "Z"),
-                             help="its COM when known, m, sensor frame")  # fmt: skip
-    calibration.add_argument("--reference-com-sigma", type=float, default=0.002, metavar="M",
-                             help="the COM's 1-sigma per axis (default: 0.002)")  # fmt: skip
-    calibration.add_argument(
+    parser.add_argument(
         "--calibration", type=Path, metavar="FILE",
-        help=f"where to keep it (default: {CALIBRATION_FILE} beside the bag's directory, "
-        f"where the nodes' default tare cache is)",
+        help="with --reference-mass (a run of a reference weight): keep the sensor's "
+        f"calibration in place in FILE (default: {CALIBRATION_FILE} beside the bag's "
+        "directory, where the nodes' default tare cache is)",
     )  # fmt: skip
     parser.add_argument(
         "--json", action="store_true", help="print one JSON object per run (JSON Lines)"
@@ -228,17 +209,11 @@ def main(argv: list[str] | None = None) -> int:
         refused.append(refusal("--tare", str(args.tare), "is no file"))
     if args.tare_recording is not None and not args.tare_recording.exists():
         refused.append(refusal("--tare-recording", str(args.tare_recording), "does not exist"))
-    if args.reference_mass is not None and not args.reference_mass > 0:
-        refused.append(refusal("--reference-mass", args.reference_mass, "must be > 0 kg"))
-    for name in ("reference_mass_sigma", "reference_com_sigma"):
-        value = getattr(args, name)
-        if value is not None and not value > 0:
-            refused.append(refusal("--" + name.replace("_", "-"), value, "must be > 0"))
     if refused:
         parser.error("; ".join(refused))  # before any run is read: exit code 2
     runs = [run for path in args.bags for run in bag_directories(path)]
-    if args.reference_mass is not None and len(runs) != 1:
-        parser.error(f"--reference-mass calibrates from one run, not {len(runs)}")
+    if args.calibration is not None and len(runs) != 1:
+        parser.error(f"--calibration keeps the calibration of one run, not {len(runs)}")
     codes, rows = [], []
     with ProcessPoolExecutor(args.jobs) if args.jobs > 1 else nullcontext() as pool:
         mapped = (pool or builtins).map(replay_captured, runs, [args] * len(runs))
@@ -352,10 +327,9 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
             settings[name] = getattr(robot, name) if robot else SETTINGS[name].default
     exploration = exploration_from(settings)
     sensor_id = robot.sensor_id if robot else ""  # the run's calibration, as the node took it
-    if args.reference_mass is None:  # a calibration reads the sensor as it reads
-        use_sensor_calibration(
-            exploration, load_calibration(args.bag / CALIBRATION_FILE, sensor_id)
-        )
+    if exploration.reference is None:  # a calibration reads the sensor as it reads
+        calibration = load_calibration(args.bag / CALIBRATION_FILE, sensor_id)
+        use_sensor_calibration(exploration, calibration)
     use_cached_tares(exploration, args.tare or args.bag / BAG_TARE_FILE)
     reading = BagReading()
     n_wrench, n_label = feed_bag(
@@ -365,8 +339,6 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
         exploration.robot, exploration.robot_problem = robot_from(
             settings, reading.robot_description
         )
-    if args.reference_mass is not None:
-        return calibrate(args, exploration, sensor_id), None
     if (cached := load_hand_motion(args.bag / HAND_MOTION_FILE)) is not None:
         exploration.hand_motion = cached.fit  # the node's, from its cache
     if not n_label and exploration.robot is not None and exploration.joint_states:
@@ -392,13 +364,14 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
     solution = exploration.solve()
     used = window_counts(reading.estimator_values)  # the node's, from its status in the bag
     solution = with_warnings(solution, reasons + missing_samples(used, solution.window_samples))
+    kept = keep_calibration(args, solution, sensor_id) if solution.calibrated else ""
     if args.json:
         extra = {
             "path": str(args.bag),
             "windows_from": source,
             "messages": n_wrench,
             "bag": reading.as_dict(),
-        }
+        } | ({"calibration_kept": kept} if kept else {})
         print(json.dumps(solution.as_dict() | extra))
     else:
         print(f"{args.bag}: {n_wrench} wrenches; windows from {source}")
@@ -407,40 +380,29 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
         if reading.cut_short and n_label and not reasons:
             print("bag: the cut lies after done: every window of the run was read")
         print(format_solution(solution))
+        if kept:
+            print(kept)
     return (1 if solution.status == ERROR else 0), solution
 
 
-def calibrate(args: argparse.Namespace, exploration: Exploration, sensor_id: str) -> int:
-    """The sensor's calibration identified from the run in ``args.bag``, whose object was
-    the reference weight (``--reference-mass``), printed and kept for ``sensor_id``
-    (``sensor_calibration``) unless its problems say not to; the exit code."""
+def keep_calibration(args: argparse.Namespace, solution: Solution, sensor_id: str) -> str:
+    """Keep the calibration in place ``solution`` identified (a run of a reference weight)
+    for ``sensor_id`` when the command line asked for it (``--reference-mass`` or
+    ``--calibration``), in ``--calibration`` or beside the bag's directory; what was done
+    (after what it is, when its status does not say)."""
+    assert solution.calibrated is not None
+    summary = "" if solution.status == OK else solution.calibrated.summary() + "\n"
     if not sensor_id:
         why = f"the run's {BAG_ROBOT_FILE} names no sensor_id (give one with --robot)"
-        print(f"replay: {args.bag}: a calibration is kept per sensor: {why}", file=sys.stderr)
-        return 2
-    com_sigma = args.reference_com_sigma if args.reference_com is not None else 0.0
-    reference = Reference(
-        args.reference_mass,
-        args.reference_mass_sigma or REFERENCE_MASS_SHARE * args.reference_mass,
-        None if args.reference_com is None else tuple(args.reference_com),
-        com_sigma,
-    )
-    try:
-        result, notes = calibrate_exploration(exploration, reference)
-    except ValueError as error:
-        print(f"{args.bag}: calibration ERROR: {error}")
-        return 1
-    print(f"{args.bag}: {result.summary()}")
-    for note in notes:
-        print(f"  {note}")
-    if problems := result.problems(exploration.alpha):
-        print("calibration not kept: " + "; ".join(problems))
-        return 1
+        return f"{summary}calibration not kept: it is kept per sensor, and {why}"
+    if solution.calibration is None:
+        return f"{summary}calibration not kept: {solution.reason}"
+    if args.reference_mass is None and args.calibration is None:
+        return "calibration not kept here (the node kept it; --calibration FILE keeps it)"
     path = args.calibration or calibration_path(args.bag.parent / DEFAULT_TARE_CACHE)
-    save_calibration(path, SensorCalibration(sensor_id, time.time(), result))
-    print(f"calibration of {sensor_id!r} kept in {path}: the estimator applies it to that "
-          "sensor's runs (with the tare cache beside it)")  # fmt: skip
-    return 0
+    save_calibration(path, SensorCalibration(sensor_id, time.time(), solution.calibration))
+    return (f"calibration of {sensor_id!r} kept in {path}: the estimator applies it to that "
+            "sensor's runs (with the tare cache beside it)")  # fmt: skip
 
 
 def replay_recording(

@@ -132,6 +132,12 @@ def build_parser() -> argparse.ArgumentParser:
         "also each window's orientation from the URDF (with the hand and the bias)",
     )
     p.add_argument(
+        "--calibrate",
+        action="store_true",
+        help="the object is a reference weight of --mass: the run calibrates the sensor in "
+        "place (kept beside the tare cache; the next runs in --bag-dir read through it)",
+    )
+    p.add_argument(
         "--excitation",
         choices=EXCITATIONS,
         default=None,
@@ -493,7 +499,8 @@ def run_exploration(args: argparse.Namespace, started: float, children: Sequence
             summarise_ended(ended, started)
             return 1
         print(f"sending a goal to {EXPLORE_SERVICE}", flush=True)
-        sent = client.send_goal_async(Explore.Goal(), feedback_callback=show_progress)
+        options = Explore.Goal(reference_mass=args.mass if args.calibrate else 0.0)
+        sent = client.send_goal_async(options, feedback_callback=show_progress)
         if ended := wait_for(executor, sent, children, 30.0):
             summarise_ended(ended, started)
             cancel(executor, sent, children)

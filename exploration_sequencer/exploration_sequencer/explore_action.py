@@ -21,7 +21,15 @@ from com_core.robot.dynamics import INERTIA_ELEMENTS
 from com_interfaces.action import Explore
 from exploration_sequencer.parameters import PARAMETERS
 
-__all__ = ["feedback_of", "goal_options", "result_of"]
+__all__ = ["ESTIMATOR_OPTIONS", "estimator_options", "feedback_of", "goal_options", "result_of"]
+
+ESTIMATOR_OPTIONS = ("information", "reference_mass")
+"""The goal's options that are the estimator's settings for the run, not the sequencer's."""
+
+
+def estimator_options(options: dict[str, object]) -> dict[str, object]:
+    """Of a goal's ``options`` (``goal_options``), those the estimator takes for the run."""
+    return {name: options[name] for name in ESTIMATOR_OPTIONS if name in options}
 
 
 def goal_options(goal: Explore.Goal) -> tuple[dict[str, object], list[str]]:
@@ -45,6 +53,9 @@ def goal_options(goal: Explore.Goal) -> tuple[dict[str, object], list[str]]:
     if goal.information:
         options["information"] = goal.information
         refused += problems(SETTINGS, {"information": goal.information})
+    if goal.reference_mass != 0.0:
+        options["reference_mass"] = goal.reference_mass
+        refused += problems(SETTINGS, {"reference_mass": goal.reference_mass})
     if goal.excitation:
         options["excitation"] = goal.excitation
         refused += problems(PARAMETERS, {"excitation": goal.excitation})

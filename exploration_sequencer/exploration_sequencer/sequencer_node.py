@@ -60,7 +60,12 @@ from com_core.runtime.rosenv import discovery_line, keep_dds_local, start_refusa
 from com_core.sequencing.errors import RunError
 from com_core.sequencing.run import ExplorationRun, RunOutcome, RunPorts
 from com_interfaces.action import Explore
-from exploration_sequencer.explore_action import feedback_of, goal_options, result_of
+from exploration_sequencer.explore_action import (
+    estimator_options,
+    feedback_of,
+    goal_options,
+    result_of,
+)
 from exploration_sequencer.io_node import IoNode
 from exploration_sequencer.parameters import PARAMETERS
 from exploration_sequencer.ros_arm import ActionArm, TopicArm
@@ -233,7 +238,7 @@ class SequencerNode(Node):
             )
             run_id = datetime.now().strftime("%Y%m%d-%H%M%S-%f")[:-3]
             run = ExplorationRun(run_id, self.config, ports, self.p, self._wall_seen,
-                                 self._defects, overrides.get("information"))  # fmt: skip
+                                 self._defects, estimator_options(overrides))  # fmt: skip
             self._goal, self._progress, self._run_now = goal_handle, 0.0, run
             return run.execute()
         finally:

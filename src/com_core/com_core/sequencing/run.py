@@ -25,7 +25,7 @@ import math
 import threading
 import time
 import traceback
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -205,8 +205,10 @@ class _Record:
 
 class ExplorationRun:
     """The exploration ``run_id`` of the arm ``config`` over ``ports``, with the
-    sequencer's parameters ``p(name)`` (a goal's options over them); ``information``: the
-    estimator's information for this run (None: its own); ``wall_seen``: the wall time of
+    sequencer's parameters ``p(name)`` (a goal's options over them); ``estimator``: the
+    estimator's settings for this run (``information``; ``reference_mass``: the object is
+    a reference weight, the run calibrates the sensor in place), set before it starts
+    and restored after; ``wall_seen``: the wall time of
     own work per phase, from run to run (``RunProgress``); ``defects`` numbers the
     exceptions that reach the run's top level. See module."""
 
@@ -218,12 +220,12 @@ class ExplorationRun:
         p: Callable[[str], Any],
         wall_seen: dict[str, float],
         defects: Iterator[int],
-        information: str | None = None,
+        estimator: Mapping[str, object] | None = None,
     ) -> None:
         self.run_id, self.config, self.ports, self.p = run_id, config, ports, p
         self.log, self.clock, self.feed = ports.log, ports.clock, ports.feed
         self.estimator, self.recorder = ports.estimator, ports.recorder
-        self._defects, self._information = defects, information
+        self._defects, self._estimator_options = defects, dict(estimator or {})
         self.arm = ArmMotion(ports.clock, ports.feed, config, ports.log.warning)
         self.arm.arm, self.arm.gripper_port = ports.arm, ports.gripper
         self.progress = RunProgress(ports.clock, wall_seen)
@@ -356,8 +358,8 @@ class ExplorationRun:
             )
         feed.arm_joints = frozenset(config.arm_joints)  # their messages: the arm answers
         self._handshake()
-        if self._information:  # before the reset: the estimator reads it there
-            self.estimator.set("information", self._information)
+        for name, value in self._estimator_options.items():  # before the reset: read there
+            self.estimator.set(name, value)
         self.estimator.reset()
         self.estimator.clear_answers()  # only this run's answers from here on
         return motion

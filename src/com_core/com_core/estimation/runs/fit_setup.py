@@ -43,10 +43,12 @@ from com_core.estimation.fits.estimators import (
     ml,
     two_pose,
 )
+from com_core.estimation.fits.in_place import InPlaceCalibration, calibrate_in_place
 from com_core.estimation.fits.known_gravity import (
     BIAS_DRIFT_RATE,
     KinematicFit,
     Observation,
+    Reference,
     kinematic_ml,
     locate_move,
 )
@@ -114,6 +116,9 @@ class FitSetup:
     calibration : the sensor's stated accuracy and full scales: the fits weigh their
         windows with the calibration's common error too (``com_core.sensing.calibration``);
         None: a perfect calibration.
+    reference : the object is a reference weight of known mass: the exploration
+        calibrates the sensor in place (``estimation.fits.in_place``) instead of weighing
+        it; None: an unknown object.
     hand_motion : the empty hand's motion fit known from before (``hand_motion``), for an
         exploration in motion that does not move the empty hand.
     """
@@ -135,6 +140,7 @@ class FitSetup:
     max_drift_f: float = MAX_DRIFT_F
     max_drift_tau: float = MAX_DRIFT_TAU
     calibration: Calibration | None = None
+    reference: Reference | None = None
     hand_motion: MotionFit | None = None
 
     def __post_init__(self) -> None:
@@ -292,6 +298,30 @@ class FitSetup:
         for window in loads:
             add(window, OBJECT_PREFIX + window.pose, True, 0)
         return observations
+
+    def calibrate(
+        self,
+        inbox: Inbox,
+        objects: list[Window],
+        fresh_tares: Mapping[str, Window],
+        until_ns: int | None,
+        notes: list[str],
+    ) -> tuple[InPlaceCalibration, KinematicFit, list[Observation]]:
+        """The sensor's calibration in place from the ``reference``'s windows and the
+        empty hand's (``kinematic_observations``; ``in_place.calibrate_in_place``), with
+        the stated ``calibration`` as its prior; with its fit and observations.
+        EstimationError without a stated accuracy, or with readings already corrected."""
+        assert self.robot is not None and self.reference is not None
+        if self.calibration is None or self.calibration.estimate is not None:
+            raise EstimationError(
+                "a calibration in place needs the sensor's stated accuracy (accuracy > 0) "
+                "and its readings as they came (no calibration applied)"
+            )
+        observations = self.kinematic_observations(inbox, objects, [], fresh_tares, until_ns,
+                                                   notes)  # fmt: skip
+        result, fit = calibrate_in_place(observations, self.reference, self.calibration,
+                                         self.robot.gravity, self.bias_drift_rate)  # fmt: skip
+        return result, fit, observations
 
     def kinematic_fit(
         self,

@@ -23,15 +23,13 @@ from pathlib import Path
 
 import numpy as np
 
-from com_core.estimation.fits.in_place import InPlaceCalibration, calibrate_in_place
+from com_core.estimation.fits.in_place import InPlaceCalibration
 from com_core.estimation.fits.known_gravity import Reference
-from com_core.estimation.runs.exploration import Exploration
 from com_core.sensing.calibration import Calibration
 
 __all__ = [
     "CALIBRATION_FILE",
     "SensorCalibration",
-    "calibrate_exploration",
     "calibrated_owner",
     "calibration_path",
     "load_calibration",
@@ -142,26 +140,3 @@ def load_calibration(path: str | Path, sensor_id: str) -> SensorCalibration | No
         return None if data is None else SensorCalibration.from_json(data)
     except (ValueError, KeyError, TypeError):
         return None
-
-
-def calibrate_exploration(
-    exploration: Exploration, reference: Reference
-) -> tuple[InPlaceCalibration, list[str]]:
-    """The calibration a static exploration whose object was the ``reference`` identifies
-    (``in_place.calibrate_in_place``): its tare windows (and a cached tare pass with its
-    joints) and its object windows, read as they came (``exploration`` without a
-    calibration in place), with the stated accuracy of its settings as the prior; with
-    the notes on windows left out. ValueError (an ``EstimationError``) when it cannot."""
-    stated = exploration.calibration
-    if exploration.robot is None:
-        raise ValueError(f"a calibration needs the kinematics: {exploration.robot_problem}")
-    if stated is None:
-        raise ValueError("a calibration needs the sensor's stated accuracy (accuracy > 0)")
-    if stated.estimate is not None:
-        raise ValueError("a calibration reads the sensor as it reads, not corrected")
-    fresh, objects, _, notes = exploration.reduced_windows()
-    observations = exploration.kinematic_observations(exploration, objects, [], fresh, None, notes)
-    result, _ = calibrate_in_place(
-        observations, reference, stated, exploration.robot.gravity, exploration.bias_drift_rate
-    )
-    return result, notes

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from com_core.estimation.fits.estimators import DEFAULT_ALPHA, MIN_TILT_SIGMAS
-from com_core.estimation.fits.known_gravity import BIAS_DRIFT_RATE
+from com_core.estimation.fits.known_gravity import BIAS_DRIFT_RATE, Reference
 from com_core.estimation.runs.exploration import Exploration
 from com_core.estimation.runs.fit_setup import (
     INFORMATION,
@@ -62,6 +62,9 @@ CALIBRATION_ACCURACY = _REALISTIC.calibration_accuracy
 FULL_SCALE = (_REALISTIC.limit_f, _REALISTIC.limit_tau)
 """The estimator's defaults: the default sensor profile's datasheet figures."""
 
+REFERENCE_MASS_SHARE = 1e-4
+"""A reference weight's default 1-sigma, of its mass (an OIML class M1 weight of 1 kg is
+within 50 mg)."""
 _NOISE = dict(low=0.0, high=1000.0)
 _TEXT = dict(kind="str")
 _DRIFT = dict(low=0.0, high=1000.0)
@@ -133,6 +136,13 @@ SETTINGS = table_of([
           unit="N", **_DRIFT),
     Input("max_drift_tau", MAX_DRIFT_TAU, "a larger bias drift since the cached tare is a "
           "WARN", unit="N m", **_DRIFT),
+    Input("reference_mass", 0.0, "the object is a reference weight of this mass: the run "
+          "calibrates the sensor in place (com_core.estimation.fits.in_place) and keeps it "
+          "for sensor_id beside tare_cache, instead of weighing the object; 0: an unknown "
+          "object", unit="kg", low=0.0, high=1000.0),
+    Input("reference_mass_sigma", 0.0, "the reference's mass's 1-sigma (0: "
+          f"{REFERENCE_MASS_SHARE:g} of it, an OIML class M1 weight)", unit="kg", low=0.0,
+          high=1000.0),
 ])  # fmt: skip
 """The estimator's settings by name (``com_core.inputs``)."""
 
@@ -173,10 +183,19 @@ def exploration_from(settings: Mapping[str, Any], urdf: str = "") -> Exploration
         calibration=(
             Calibration(value["accuracy"], *value["full_scale"]) if value["accuracy"] > 0 else None
         ),
+        reference=reference_of(value),
     )
     if value["information"] != WRENCHES:
         exploration.robot, exploration.robot_problem = robot_from(value, urdf)
     return exploration
+
+
+def reference_of(settings: Mapping[str, Any]) -> Reference | None:
+    """The reference weight ``settings`` name (``reference_mass`` > 0), else None."""
+    mass = settings["reference_mass"]
+    if not mass > 0:
+        return None
+    return Reference(mass, settings["reference_mass_sigma"] or REFERENCE_MASS_SHARE * mass)
 
 
 def robot_from(settings: Mapping[str, Any], urdf: str = "") -> tuple[RobotModel | None, str]:

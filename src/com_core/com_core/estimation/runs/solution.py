@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 from com_core.contract import ERROR, OK, VERIFY_PREFIX, WARN
 from com_core.estimation.fits.errors import EstimationError, MissingTareError, WindowError
 from com_core.estimation.fits.estimators import Consistency, Estimate, check_consistency
+from com_core.estimation.fits.in_place import InPlaceCalibration
 from com_core.estimation.fits.known_gravity import KinematicFit, mount_rpy
 from com_core.estimation.fits.motion import principal_moments
 from com_core.estimation.fits.stats import chi2_isf
@@ -165,6 +166,13 @@ class Solution:
     noise: NoiseModel | None = None
     excitation: str = STATIC
     motion: MotionResult | None = None
+    calibrated: InPlaceCalibration | None = None
+
+    @property
+    def calibration(self) -> InPlaceCalibration | None:
+        """The sensor's calibration in place this exploration of a reference weight
+        identified, when it may be kept (status OK); else None."""
+        return self.calibrated if self.status == OK else None
 
     @property
     def usable(self) -> bool:
@@ -231,6 +239,9 @@ class Solution:
             out |= self.motion.as_dict()
         if self.unverified:
             out["unverified"] = self.unverified
+        if self.calibrated is not None:
+            out["calibration"] = self.calibrated.summary()
+            out["calibration_left"] = list(self.calibrated.left.values())
         if self.noise is not None:
             out |= _noise_dict(self.noise)
         if self.consistency is not None:
@@ -286,12 +297,26 @@ def solve(inbox: Inbox, setup: FitSetup, until_ns: int | None = None) -> Solutio
             windows = []  # the kinematic fit needs no tare per pose
         if windows and not setup.untared and information == WRENCHES:
             check_load_direction(windows, tares)  # the kinematic fit checks its own
+        if setup.reference is not None and information == WRENCHES:
+            raise EstimationError(
+                "a calibration in place needs the kinematics (information 'kinematics' or "
+                "'kinematics+mount', and a robot model)"
+            )
+        calibrated = None
         if information == WRENCHES:
             fit, wrenches_sigma = None, None
             estimate = setup.wrenches_estimate(windows)
             tested = setup.calibration.widened(windows) if setup.calibration else windows
             consistency = check_consistency(tested, alpha=setup.alpha, g=setup.g)
             used = windows
+        elif setup.reference is not None:
+            calibrated, fit, observations = setup.calibrate(
+                inbox, objects, fresh_tares, until_ns, notes
+            )
+            estimate, wrenches_sigma = fit.estimate, None
+            used = [o.window for o in observations if o.load]
+            consistency = Consistency(calibrated.p_value >= setup.alpha, estimate.chi2,
+                                      estimate.dof, calibrated.p_value, setup.alpha)  # fmt: skip
         else:
             fit, observations = setup.kinematic_fit(
                 inbox, objects, windows, fresh_tares, information, until_ns, notes
@@ -306,7 +331,12 @@ def solve(inbox: Inbox, setup: FitSetup, until_ns: int | None = None) -> Solutio
         return Solution(
             ERROR, reason, setup.method, notes=tuple(notes), window_samples=counts, noise=noise
         )
-    status, reason = _status(_summary(estimate), consistency, verifications, notes)
+    if calibrated is None:
+        status, reason = _status(_summary(estimate), consistency, verifications, notes)
+    elif problems := calibrated.problems(setup.alpha):
+        status, reason = WARN, "calibration not kept: " + "; ".join(problems)
+    else:
+        status, reason = _status(calibrated.summary(), consistency, verifications, notes)
     return Solution(
         status,
         reason,
@@ -322,6 +352,7 @@ def solve(inbox: Inbox, setup: FitSetup, until_ns: int | None = None) -> Solutio
         verifications=verifications,
         unverified=unverified,
         noise=noise,
+        calibrated=calibrated,
     )
 
 
