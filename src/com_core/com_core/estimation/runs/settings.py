@@ -139,10 +139,12 @@ SETTINGS = table_of([
     Input("reference_mass", 0.0, "the object is a reference weight of this mass: the run "
           "calibrates the sensor in place (com_core.estimation.fits.in_place) and keeps it "
           "for sensor_id beside tare_cache, instead of weighing the object; 0: an unknown "
-          "object", unit="kg", low=0.0, high=1000.0),
+          "object", unit="kg", low=0.0, high=1000.0,
+          check=lambda v: "" if v == 0 or v >= 1e-3 else "must be 0 or at least 0.001 kg"),
     Input("reference_mass_sigma", 0.0, "the reference's mass's 1-sigma (0: "
           f"{REFERENCE_MASS_SHARE:g} of it, an OIML class M1 weight)", unit="kg", low=0.0,
-          high=1000.0),
+          high=1000.0,
+          check=lambda v: "" if v == 0 or v >= 1e-6 else "must be 0 or at least 1e-06 kg"),
 ])  # fmt: skip
 """The estimator's settings by name (``com_core.inputs``)."""
 
@@ -195,7 +197,8 @@ def reference_of(settings: Mapping[str, Any]) -> Reference | None:
     mass = settings["reference_mass"]
     if not mass > 0:
         return None
-    return Reference(mass, settings["reference_mass_sigma"] or REFERENCE_MASS_SHARE * mass)
+    sigma = settings["reference_mass_sigma"] or max(REFERENCE_MASS_SHARE * mass, 1e-6)
+    return Reference(mass, sigma)
 
 
 def robot_from(settings: Mapping[str, Any], urdf: str = "") -> tuple[RobotModel | None, str]:
