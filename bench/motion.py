@@ -2,7 +2,7 @@
 
     source ./env.sh && python bench/motion.py [--objects 50] [--robots panda,xarm6]
         [--masses 0.05,0.2,0.5,2.0] [--period 3.0] [--joint-rate 100] [--seed 0]
-        [--calibration-accuracy 0.01] [--static]
+        [--calibration-accuracy 0.01] [--static] [--calibrate 1.0]
 
 In process, no ROS: for each arm, mass and object (box, cylinder, mug in turn, COM offset
 drawn from the object's seed) a simulator holds the empty hand, runs the arm's D-optimal
@@ -24,6 +24,14 @@ each of home and the four 30 deg tilts), the grasp, the object pass (0.9 s at ea
 defaults (information kinematics+mount, the noise learnt, the calibration's accuracy
 told): the 95th percentile of its mass and COM errors, its rms(error / sigma), and the
 object pass's time against the motion's.
+
+``--calibrate KG``: each object's sensor (its serial) is first calibrated in place as the
+sequencer runs it (``estimation.fits.in_place``): the same static exploration with a
+box of KG kg as a reference weight, the estimator told its mass (``reference_mass``),
+through a sensor of the same serial (its own noise); the object's readings are then
+corrected by that calibration and its fits weigh what is left of the error
+(``sensing.calibration``), in motion and at rest. Printed besides: the share of each block
+of the calibration error the reference's poses left, median.
 """
 
 from __future__ import annotations
@@ -34,8 +42,10 @@ import time
 import numpy as np
 
 from com_core.contract import DONE, OBJECT_PREFIX, TARE_PREFIX
+from com_core.estimation.fits.in_place import BLOCKS
 from com_core.estimation.fits.motion import fit_motion, load_vector
-from com_core.estimation.runs.settings import exploration_from
+from com_core.estimation.runs.sensor_calibration import SensorCalibration
+from com_core.estimation.runs.settings import exploration_from, use_sensor_calibration
 from com_core.planning.excitation import design_excitation
 from com_core.planning.planner import Plan
 from com_core.robot.choreography import Choreography
@@ -53,16 +63,24 @@ DIAGONAL = [4 + INERTIA_ELEMENTS.index(name) for name in ("ixx", "iyy", "izz")] 
 PROFILE = PROFILES["realistic"]
 
 
-def one_object(config, model, excitation, shape, mass, seed, every, profile) -> dict:
-    """Hand, grasp, object: the object's errors, its error / sigma and its bound."""
+def one_object(
+    config, model, excitation, shape, mass, seed, every, profile, calibrated=None
+) -> dict:
+    """Hand, grasp, object: the object's errors, its error / sigma and its bound; with
+    ``calibrated`` (the sensor's calibration in place) the readings corrected by it."""
     world = ArmWorld(SimConfig(robot=config, object_shape=shape, object_mass=mass, seed=seed))
     try:
         sensor = profile_sensor(profile, seed=seed, serial=seed)
-        noise, calibration = profile.noise_model(), profile.calibration()
-        hand = fit_motion(model, *run_excitation(world, excitation, sensor, every), noise,
-                          calibration=calibration)  # fmt: skip
+        noise = profile.noise_model()
+        calibration = calibrated.calibration if calibrated else profile.calibration()
+
+        def excite() -> tuple:
+            times, q, stamps, readings = run_excitation(world, excitation, sensor, every)
+            return times, q, stamps, calibration.correct(readings) if calibration else readings
+
+        hand = fit_motion(model, *excite(), noise, calibration=calibration)
         grasp(world)
-        recorded = run_excitation(world, excitation, sensor, every)
+        recorded = excite()
         start = time.perf_counter()
         fit = fit_motion(model, *recorded, noise, hand, calibration)
         seconds = time.perf_counter() - start
@@ -88,18 +106,27 @@ def one_object(config, model, excitation, shape, mass, seed, every, profile) -> 
 
 
 STATIC_PLAN = Plan(axes=("y", "x"), dwell=0.9)  # the sequencer's default poses and dwell
+REFERENCE_SEEDS = 100_000  # a reference session's noise seed: the object's seed plus this
 TARE_DWELL, MOVE, SETTLE = 5.0, 1.0, 0.3  # s
 
 
-def static_object(config, shape, mass, seed, every, profile) -> dict:
+def static_object(
+    config, shape, mass, seed, every, profile, calibrated=None, reference=False
+) -> dict:
     """The same object explored at rest (see module): its errors, error / sigma and the
-    object pass's time (s, sim)."""
+    object pass's time (s, sim); with ``calibrated`` (the sensor's calibration in place)
+    read through it. ``reference``: the object is a reference weight, the exploration
+    calibrates the sensor (its noise drawn apart from the object's): its solution's
+    calibration (None when not kept) under "calibrated"."""
     world = ArmWorld(SimConfig(robot=config, object_shape=shape, object_mass=mass, seed=seed))
     try:
-        sensor = profile_sensor(profile, seed=seed, serial=seed)
+        noise_seed = seed + REFERENCE_SEEDS if reference else seed
+        sensor = profile_sensor(profile, seed=noise_seed, serial=seed)
         poses = Choreography.of(config, world.urdf_text).pose_joints(STATIC_PLAN)
-        settings = {"accuracy": profile.calibration_accuracy}
+        settings = {"accuracy": profile.calibration_accuracy,
+                    "reference_mass": mass if reference else 0.0}  # fmt: skip
         exploration = exploration_from(settings, world.urdf_text)
+        use_sensor_calibration(exploration, calibrated)
 
         def window(label: str, joints, dwell: float) -> None:
             world.move_arm(joints, MOVE)
@@ -115,6 +142,8 @@ def static_object(config, shape, mass, seed, every, profile) -> dict:
         object_time = world.time - start
         exploration.add_label(round(world.time * 1e9), DONE)
         solution = exploration.solve()
+        if reference:
+            return {"calibrated": solution.calibration, "reason": solution.reason}
         true_mass, true_com = world.object_ground_truth()
         e = solution.estimate
         if e is None:
@@ -154,12 +183,16 @@ def main() -> None:
                         default=PROFILE.calibration_accuracy)  # fmt: skip
     parser.add_argument("--static", action="store_true",
                         help="the same objects explored at rest, side by side")  # fmt: skip
+    parser.add_argument("--calibrate", type=float, metavar="KG", default=0.0,
+                        help="calibrate each sensor first with a KG reference")  # fmt: skip
     args = parser.parse_args()
     profile = PROFILE.with_overrides(calibration_accuracy=args.calibration_accuracy)
     every = round(1000.0 / args.joint_rate)
     print(f"{args.objects} objects per case, {args.period:g} s of motion, joint states at "
           f"{1000.0 / every:g} Hz, the realistic sensor, calibration accuracy "
           f"{args.calibration_accuracy:g}")  # fmt: skip
+    if args.calibrate:
+        print(f"each sensor calibrated in place first with a {args.calibrate:g} kg reference")
     header = (f"{'arm':>6} {'kg':>5}  {'mass p95':>8} {'COM p95 mm':>10} {'moments p95':>11} "
               f"{'axes p95':>8}  {'rms z m, COM, I':>17}  {'bound m, COM mm, I':>20} "
               f"{'delay ms':>8} {'fit s':>5}")  # fmt: skip
@@ -171,12 +204,24 @@ def main() -> None:
         world.close()
         excitation = design_excitation(model, config.home_joints, config.arm_joints[-3:],
                                        period=args.period, seed=args.seed)  # fmt: skip
+        seeds = range(args.seed, args.seed + args.objects)
+        calibrated = {k: None for k in seeds}
+        if args.calibrate:
+            sessions = {k: static_object(config, "box", args.calibrate, k, every, profile,
+                                         reference=True) for k in seeds}  # fmt: skip
+            calibrated = {k: SensorCalibration(f"sim-{k}", 0.0, r["calibrated"])
+                          if r["calibrated"] else None for k, r in sessions.items()}  # fmt: skip
+            kept = [c.result for c in calibrated.values() if c is not None]
+            refused = [r["reason"] for r in sessions.values() if r["calibrated"] is None]
+            left = np.median([list(c.left.values()) for c in kept], axis=0) if kept else []
+            print(f"{robot}: {len(kept)} of {len(seeds)} sensors calibrated in place with "
+                  f"{args.calibrate:g} kg; left of each block (median): "
+                  f"{', '.join(f'{n} {v:.2f}' for n, v in zip(BLOCKS, left, strict=False))}"
+                  + (f"; not kept: {refused[0]}" if refused else ""), flush=True)  # fmt: skip
         for mass in (float(m) for m in args.masses.split(",")):
-            seeds = range(args.seed, args.seed + args.objects)
-            results = [
-                one_object(config, model, excitation, SHAPES[k % 3], mass, k, every, profile)
-                for k in seeds
-            ]
+            shapes = {k: SHAPES[k % 3] for k in seeds}
+            results = [one_object(config, model, excitation, shapes[k], mass, k, every, profile,
+                                  calibrated[k]) for k in seeds]  # fmt: skip
             z = np.array([r["z"] for r in results])
             bound = np.median([r["bound"] for r in results], axis=0)
             bound_com = np.median([r["bound_com"] for r in results], axis=0)
@@ -197,7 +242,8 @@ def main() -> None:
             print(rows[-1], flush=True)
             if args.static:
                 static = [
-                    static_object(config, SHAPES[k % 3], mass, k, every, profile) for k in seeds
+                    static_object(config, shapes[k], mass, k, every, profile, calibrated[k])
+                    for k in seeds
                 ]
                 zs = np.array([r["z"] for r in static])
                 rows.append(

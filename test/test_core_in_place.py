@@ -131,6 +131,24 @@ def test_an_object_weighed_with_the_corrected_readings_is_closer_and_its_error_b
     assert np.all((rms > 0.7) & (rms < 1.35)), rms  # 40 draws: +-0.22 at 2 sigma
 
 
+def test_a_reference_of_known_com_identifies_what_a_com_offset_would_explain():
+    """The antisymmetric part of torque-from-force reads as a shift of the COM: a
+    reference gripped anywhere leaves it, one on a fixture (COM known to 0.05 mm) does not,
+    and the object's COM comes out closer."""
+    fixture = replace(REFERENCE, com=tuple(REFERENCE_COM), com_sigma=5e-5)
+    left, com = {REFERENCE: [], fixture: []}, {REFERENCE: [], fixture: []}
+    for seed in range(30):
+        _, reading, bias, obs, _ = session(seed)
+        for reference in (REFERENCE, fixture):
+            calibrated, _ = calibrate_in_place(obs, reference, STATED)
+            left[reference].append(calibrated.left["torque from force"])
+            e = weighed(calibrated.calibration, reading, bias, np.random.default_rng([seed, 1]))
+            com[reference].append(np.linalg.norm(e.com - OBJECT_COM))
+    assert np.mean(left[fixture]) < np.mean(left[REFERENCE]) - 0.15  # 0.57 -> 0.29
+    p95 = {r: np.percentile(c, 95) for r, c in com.items()}
+    assert p95[fixture] < 0.7 * p95[REFERENCE], p95  # 0.77 mm -> 0.38 mm
+
+
 def test_a_light_reference_and_a_reference_that_moved_are_flagged_by_name():
     _, _, _, obs, _ = session(3, reference_mass=0.02, sigma=SIGMA * 20)
     light, _ = calibrate_in_place(obs, replace(REFERENCE, mass=0.02), STATED)

@@ -145,6 +145,13 @@ SETTINGS = table_of([
           f"{REFERENCE_MASS_SHARE:g} of it, an OIML class M1 weight)", unit="kg", low=0.0,
           high=1000.0,
           check=lambda v: "" if v == 0 or v >= 1e-6 else "must be 0 or at least 1e-06 kg"),
+    Input("reference_com", [0.0, 0.0, 0.0], "the reference's COM in the sensor frame, when "
+          "reference_com_sigma > 0 (a weight on a fixture of known geometry)", kind="floats",
+          unit="m", low=-10.0, high=10.0, lengths=(3,)),
+    Input("reference_com_sigma", 0.0, "the reference's COM's 1-sigma per axis; 0: unknown "
+          "(the calibration then leaves the part of its error that a COM offset explains)",
+          unit="m", low=0.0, high=1.0,
+          check=lambda v: "" if v == 0 or v >= 1e-6 else "must be 0 or at least 1e-06 m"),
 ])  # fmt: skip
 """The estimator's settings by name (``com_core.inputs``)."""
 
@@ -198,7 +205,10 @@ def reference_of(settings: Mapping[str, Any]) -> Reference | None:
     if not mass > 0:
         return None
     sigma = settings["reference_mass_sigma"] or max(REFERENCE_MASS_SHARE * mass, 1e-6)
-    return Reference(mass, sigma)
+    if not settings["reference_com_sigma"] > 0:
+        return Reference(mass, sigma)
+    com = tuple(float(x) for x in settings["reference_com"])
+    return Reference(mass, sigma, com, settings["reference_com_sigma"])  # type: ignore[arg-type]
 
 
 def robot_from(settings: Mapping[str, Any], urdf: str = "") -> tuple[RobotModel | None, str]:
