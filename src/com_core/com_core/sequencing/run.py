@@ -376,6 +376,8 @@ class ExplorationRun:
             return self._explore_in_motion(motion, values)
         drift_rate = tuple(values["bias_drift_rate"])
         calibration = estimator_calibration(values["accuracy"], values["full_scale"])
+        if (kept := self._calibration()) is not None and not values["reference_mass"]:
+            calibration = kept.calibration  # what the estimator weighs: what is left of it
         settings = RunSettings.from_parameters(self.p)
         noise, source = planning_noise(
             newest_hand_model(self._cache_path(), self._owner()), settings

@@ -1,0 +1,67 @@
+"""com_core.planning.sensor_accuracy: what a named sensor can do, predicted before moving,
+agrees with what the fits give: the calibration in place predicted from the poses is the
+one a session's readings leave, the calibrated prediction is the fit's own sigma, and the
+lightest object weighed to 5 % is where the prediction crosses 5 %."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from com_core.estimation.fits.in_place import calibrate_in_place
+from com_core.estimation.fits.known_gravity import Reference
+from com_core.estimation.fits.windows import Window
+from com_core.planning.prediction import plan_observations, predict
+from com_core.planning.sensor_accuracy import (
+    INFORMATION,
+    TARGET,
+    default_pass,
+    lightest_mass,
+    main,
+    predicted_calibration,
+    sensor_accuracy,
+)
+from com_core.sensing.sensor_profiles import PROFILES
+
+REALISTIC = PROFILES["realistic"]
+
+
+def test_the_predicted_calibration_is_what_a_session_of_real_readings_leaves():
+    plan = default_pass(REALISTIC, 1.0)
+    predicted = predicted_calibration(plan, 1.0)
+    rng = np.random.default_rng(4)
+    noisy = []
+    for o in plan_observations(plan):  # the same windows, read with their noise
+        mean = o.window.mean + rng.multivariate_normal(np.zeros(6), o.window.cov)
+        noisy.append(replace(o, window=Window(o.window.pose, mean, o.window.cov, o.window.n)))
+    measured, _ = calibrate_in_place(noisy, Reference(1.0, 1e-4), plan.calibration)
+    prior = plan.calibration.sigma**2  # the same to 1 % of the prior's variance
+    np.testing.assert_allclose(
+        predicted.residual_cov, measured.calibration.residual_cov, rtol=0.01, atol=0.01 * prior
+    )
+    assert predicted.estimate is None  # a prediction corrects nothing
+
+
+def test_calibrated_in_place_the_realistic_sensor_weighs_a_third_as_wide():
+    a = sensor_accuracy(REALISTIC, 0.5)
+    assert 0.003 < a.sigma_mass / 0.5 < 0.005  # the demo's 2.06 g of 500 g
+    assert a.calibrated_sigma_mass < 0.4 * a.sigma_mass  # the demo's 0.67 g
+    assert np.all(a.calibrated_sigma_com < a.sigma_com)
+    white = sensor_accuracy(PROFILES["white"], 0.5)  # no calibration error: nothing to gain
+    assert white.calibrated_sigma_mass == white.sigma_mass
+
+
+def test_the_lightest_object_is_where_the_prediction_crosses_five_percent():
+    lightest = lightest_mass(REALISTIC, REALISTIC.calibration())
+    for mass, above in ((0.99 * lightest, True), (1.01 * lightest, False)):
+        plan = default_pass(REALISTIC, mass)
+        share = 2 * predict(plan, "ml", INFORMATION).sigma_mass / mass
+        assert (share > TARGET) == above, (mass, share)
+
+
+def test_the_table_names_each_profile_and_what_it_leaves_out(capsys):
+    assert main(["--profiles", "realistic,xarm_ft", "--masses", "0.5"]) == 0
+    out = capsys.readouterr().out
+    assert "realistic: the lightest object weighed to 5% (2 sigma):" in out
+    assert "xarm_ft: the lightest" in out and "hysteresis and non-linearity are not" in out
