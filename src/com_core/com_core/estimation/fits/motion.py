@@ -94,6 +94,8 @@ class MotionFit:
     constrained : the least squares estimate was not a physical body; ``pi`` is the
         consistent one nearest the data.
     samples : wrench samples fitted.
+    expected : the chi^2 / dof the noise model, the encoders' noise and the calibration's
+        error explain (1: the noise alone).
     """
 
     pi: NDArray[np.float64]
@@ -107,6 +109,7 @@ class MotionFit:
     dof: int
     constrained: bool
     samples: int
+    expected: float = 1.0
 
     def load(self) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
         """(mass kg, COM m, inertia about the COM kg m^2 (3, 3)), ``ft_sensor``."""
@@ -245,24 +248,24 @@ def fit_motion(
     fit = fit_whitened(project(A_pi), project(b))
     bias, *_ = np.linalg.lstsq(A_bias, b - A_pi @ fit.pi, rcond=None)
     dof = A.shape[0] - 16
-    gain = (
-        np.zeros((10, 36))
-        if calibration is None
-        else _calibration_gain(calibration, Y @ fit.pi, noise, project, fit.cov, A_pi)
-    )
+    gain, misfit = np.zeros((10, 36)), 0.0
+    if calibration is not None:
+        gain, misfit = _calibration_share(calibration, Y @ fit.pi, noise, project, fit.cov,
+                                          A_pi)  # fmt: skip
     calibration_cov = 0.0 if calibration is None else calibration.spread(gain)
     cov = fit.cov + calibration_cov
-    expected = 1.0  # chi^2 / dof the noise model and the encoders' noise explain
+    expected = 1.0  # chi^2 / dof the noise model, the encoders' noise and E explain
     if position_sigma > 0:
         load = fit.pi + hand_pi
         share, expected = _encoder_share(robot, jt, jq, t - delay, load, position_sigma,
                                          noise, fit.cov, project, A_pi)  # fmt: skip
         cov += share
+    expected += misfit / dof
     cov *= max(1.0, fit.chi2 / dof / expected)
     if hand is not None:
         cov += hand.cov - hand.calibration_cov
     return MotionFit(fit.pi, cov, fit.cov, calibration_cov, gain, bias, delay, fit.chi2, dof,
-                     fit.constrained, len(t))  # fmt: skip
+                     fit.constrained, len(t), expected)  # fmt: skip
 
 
 def compensated(
@@ -328,19 +331,28 @@ def _prediction_errors(x: NDArray[np.float64], phi: Sequence[float]) -> NDArray[
     return out
 
 
-def _calibration_gain(
+def _calibration_share(
     calibration: Calibration,
     object_wrench: NDArray[np.float64],
     noise: NoiseModel,
     project,
     cov: NDArray[np.float64],
     A_pi: NDArray[np.float64],
-) -> NDArray[np.float64]:
-    """(10, 36) d pi / d vec(E): the calibration's common error E on the object's wrench
-    (n, 6) through the whitened least squares (``sensing.calibration``); its share of the
-    covariance is ``calibration.spread(gain)``."""
+) -> tuple[NDArray[np.float64], float]:
+    """(d pi / d vec(E) (10, 36), the chi^2 it adds): the calibration's common error E on
+    the object's wrench (n, 6) through the whitened least squares (``sensing.calibration``;
+    its share of the covariance is ``calibration.spread(gain)``), and the expected sum of
+    squares of what of it no load explains, tr(M P M^T) with M the whitened error less
+    its fitted part: the misfit a heavier load's calibration error leaves, which is no
+    sign of a load that moved."""
     J = np.stack([calibration.jacobian(x) for x in object_wrench])  # (n, 6, 36)
-    return cov @ project(A_pi).T @ project(_whiten(J, noise))
+    whitened = project(_whiten(J, noise))
+    fitted = project(A_pi)
+    gain = cov @ fitted.T @ whitened
+    left = whitened - fitted @ gain
+    values, vectors = np.linalg.eigh(calibration.error_cov)
+    root = vectors * np.sqrt(np.clip(values, 0.0, None))
+    return gain, float(np.sum((left @ root) ** 2))
 
 
 def _encoder_share(
