@@ -273,6 +273,8 @@ def node_parameters(
         "tare_cache": tare_cache,
         "sensor_id": sensor_id,
     } | ({"information": args.information} if args.information else {})
+    profile = PROFILES.get(str(sim_params["sensor_profile"]))  # else refused by its name
+    estimator_params |= profile.datasheet() if profile else {}  # as a user tells theirs
     sequencer_params = {
         "use_sim_time": True,
         "tilt_axes": args.axes.split(","),

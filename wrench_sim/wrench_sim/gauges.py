@@ -4,13 +4,10 @@ its calibration matrix maps the gauges to a wrench (``wrench_sim.sensor``).
 Per axis a (fx fy fz tx ty tz; N and N m), of the true wrench x_a with the axis's range
 r_a (the profile's ``limit_f``, ``limit_tau``):
 
-- **Hysteresis**: a reading lags the way the load came. A state h_a moves toward -b_a
-  while the load rises and +b_a while it falls by the fraction
-  1 - exp(-|dx_a| / (``SATURATION`` r_a)) of the way with each change dx_a of the load
-  (a Dahl model, rate-independent: the same path read slowly or fast gives the same
-  readings). b_a is set so that a loop over the whole range, -r_a to r_a and back, opens
-  the profile's ``hysteresis`` H_a between its falling and its rising branch at no
-  load (the datasheet's band). A small excursion opens a narrow loop (its band grows with
+- **Hysteresis**: a reading lags the way the load came (``com_core.sensing.hysteresis``:
+  a Dahl model, rate-independent: the same path read slowly or fast gives the same
+  readings), its band H_a the profile's ``hysteresis`` at no load over a full-range loop
+  (the datasheet's band). A small excursion opens a narrow loop (its band grows with
   the square of the excursion) but reads with a gain off by b_a / (``SATURATION`` r_a)
   after each turn of the load, about 1.4 times the band's share of the range: where two
   branches part by H_a mid-range and meet at its ends, their slopes differ so. Datasheets
@@ -34,22 +31,10 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from com_core.sensing.hysteresis import SATURATION, edge
 from com_core.sensing.sensor_profiles import SensorProfile
 
-__all__ = ["SATURATION", "GaugeErrors", "profile_gauges"]
-
-SATURATION = 0.5
-"""The load change, as a fraction of the range, over which the hysteresis state moves
-1 - 1/e of its way to the band's edge."""
-
-
-def _loop_opening(saturation: float) -> float:
-    """The band at no load of a steady loop over the whole range, per unit of b: the state
-    falls from -a to +a over 2 r (a = b tanh(1 / saturation)), and at no load it has come
-    r of that way, so the opening is 2 (b - (b + a) exp(-1 / saturation))."""
-    decay = math.exp(-1.0 / saturation)
-    return 2.0 * (1.0 - (1.0 + math.tanh(1.0 / saturation)) * decay)
-
+__all__ = ["GaugeErrors", "profile_gauges"]
 
 _GRID = np.linspace(-1.0, 1.0, 2001)
 
@@ -73,7 +58,7 @@ class GaugeErrors:
             raise ValueError("hysteresis and non-linearity need the sensor's range")
         self.range = np.where(limits > 0, limits, np.inf)
         band = np.asarray(p.hysteresis or [0.0] * 6, dtype=np.float64)
-        self.edge = band / _loop_opening(SATURATION)  # b per axis
+        self.edge = edge(band)  # b per axis
         self.nonlinearity = np.asarray(p.nonlinearity or [0.0] * 6, dtype=np.float64)
         angle = rng.uniform(0.0, 2 * math.pi, 6)
         self._mix = np.stack([np.cos(angle), np.sin(angle)])  # (2, 6)

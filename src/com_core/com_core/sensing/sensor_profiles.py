@@ -160,6 +160,18 @@ class SensorProfile:
             return None
         return Calibration(self.calibration_accuracy, self.limit_f, self.limit_tau)
 
+    def datasheet(self) -> dict[str, object]:
+        """What a user tells the estimator of this sensor from its datasheet (its settings
+        ``accuracy``, ``full_scale`` and ``hysteresis``; ``com_core.estimation.runs.settings``):
+        {} for a profile that states no calibration accuracy (``ideal``, ``white``)."""
+        if self.calibration_accuracy <= 0:
+            return {}
+        return {
+            "accuracy": self.calibration_accuracy,
+            "full_scale": [self.limit_f, self.limit_tau],
+            "hysteresis": list(self.hysteresis or [0.0] * 6),
+        }
+
     @property
     def modes(self) -> tuple[tuple[float, float], ...]:
         """(frequency Hz, damping ratio) per vibration mode."""

@@ -34,7 +34,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from com_core.estimation.fits.known_gravity import (
     KinematicFit,
@@ -125,23 +125,25 @@ def calibrate_in_place(
     stated: Calibration,
     gravity: ArrayLike = DEFAULT_GRAVITY,
     drift_rate_sigma: tuple[float, float] | None = None,
+    nuisance_cov: NDArray[np.float64] | None = None,
 ) -> tuple[InPlaceCalibration, KinematicFit]:
     """The calibration the windows identify (module): ``observations`` of the empty hand
     and of the ``reference`` at static poses, read raw (not corrected by an earlier
     calibration); ``stated`` the sensor's stated accuracy and full scales, the prior of E.
     With the fit it came from. ValueError without both empty-hand and reference windows;
-    the fit's own errors (``kinematic_ml``) when the poses do not resolve it."""
+    the fit's own errors (``kinematic_ml``) when the poses do not resolve it.
+    ``nuisance_cov``: that of the windows' ``nuisance`` (the sensor's hysteresis)."""
     observations = list(observations)
     if not any(o.load for o in observations) or all(o.load for o in observations):
         raise ValueError("a calibration in place needs the empty hand and the reference")
     prior = Calibration(stated.accuracy, stated.full_scale_f, stated.full_scale_tau)
     fit = kinematic_ml(
         observations, gravity, drift_rate_sigma=drift_rate_sigma, calibration=prior,
-        reference=reference,
+        reference=reference, nuisance_cov=nuisance_cov,
     )  # fmt: skip
     fit = kinematic_ml(
         observations, gravity, drift_rate_sigma=drift_rate_sigma, calibration=prior,
-        uncalibrated=fit.bias[0], reference=reference,
+        uncalibrated=fit.bias[0], reference=reference, nuisance_cov=nuisance_cov,
     )  # fmt: skip
     estimate, left = fit.calibration_error()
     calibrated = replace(prior, estimate=estimate, residual_cov=left)

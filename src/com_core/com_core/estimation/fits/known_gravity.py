@@ -687,6 +687,7 @@ def locate_move(
     fit_mount: bool = False,
     drift_rate_sigma: tuple[float, float] | None = None,
     calibration: Calibration | None = None,
+    nuisance_cov: NDArray[np.float64] | None = None,
 ) -> tuple[int, float] | None:
     """Where the object moved in the grasp, for a fit that failed its chi-square test:
     (index of the load window, in the order given, and the chi-square of the best
@@ -705,8 +706,9 @@ def locate_move(
             ]
             try:
                 chi2 = kinematic_ml(
-                    split, gravity, fit_mount, drift_rate_sigma, calibration=calibration
-                ).estimate.chi2
+                    split, gravity, fit_mount, drift_rate_sigma, calibration=calibration,
+                    nuisance_cov=nuisance_cov,
+                ).estimate.chi2  # fmt: skip
             except (TooFewPosesError, NonPositiveMassError):
                 continue
             if best is None or chi2 < best[1]:

@@ -59,6 +59,7 @@ from com_core.estimation.runs.cutting import window_rotation, window_time
 from com_core.estimation.runs.inbox import Inbox
 from com_core.robot.model import KinematicsError, RobotModel
 from com_core.sensing.calibration import Calibration
+from com_core.sensing.hysteresis import Hysteresis
 from com_core.sensing.noise import NoiseModel
 from com_core.sensing.wrench_model import STANDARD_GRAVITY, SensorModel
 
@@ -116,6 +117,8 @@ class FitSetup:
     calibration : the sensor's stated accuracy and full scales: the fits weigh their
         windows with the calibration's common error too (``com_core.sensing.calibration``);
         None: a perfect calibration.
+    hysteresis : the sensor's hysteresis: each static window of the kinematic fit weighs
+        what the change of its load leaves (``com_core.sensing.hysteresis``); None: none.
     reference : the object is a reference weight of known mass: the exploration
         calibrates the sensor in place (``estimation.fits.in_place``) instead of weighing
         it; None: an unknown object.
@@ -141,6 +144,7 @@ class FitSetup:
     max_drift_tau: float = MAX_DRIFT_TAU
     calibration: Calibration | None = None
     reference: Reference | None = None
+    hysteresis: Hysteresis | None = None
     hand_motion: MotionFit | None = None
 
     def __post_init__(self) -> None:
@@ -214,6 +218,7 @@ class FitSetup:
             information == KINEMATICS_MOUNT,
             self.bias_drift_rate,
             self.calibration,
+            self.hysteresis_cov(observations),
         )
         loads = [o.window.pose for o in observations if o.load]
         if found is not None and chi2_sf(found[1], e.dof - 4) >= self.alpha:
@@ -297,7 +302,34 @@ class FitSetup:
             loads = subtracted
         for window in loads:
             add(window, OBJECT_PREFIX + window.pose, True, 0)
-        return observations
+        return self._with_hysteresis(observations)
+
+    def _with_hysteresis(self, observations: list[Observation]) -> list[Observation]:
+        """``observations`` with the sensor's hysteresis as a nuisance each window carries
+        (``Observation.nuisance``): the state's increment at every change of load up to
+        it in its epoch (each epoch's windows in time order), which persists, of the
+        covariance ``hysteresis_cov`` (``com_core.sensing.hysteresis``)."""
+        if self.hysteresis is None:
+            return observations
+        out, k = list(observations), 6 * len(observations)
+        for order in _epoch_orders(out):
+            for rank, i in enumerate(order):
+                design = np.zeros((6, k))
+                for j in order[: rank + 1]:
+                    design[:, 6 * j : 6 * j + 6] = np.eye(6)
+                out[i] = replace(out[i], nuisance=design)
+        return out
+
+    def hysteresis_cov(self, observations: Sequence[Observation]) -> NDArray[np.float64] | None:
+        """(6n, 6n): the covariance of the hysteresis increments ``_with_hysteresis``
+        gives ``observations``; None without a hysteresis."""
+        if self.hysteresis is None:
+            return None
+        variance = np.zeros((len(observations), 6))
+        for order in _epoch_orders(observations):
+            sigma = self.hysteresis.window_sigma([observations[i].window.mean for i in order])
+            variance[order] = sigma**2
+        return np.diag(variance.ravel())
 
     def calibrate(
         self,
@@ -320,7 +352,8 @@ class FitSetup:
         observations = self.kinematic_observations(inbox, objects, [], fresh_tares, until_ns,
                                                    notes)  # fmt: skip
         result, fit = calibrate_in_place(observations, self.reference, self.calibration,
-                                         self.robot.gravity, self.bias_drift_rate)  # fmt: skip
+                                         self.robot.gravity, self.bias_drift_rate,
+                                         self.hysteresis_cov(observations))  # fmt: skip
         return result, fit, observations
 
     def kinematic_fit(
@@ -348,6 +381,7 @@ class FitSetup:
             fit_mount=information == KINEMATICS_MOUNT,
             drift_rate_sigma=self.bias_drift_rate,
             calibration=self.calibration,
+            nuisance_cov=self.hysteresis_cov(observations),
         )
         e = fit.estimate
         if not self.untared and e.mass < LOAD_SIGMAS * e.sigma_mass:
@@ -364,6 +398,13 @@ class FitSetup:
                 "fit absorbed it; re-tare"
             )
         return fit, observations
+
+
+def _epoch_orders(observations: Sequence[Observation]) -> list[list[int]]:
+    """The indices of each epoch's observations, in time order."""
+    epochs = sorted({o.epoch for o in observations})
+    return [sorted((i for i, o in enumerate(observations) if o.epoch == e),
+                   key=lambda i: observations[i].time) for e in epochs]  # fmt: skip
 
 
 def check_load_direction(windows: Sequence[Window], tares: Mapping[str, Window]) -> None:

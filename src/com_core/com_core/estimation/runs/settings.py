@@ -35,6 +35,7 @@ from com_core.inputs import Input, table_of
 from com_core.robot.config import default_robot_config
 from com_core.robot.model import DEFAULT_GRAVITY, KinematicsError, RobotModel
 from com_core.sensing.calibration import Calibration
+from com_core.sensing.hysteresis import Hysteresis
 from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES
 from com_core.sensing.wrench_model import SensorModel
 
@@ -107,6 +108,10 @@ SETTINGS = table_of([
     Input("full_scale", list(FULL_SCALE), "the sensor's full scale in force and torque "
           "(weighs the calibration's cross-talk)", kind="floats", unit="N, N m", low=1e-3,
           high=1e6, lengths=(2,)),
+    Input("hysteresis", [0.0] * 6, "the sensor's hysteresis band per axis (fx fy fz tx ty "
+          "tz: a datasheet's % of full scale times the axis's range): each static window "
+          "weighs what its load's change leaves (com_core.sensing.hysteresis); zeros: none",
+          kind="floats", unit="N, N m", low=0.0, high=1e6, lengths=(6,)),
     Input("limit_f", 0.0, "sensor force range (0: no saturation check)", unit="N", low=0.0,
           high=1e6),
     Input("limit_tau", 0.0, "sensor torque range (0: no saturation check)", unit="N m",
@@ -193,10 +198,19 @@ def exploration_from(settings: Mapping[str, Any], urdf: str = "") -> Exploration
             Calibration(value["accuracy"], *value["full_scale"]) if value["accuracy"] > 0 else None
         ),
         reference=reference_of(value),
+        hysteresis=hysteresis_of(value),
     )
     if value["information"] != WRENCHES:
         exploration.robot, exploration.robot_problem = robot_from(value, urdf)
     return exploration
+
+
+def hysteresis_of(settings: Mapping[str, Any]) -> Hysteresis | None:
+    """The hysteresis ``settings`` state (``hysteresis`` over ``full_scale``), else None."""
+    if not any(settings["hysteresis"]):
+        return None
+    force, torque = settings["full_scale"]
+    return Hysteresis(tuple(settings["hysteresis"]), (force,) * 3 + (torque,) * 3)
 
 
 def reference_of(settings: Mapping[str, Any]) -> Reference | None:

@@ -1,0 +1,63 @@
+"""A strain-gauge sensor's hysteresis: the model the simulator reads through
+(``wrench_sim.gauges``) and the share of it the estimator weighs.
+
+Per axis a (N or N m) of range r_a, a state h_a moves toward -b_a while the load x_a
+rises and +b_a while it falls by the fraction 1 - exp(-|dx_a| / (``SATURATION`` r_a)) of
+the way with each change dx_a (a Dahl model, rate-independent); b_a is set so that a loop
+over the whole range opens the datasheet's band H_a at no load (``edge``). After a change
+dx_a the state has moved by at most ``change_gain`` |dx_a| = b_a |dx_a| / (SATURATION r_a)
+(and never more than b_a), toward the side the load came from.
+
+The estimator weighs it per static window (``window_sigma``): a window whose load on an
+axis differs by dx_a from the window before it (in time) is off by up to that, so its
+covariance gains (gain |dx_a|)^2 per axis (one sigma: the bound, since a state part-way
+from the other side moves less), independent from window to window. The sign follows the
+direction the load came from, which the fit's model does not carry.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["SATURATION", "Hysteresis", "edge"]
+
+SATURATION = 0.5
+"""The load change, as a fraction of the range, over which the hysteresis state moves
+1 - 1/e of its way to the band's edge."""
+
+
+def _loop_opening(saturation: float) -> float:
+    """The band at no load of a steady loop over the whole range, per unit of b: the state
+    falls from -a to +a over 2 r (a = b tanh(1 / saturation)), and at no load it has come
+    r of that way, so the opening is 2 (b - (b + a) exp(-1 / saturation))."""
+    decay = math.exp(-1.0 / saturation)
+    return 2.0 * (1.0 - (1.0 + math.tanh(1.0 / saturation)) * decay)
+
+
+def edge(band: ArrayLike) -> NDArray[np.float64]:
+    """b per axis (6,): the state's bound for a full-range loop's ``band`` H (6,)."""
+    return np.asarray(band, dtype=np.float64) / _loop_opening(SATURATION)
+
+
+@dataclass(frozen=True)
+class Hysteresis:
+    """A sensor's hysteresis as the estimator weighs it: the ``band`` H (6,; N, N m) a
+    full-range loop opens per axis (a datasheet's "hysteresis, % FS" times the range) and
+    the ``full_scale`` r (6,)."""
+
+    band: tuple[float, ...]
+    full_scale: tuple[float, ...]
+
+    def window_sigma(self, means: ArrayLike) -> NDArray[np.float64]:
+        """(n, 6): each window's sigma (N, N m) for windows whose ``means`` (n, 6) follow
+        one another in time (module); the first is taken as after a change to its load
+        from none."""
+        m = np.asarray(means, dtype=np.float64).reshape(-1, 6)
+        b = edge(self.band)
+        change = np.abs(np.diff(m, axis=0, prepend=np.zeros((1, 6))))
+        scale = SATURATION * np.asarray(self.full_scale, dtype=np.float64)
+        return np.minimum(b * change / scale, b)
