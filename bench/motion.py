@@ -31,13 +31,15 @@ box of KG kg as a reference weight, the estimator told its mass (``reference_mas
 through a sensor of the same serial (its own noise); the object's readings are then
 corrected by that calibration and its fits weigh what is left of the error
 (``sensing.calibration``), in motion and at rest. Printed besides: the share of each block
-of the calibration error the reference's poses left, median.
+of the calibration error the reference's poses left, median. ``--fixture``: the reference's
+COM told to the estimator within 0.05 mm (``reference_com``: a weight on a fixture).
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -111,13 +113,14 @@ TARE_DWELL, MOVE, SETTLE = 5.0, 1.0, 0.3  # s
 
 
 def static_object(
-    config, shape, mass, seed, every, profile, calibrated=None, reference=False
+    config, shape, mass, seed, every, profile, calibrated=None, reference=False, fixture=False
 ) -> dict:
     """The same object explored at rest (see module): its errors, error / sigma and the
     object pass's time (s, sim); with ``calibrated`` (the sensor's calibration in place)
     read through it. ``reference``: the object is a reference weight, the exploration
     calibrates the sensor (its noise drawn apart from the object's): its solution's
-    calibration (None when not kept) under "calibrated"."""
+    calibration (None when not kept) under "calibrated"; ``fixture``: the estimator told
+    the reference's COM to 0.05 mm (a weight on a fixture of known geometry)."""
     world = ArmWorld(SimConfig(robot=config, object_shape=shape, object_mass=mass, seed=seed))
     try:
         noise_seed = seed + REFERENCE_SEEDS if reference else seed
@@ -136,6 +139,9 @@ def static_object(
         for name, joints in poses:
             window(TARE_PREFIX + name, joints, TARE_DWELL)
         grasp(world)
+        if fixture:  # the reference's COM in the hand, as a fixture's drawing gives it
+            com = tuple(world.object_ground_truth()[1])
+            exploration.reference = replace(exploration.reference, com=com, com_sigma=5e-5)
         start = world.time
         for name, joints in poses:
             window(OBJECT_PREFIX + name, joints, STATIC_PLAN.dwell)
@@ -185,6 +191,8 @@ def main() -> None:
                         help="the same objects explored at rest, side by side")  # fmt: skip
     parser.add_argument("--calibrate", type=float, metavar="KG", default=0.0,
                         help="calibrate each sensor first with a KG reference")  # fmt: skip
+    parser.add_argument("--fixture", action="store_true",
+                        help="with --calibrate: the reference's COM known to 0.05 mm")  # fmt: skip
     args = parser.parse_args()
     profile = PROFILE.with_overrides(calibration_accuracy=args.calibration_accuracy)
     every = round(1000.0 / args.joint_rate)
@@ -208,7 +216,8 @@ def main() -> None:
         calibrated = {k: None for k in seeds}
         if args.calibrate:
             sessions = {k: static_object(config, "box", args.calibrate, k, every, profile,
-                                         reference=True) for k in seeds}  # fmt: skip
+                                         reference=True, fixture=args.fixture)
+                        for k in seeds}  # fmt: skip
             calibrated = {k: SensorCalibration(f"sim-{k}", 0.0, r["calibrated"])
                           if r["calibrated"] else None for k, r in sessions.items()}  # fmt: skip
             kept = [c.result for c in calibrated.values() if c is not None]
