@@ -69,6 +69,25 @@ def test_the_payload_wrench_is_interpolated_between_states_and_extrapolated_past
     np.testing.assert_allclose(held.payload_wrench_at(20 * MS), w1, atol=1e-12)
 
 
+def test_a_sensor_calibrated_in_place_is_compensated_through_its_correction(panda):
+    """The payload is the load's: a sensor that reads C w is read through C^-1 first, so
+    its compensated wrench is the one a perfect sensor's would be."""
+    from com_core.sensing.wrench_model import calibration_matrix
+
+    reading = calibration_matrix(0.01, 290.0, 10.0, np.random.default_rng(2))
+    correction = tuple(map(tuple, np.linalg.inv(reading).tolist()))
+    payload = payload_of()
+    perfect = Compensator(payload, panda)
+    corrected = Compensator(payload, panda, correction=correction)
+    for c in (perfect, corrected):
+        assert c.add_joint_state(0, NAMES, START)
+    contact = np.array([0.3, -0.2, 0.5, 0.01, 0.02, -0.01])  # a push besides the load
+    load = np.array(at(panda, payload, START)) + contact
+    truth = perfect.compensate(1 * MS, load)
+    np.testing.assert_allclose(corrected.compensate(1 * MS, reading @ load), truth, atol=1e-9)
+    assert np.abs(np.subtract(perfect.compensate(1 * MS, reading @ load), truth)).max() > 1e-3
+
+
 def test_a_state_without_every_joint_is_refused_and_a_clock_restart_starts_anew(panda):
     c = Compensator(payload_of(), panda)
     assert c.add_joint_state(100 * MS, NAMES, START)

@@ -376,9 +376,12 @@ class EstimatorNode(Node):
                 self.get_logger().error(f"not compensating: {self._compensation_problem}")
                 return
         previous = self._compensator
+        calibration = self._calibration()  # the payload is of the load: read it corrected
+        correction = calibration and tuple(map(tuple, calibration.calibration.correction.tolist()))
         self._compensator = Compensator(
-            self._payload, self._robot, self._payload_source, self._param("max_joint_state_age")
-        )
+            self._payload, self._robot, self._payload_source, self._param("max_joint_state_age"),
+            correction,
+        )  # fmt: skip
         if previous is not None:
             self._compensator.take_over(previous)
         self._compensation_problem = ""

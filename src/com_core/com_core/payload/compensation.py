@@ -9,14 +9,16 @@ v_k h) - W_k) / h. For a sample stamped t it returns
 
     w_contact = w - W(t)      (N, N m; sensor frame)
 
-with W(t) interpolated linearly between the joint states around t or, past the latest
-(a sample usually arrives before the joint state after it), W_k + dW_k (t - t_k), for at
-most ``max_age`` s; a sample further out is not compensated and is counted (``stale``):
-its orientation is not known. Linear in time between 100 Hz joint states, W is off by
-|W| (omega dt)^2 / 8 at most: 0.15 mN for 12 N turning at 1 rad/s, against 100 mN of a
-sample's noise; and the kinematics run at the joint states' rate, not the sensor's. A
-faster arm (Franka's 1 kHz) is kept every ``min_spacing`` (4 ms, 250 Hz) only: denser
-states would change W by less than 0.04 mN there and cost the kinematics four times over.
+(w corrected first by the sensor's calibration in place, C^-1 w, when it has one:
+``correction``, ``sensing.calibration``) with W(t) interpolated linearly between the
+joint states around t or, past the latest (a sample usually arrives before the joint
+state after it), W_k + dW_k (t - t_k), for at most ``max_age`` s; a sample further out
+is not compensated and is counted (``stale``): its orientation is not known. Linear in
+time between 100 Hz joint states, W is off by |W| (omega dt)^2 / 8 at most: 0.15 mN for
+12 N turning at 1 rad/s, against 100 mN of a sample's noise; and the kinematics run at
+the joint states' rate, not the sensor's. A faster arm (Franka's 1 kHz) is kept every
+``min_spacing`` (4 ms, 250 Hz) only: denser states would change W by less than 0.04 mN
+there and cost the kinematics four times over.
 
 In motion: with a payload whose hand and object inertias are known (an exploration in
 motion), W_k is their whole wrench, W_k = Y(q_k, v_k, a_k) (pi_hand + pi_object) + b
@@ -59,6 +61,8 @@ RATE_STEP = 1e-3
 class Compensator:
     """Compensates samples with ``payload`` at the orientation ``robot`` gives for the
     latest joint states (see module); counts what it compensated and what it left out.
+    ``correction`` (6 rows of 6): the sensor's calibration in place, C^-1, each sample
+    read through it first; None: as read.
 
     ``add_joint_state`` takes a sensor_msgs/JointState's content (names in any order;
     velocities optional: without them W is held past the latest state); states come in
@@ -69,6 +73,7 @@ class Compensator:
     robot: RobotModel
     source: str = ""
     max_age: float = MAX_JOINT_STATE_AGE
+    correction: tuple[tuple[float, ...], ...] | None = None
     min_spacing: float = 0.004
     keep: int = 16
     compensated: int = 0
@@ -187,4 +192,7 @@ class Compensator:
             self.stale += 1
             return None
         self.compensated += 1
+        if self.correction is not None:
+            wrench = [sum(c * w for c, w in zip(row, wrench, strict=True))
+                      for row in self.correction]  # fmt: skip
         return [w - g for w, g in zip(wrench, gravity, strict=True)]
