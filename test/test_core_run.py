@@ -264,6 +264,19 @@ def test_a_sensor_calibrated_in_place_takes_a_tare_of_its_own_and_its_bag_keeps_
                       "panda_hand on sim-realistic-0 calibrated 2027-01-15T08:00:00Z"}  # fmt: skip
 
 
+@pytest.mark.parametrize("options", [{"excitation": "motion"}, {"information": "wrenches"}])
+def test_a_calibration_in_motion_or_without_kinematics_is_refused_before_anything_moves(
+    tmp_path, options
+):
+    world = FakeWorld()
+    world.settings_values["reference_mass"] = 1.0
+    world.settings_values |= {k: v for k, v in options.items() if k == "information"}
+    sequencer = {k: v for k, v in options.items() if k == "excitation"}
+    outcome = make_run(world, tmp_path, **sequencer).execute()
+    assert outcome.status == ERROR and "a calibration in place" in outcome.message
+    assert not world.sent("send")  # the arm never moved
+
+
 def test_a_full_disk_ends_the_run_by_name_with_the_arm_home_and_the_bag_closed(tmp_path):
     world = FakeWorld()
     world.disk_full_after = 14  # in the object pass, the object in the hand

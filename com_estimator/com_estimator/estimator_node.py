@@ -285,9 +285,9 @@ class EstimatorNode(Node):
         if solution.calibration is None or self._calibration_of is self._exploration:
             return
         sensor = self._param("sensor_id")
-        if not sensor:
-            self.get_logger().error("the calibration in place not kept: no sensor_id names "
-                                    "the sensor it belongs to")  # fmt: skip
+        if not sensor or not cache:
+            why = "no sensor_id names the sensor" if not sensor else "no tare_cache to keep it by"
+            self.get_logger().error(f"the calibration in place not kept: {why}")
             return
         path = calibration_path(cache)
         try:
@@ -297,14 +297,16 @@ class EstimatorNode(Node):
         except OSError as exc:
             self.get_logger().error(f"the calibration in place not kept: {exc}")
 
-    def _solve(self, until_ns: int) -> Solution:
+    def _solve(self, until_ns: int, done: bool = False) -> Solution:
         """Solve the current exploration and publish it (``_publish``); the empty hand's
         motion fit of a usable exploration in motion goes to the cache beside the tare
         cache (``hand_motion``), once per motion (a later ~/solve of the same run does
-        not make it younger), as a calibration in place does (``_keep_calibration``)."""
+        not make it younger), and a calibration in place of a run that is ``done`` (its
+        every pose; ``_keep_calibration``)."""
         solution = self._solution(until_ns)
         if cache := self._param("tare_cache"):
             self._keep_hand_motion(solution, cache)
+        if done:
             self._keep_calibration(solution, cache)
         payload = self._payload_of(solution)
         if payload is not None:
@@ -319,8 +321,8 @@ class EstimatorNode(Node):
         either)."""
         robot = self._exploration.robot
         fitted = solution.fit is not None or solution.motion is not None
-        if not solution.usable or not fitted or robot is None:
-            return None
+        if not solution.usable or not fitted or robot is None or solution.calibrated:
+            return None  # a calibration's fit is of raw readings: no payload to compensate
         try:
             frame = self._param("expected_frame") or self._latest_frame  # '': the wrenches'
             return payload_from_solution(
@@ -582,7 +584,7 @@ class EstimatorNode(Node):
 
     def _solve_done(self) -> None:
         """Solve the run up to its ``done`` and start a new exploration."""
-        self._solve(self._done_stamp)
+        self._solve(self._done_stamp, done=True)
         self._start_anew()
 
     def _start_anew(self) -> None:
@@ -600,7 +602,7 @@ class EstimatorNode(Node):
             if self._done_stamp is not None
             else (latest + 1 if latest is not None else 0)
         )
-        solution = self._solve(until)
+        solution = self._solve(until, done=self._done_stamp is not None)
         response.success = solution.status == OK
         response.message = format_solution(solution)
         return response

@@ -118,9 +118,9 @@ from com_core.report.recording import write_recording_report
 from com_core.robot.config import BAG_ROBOT_FILE, RobotConfigError, read_robot_config
 
 ROBOT_FRAMES = ("sensor_frame", "base_frame")
+"""The settings a run's robot configuration gives the replay."""
 DEFAULT_TARE_CACHE = "tare_cache.json"
 """The nodes' tare cache in their bag directory (``planning.decisions.tare_cache_path``)."""
-"""The settings a run's robot configuration gives the replay."""
 
 
 INTERNAL_ERROR_CODE = 3

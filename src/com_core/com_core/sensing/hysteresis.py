@@ -4,15 +4,17 @@
 Per axis a (N or N m) of range r_a, a state h_a moves toward -b_a while the load x_a
 rises and +b_a while it falls by the fraction 1 - exp(-|dx_a| / (``SATURATION`` r_a)) of
 the way with each change dx_a (a Dahl model, rate-independent); b_a is set so that a loop
-over the whole range opens the datasheet's band H_a at no load (``edge``). After a change
-dx_a the state has moved by at most ``change_gain`` |dx_a| = b_a |dx_a| / (SATURATION r_a)
-(and never more than b_a), toward the side the load came from.
+over the whole range opens the datasheet's band H_a at no load (``edge``). A change dx_a
+moves a state from the middle of its band by b_a |dx_a| / (SATURATION r_a) (at most
+b_a), toward the side the load came from; from the far edge, after the load turned, by up
+to twice that, and from the near edge not at all.
 
-The estimator weighs it per static window (``window_sigma``): a window whose load on an
-axis differs by dx_a from the window before it (in time) is off by up to that, so its
-covariance gains (gain |dx_a|)^2 per axis (one sigma: the bound, since a state part-way
-from the other side moves less), independent from window to window. The sign follows the
-direction the load came from, which the fit's model does not carry.
+The estimator weighs it per static window (``Hysteresis.window_sigma``): the change of
+load since the window before it (in time) moves the state by a sigma of the middle's
+move, and the state keeps what it moved (``FitSetup._with_hysteresis`` sums the increments
+so far, a persistent nuisance). The sign follows the direction the load came from, which
+the fit's model does not carry; the sum over many changes can exceed the band, which the
+state cannot: conservative there.
 """
 
 from __future__ import annotations

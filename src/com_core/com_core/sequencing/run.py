@@ -230,6 +230,7 @@ class ExplorationRun:
         self.arm.arm, self.arm.gripper_port = ports.arm, ports.gripper
         self.progress = RunProgress(ports.clock, wall_seen)
         self._record = _Record()
+        self._estimator_cache = ""  # the estimator's tare_cache, read at the run's start
         self._answer: EstimatorAnswer | None = None
         self._cancel_lock = threading.Lock()  # a cancel, and the way back from one
 
@@ -309,9 +310,10 @@ class ExplorationRun:
         return tare_cache_path(self.p("tare_cache"), self.p("bag_dir"))
 
     def _calibration(self) -> SensorCalibration | None:
-        """The sensor's calibration in place, kept beside the tare cache; None without."""
-        sensor = self.p("sensor_id")
-        return load_calibration(calibration_path(self._cache_path()), sensor) if sensor else None
+        """The sensor's calibration in place the estimator applies (kept beside its tare
+        cache, read at the run's start); None without."""
+        sensor, cache = self.p("sensor_id"), self._estimator_cache
+        return load_calibration(calibration_path(cache), sensor) if sensor and cache else None
 
     def _owner(self) -> str:
         """The hand on the sensor as calibrated, which every cached thing of this run
@@ -372,6 +374,15 @@ class ExplorationRun:
         # the estimator's settings, once: the run's plan, and the bag's copy for the replay
         values = self.estimator.settings([n for n in SETTINGS if n != "robot_description"])
         method, information = values["method"], values["information"]
+        self._estimator_cache = str(values["tare_cache"])
+        if values["reference_mass"] and (
+            self.p("excitation") == MOTION or information == WRENCHES
+        ):
+            raise RunError(
+                "a calibration in place (reference_mass) is a static exploration with the "
+                "kinematics: excitation 'static', information 'kinematics' or "
+                "'kinematics+mount'"
+            )
         if self.p("excitation") == MOTION:
             return self._explore_in_motion(motion, values)
         drift_rate = tuple(values["bias_drift_rate"])

@@ -36,6 +36,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from com_core.estimation.fits.errors import EstimationError
 from com_core.estimation.fits.known_gravity import (
     KinematicFit,
     Observation,
@@ -130,12 +131,13 @@ def calibrate_in_place(
     """The calibration the windows identify (module): ``observations`` of the empty hand
     and of the ``reference`` at static poses, read raw (not corrected by an earlier
     calibration); ``stated`` the sensor's stated accuracy and full scales, the prior of E.
-    With the fit it came from. ValueError without both empty-hand and reference windows;
+    With the fit it came from. EstimationError without both empty-hand and reference
+    windows;
     the fit's own errors (``kinematic_ml``) when the poses do not resolve it.
     ``nuisance_cov``: that of the windows' ``nuisance`` (the sensor's hysteresis)."""
     observations = list(observations)
     if not any(o.load for o in observations) or all(o.load for o in observations):
-        raise ValueError("a calibration in place needs the empty hand and the reference")
+        raise EstimationError("a calibration in place needs the empty hand and the reference")
     prior = Calibration(stated.accuracy, stated.full_scale_f, stated.full_scale_tau)
     fit = kinematic_ml(
         observations, gravity, drift_rate_sigma=drift_rate_sigma, calibration=prior,
