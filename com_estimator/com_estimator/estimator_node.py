@@ -99,7 +99,7 @@ from com_core.estimation.runs.sensor_calibration import (
     SensorCalibration,
     calibrated_owner,
     calibration_path,
-    load_calibration,
+    kept_calibration,
     save_calibration,
 )
 from com_core.estimation.runs.settings import (
@@ -213,8 +213,7 @@ class EstimatorNode(Node):
 
     def _calibration(self) -> SensorCalibration | None:
         """The sensor's calibration in place, kept beside the tare cache; None without."""
-        cache, sensor = self._param("tare_cache"), self._param("sensor_id")
-        return load_calibration(calibration_path(cache), sensor) if cache and sensor else None
+        return kept_calibration(self._param("tare_cache"), self._param("sensor_id"))
 
     def _owner(self, calibration: SensorCalibration | None) -> str:
         """The hand on the sensor as ``calibration`` left it, which the cached hand motion

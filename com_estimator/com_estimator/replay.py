@@ -114,13 +114,12 @@ from com_core.estimation.runs.solution import (
 )
 from com_core.estimation.runs.tare_cache import BAG_TARE_FILE
 from com_core.inputs import refusal, unwritable
+from com_core.planning.decisions import tare_cache_path
 from com_core.report.recording import write_recording_report
 from com_core.robot.config import BAG_ROBOT_FILE, RobotConfigError, read_robot_config
 
 ROBOT_FRAMES = ("sensor_frame", "base_frame")
 """The settings a run's robot configuration gives the replay."""
-DEFAULT_TARE_CACHE = "tare_cache.json"
-"""The nodes' tare cache in their bag directory (``planning.decisions.tare_cache_path``)."""
 
 
 INTERNAL_ERROR_CODE = 3
@@ -399,7 +398,7 @@ def keep_calibration(args: argparse.Namespace, solution: Solution, sensor_id: st
         return f"{summary}calibration not kept: {solution.reason}"
     if args.reference_mass is None and args.calibration is None:
         return "calibration not kept here (the node kept it; --calibration FILE keeps it)"
-    path = args.calibration or calibration_path(args.bag.parent / DEFAULT_TARE_CACHE)
+    path = args.calibration or calibration_path(tare_cache_path("", str(args.bag.parent)))
     save_calibration(path, SensorCalibration(sensor_id, time.time(), solution.calibration))
     return (f"calibration of {sensor_id!r} kept in {path}: the estimator applies it to that "
             "sensor's runs (with the tare cache beside it)")  # fmt: skip

@@ -30,6 +30,7 @@ import numpy as np
 
 from com_core.estimation.fits.in_place import calibrate_in_place
 from com_core.estimation.fits.known_gravity import Reference
+from com_core.estimation.runs.settings import REFERENCE_MASS_SHARE
 from com_core.planning.planner import Plan
 from com_core.planning.prediction import plan_observations, predict
 from com_core.sensing.calibration import Calibration
@@ -63,7 +64,7 @@ def predicted_calibration(plan: Plan, reference_mass: float) -> Calibration | No
         return None
     session = plan_observations(replace(plan, mass_guess=reference_mass))
     result, _ = calibrate_in_place(
-        session, Reference(reference_mass, 1e-4 * reference_mass), stated
+        session, Reference(reference_mass, REFERENCE_MASS_SHARE * reference_mass), stated
     )
     return replace(stated, residual_cov=result.calibration.residual_cov)
 

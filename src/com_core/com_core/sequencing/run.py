@@ -65,8 +65,7 @@ from com_core.estimation.runs.sensor_calibration import (
     CALIBRATION_FILE,
     SensorCalibration,
     calibrated_owner,
-    calibration_path,
-    load_calibration,
+    kept_calibration,
     save_calibration,
 )
 from com_core.estimation.runs.settings import BAG_SETTINGS_FILE, SETTINGS, write_bag_settings
@@ -312,8 +311,7 @@ class ExplorationRun:
     def _calibration(self) -> SensorCalibration | None:
         """The sensor's calibration in place the estimator applies (kept beside its tare
         cache, read at the run's start); None without."""
-        sensor, cache = self.p("sensor_id"), self._estimator_cache
-        return load_calibration(calibration_path(cache), sensor) if sensor and cache else None
+        return kept_calibration(self._estimator_cache, self.p("sensor_id"))
 
     def _owner(self) -> str:
         """The hand on the sensor as calibrated, which every cached thing of this run

@@ -32,6 +32,7 @@ __all__ = [
     "SensorCalibration",
     "calibrated_owner",
     "calibration_path",
+    "kept_calibration",
     "load_calibration",
     "save_calibration",
 ]
@@ -102,6 +103,15 @@ class SensorCalibration:
 def calibration_path(tare_cache: str | Path) -> Path:
     """The calibrations' file beside the tare cache ``tare_cache``."""
     return Path(tare_cache).with_name(CALIBRATION_FILE)
+
+
+def kept_calibration(tare_cache: str | Path, sensor_id: str) -> SensorCalibration | None:
+    """The calibration kept for ``sensor_id`` beside the tare cache ``tare_cache`` (what
+    the estimator applies, and the sequencer plans with); None without either, or none
+    kept."""
+    if not str(tare_cache) or not sensor_id:
+        return None
+    return load_calibration(calibration_path(tare_cache), sensor_id)
 
 
 def calibrated_owner(owner: str, entry: SensorCalibration | None) -> str:
