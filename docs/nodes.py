@@ -273,8 +273,9 @@ def estimator_node() -> list[str]:
         interface(
             c.ESTIMATE_TOPIC,
             "out",
-            "m and COM in `ft_sensor`, latched, stamped with the `done` stamp; usable "
-            "estimates only",
+            "m and COM in `ft_sensor`, and from a run in motion the inertia about the COM "
+            "when the motion told it (every principal moment beyond its sigma); latched, "
+            "stamped with the `done` stamp; usable estimates only",
         ),
         interface(
             c.DIAGNOSTICS_TOPIC,

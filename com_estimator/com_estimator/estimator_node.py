@@ -6,7 +6,8 @@ Subscribes
     label, stamp the sensor time from which it applies; reliable, transient local).
 Publishes
     ~/estimate (geometry_msgs/InertiaStamped: m, com in ft_sensor, and from an exploration
-    in motion the inertia about the COM; transient local): only
+    in motion the inertia about the COM when the motion told it,
+    ``MotionResult.inertia_identified``; transient local): only
     usable estimates (``Solution.usable``: status OK, or WARN for dropped input with a
     consistent fit); an inconsistent fit (the object moved) is on /diagnostics only,
     /diagnostics (diagnostic_msgs/DiagnosticArray: ``com_estimator: exploration`` with the
@@ -675,7 +676,7 @@ class EstimatorNode(Node):
             msg.inertia.com.x, msg.inertia.com.y, msg.inertia.com.z = (
                 float(c) for c in solution.estimate.com
             )
-            if solution.motion is not None:  # about the COM, kg m^2
+            if solution.motion is not None and solution.motion.inertia_identified:  # kg m^2
                 elements = inertia_elements(solution.motion.inertia)
                 for name, value in zip(INERTIA_ELEMENTS, elements, strict=True):
                     setattr(msg.inertia, name, float(value))

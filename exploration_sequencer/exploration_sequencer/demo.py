@@ -629,11 +629,13 @@ def print_ended(ended: Sequence[Child]) -> None:
 
 
 def print_inertia(values: dict[str, str], truth) -> None:
-    """The inertia about the COM (kg cm^2, ft_sensor) estimated and held, element by
-    element with the error over its sigma, and the principal moments."""
+    """The inertia about the COM (kg cm^2, ft_sensor) estimated (or only fitted, not
+    published) and held, element by element with the error over its sigma, and the
+    principal moments."""
     from com_core.estimation.fits.motion import principal_moments
 
-    estimate = np.array(vector_value(values, "inertia"))
+    published = "inertia" in values
+    estimate = np.array(vector_value(values, "inertia" if published else "inertia_fit"))
     cov = np.array(vector_value(values, "inertia_cov")).reshape(6, 6)
     held = np.array([getattr(truth, name) for name in INERTIA_ELEMENTS])
     z = (estimate - held) / np.sqrt(np.diag(cov))
@@ -644,7 +646,8 @@ def print_inertia(values: dict[str, str], truth) -> None:
         return "(" + ", ".join(f"{1e4 * x:.2f}" for x in v) + ")"
 
     names = ", ".join(name.capitalize() for name in INERTIA_ELEMENTS)
-    print(f"inertia:  {names} {cm2(estimate)} kg cm^2 about the COM")
+    state = "" if published else " (not published: a moment within its sigma)"
+    print(f"inertia:  {names} {cm2(estimate)} kg cm^2 about the COM{state}")
     print(f"          truth {cm2(held)}; error / sigma ({', '.join(f'{x:+.1f}' for x in z)})")
     print(f"          principal moments {cm2(moments)} +- {cm2(sigma)}, truth {cm2(true_moments)}")
 
@@ -707,7 +710,7 @@ def print_summary(result, estimates, truths, statuses, wall: float) -> None:
                 f"({', '.join(f'{x:+.2f}' for x in err)}) mm, |e| = "
                 f"{math.sqrt(sum(x * x for x in err)):.2f} mm"
             )
-            if "inertia" in values:
+            if "inertia" in values or "inertia_fit" in values:
                 print_inertia(values, t)
     print(f"time:     {wall:.1f} s wall in all")
     if " bag " in result.message:

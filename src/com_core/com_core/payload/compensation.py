@@ -20,15 +20,16 @@ the joint states' rate, not the sensor's. A faster arm (Franka's 1 kHz) is kept 
 ``min_spacing`` (4 ms, 250 Hz) only: denser states would change W by less than 0.04 mN
 there and cost the kinematics four times over.
 
-In motion: with a payload whose hand and object inertias are known (an exploration in
-motion), W_k is their whole wrench, W_k = Y(q_k, v_k, a_k) (pi_hand + pi_object) + b
+In motion: with a payload whose hand's inertia is known (an exploration in motion; the
+object's too, or, when the motion did not identify it, a point mass at its COM), W_k is
+their whole wrench, W_k = Y(q_k, v_k, a_k) (pi_hand + pi_object) + b
 (``robot.dynamics``: gravity and the inertial wrench), a_k the joint accelerations by
 the backward difference of the velocities of the last two kept states, and a sample
 stamped t takes W at t - ``payload.delay`` (the wrench's stamps lag the joint states'),
 and the robot model's gravity (an exploration in motion fits no mounting nor base tilt;
 a payload's are not applied here). The backward difference lags the acceleration by half
 the spacing of the kept states (2 ms at 4 ms): 0.3 rad/s^2 at the excitation's jerk.
-Without the inertias the wrench is static: the inertial wrench of the hand and the
+Without the hand's inertia the wrench is static: the inertial wrench of the hand and the
 payload while the arm accelerates is not removed (docs/design.md says how large it is in
 the exploration's moves). A sample costs a few float operations: the estimator node
 calls this per message, inside the 1 ms its latency may add.
@@ -148,7 +149,8 @@ class Compensator:
         if not p.in_motion:
             return payload_wrench(p, self.robot.sensor_rotation_of(q))
         if self._load is None:
-            self._load = inertial_parameters(p.mass, p.com, p.inertia) + inertial_parameters(
+            inertia = np.zeros((3, 3)) if p.inertia is None else p.inertia  # a point mass
+            self._load = inertial_parameters(p.mass, p.com, inertia) + inertial_parameters(
                 p.hand_mass, p.hand_com, p.hand_inertia
             )
         still = np.zeros_like(q)

@@ -129,7 +129,8 @@ _FILE_NOTES = {
     ),
     "covariance": "covariance of (mass, com_x, com_y, com_z): kg^2, kg m, m^2\n",
     "bias": "the sensor's bias (its zero) at time: N, N m; it drifts\n",
-    "inertia": "the object's inertia about its com (an exploration in motion): kg m^2\n",
+    "inertia": "the object's inertia about its com (an exploration in motion that identified "
+    "it): kg m^2\n",
     "delay": "s the wrenches are stamped after the joint states of the same instant\n",
     "hand": "the hand: everything beyond the sensor but the object; kg, m, kg m^2\n",
     "sensor_frame": "the URDF's frames: of the sensor, and of the base\n",
@@ -417,7 +418,7 @@ def urdf_snippet(payload: Payload, link: str = "payload") -> str:
     rotation = payload._mount_rotation
     com = rotation @ payload.com
     if payload.inertia is None:
-        inertia = [_xml_comment("inertia not estimated: a point mass"),
+        inertia = [_xml_comment("inertia not estimated or not identified: a point mass"),
                    '<inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>']  # fmt: skip
     else:
         i = rotation @ payload.inertia @ rotation.T

@@ -76,8 +76,9 @@ class Payload:
     hand_id : names the hand the payload was held by; '' unknown.
     noise : the sensor's noise the estimate learnt (``com_core.sensing.noise``); None unknown.
     inertia, hand_inertia : (3, 3), kg m^2, the object's and the hand's inertia about
-        their own COMs (an exploration in motion); None not estimated. With both, the
-        compensation removes the inertial wrench in motion too (``compensation``).
+        their own COMs (an exploration in motion); None not estimated (the object's: or
+        not identified, a point mass at its COM). With the hand's, the compensation
+        removes the inertial wrench in motion too (``compensation``).
     delay : s, how much later the wrenches are stamped than the joint states of the same
         instant (an exploration in motion estimates it; 0 unknown).
 
@@ -169,9 +170,9 @@ class Payload:
 
     @property
     def in_motion(self) -> bool:
-        """The inertias of the hand and the object are known: the inertial wrench can be
-        compensated too."""
-        return self.inertia is not None and self.hand_inertia is not None
+        """The hand's inertia is known (an exploration in motion): the inertial wrench can
+        be compensated too, the object's with its inertia or as a point mass at its COM."""
+        return self.hand_inertia is not None
 
     @property
     def total_mass(self) -> float:
@@ -358,7 +359,7 @@ def _payload_in_motion(
         hand_com=hand_com,
         bias=result.object.bias,
         **_of_solution(solution, robot, frame, hand_id, time),
-        inertia=result.inertia,
+        inertia=result.inertia if result.inertia_identified else None,
         hand_inertia=hand_inertia,
         delay=result.object.delay,
     )

@@ -10,8 +10,9 @@
   the mass (g) and each COM axis (mm, ``ft_sensor``) with 1-sigma (thick) and 3-sigma
   (thin) error bars; without ground truth the estimate itself with its error bars; for a
   run in motion, under them, the inertia's six elements about the COM (kg cm^2) the
-  same way; with no estimate (ERROR) the reason, large; under it a table of every
-  number, the status, reason, method, chi-square, poses, and which topics the bag lacks;
+  same way (titled "not published" when the motion did not identify it); with no
+  estimate (ERROR) the reason, large; under it a table of every number, the status,
+  reason, method, chi-square, poses, and which topics the bag lacks;
 - bottom left: the sensor's noise, the autocorrelation of the empty hand's windows (all
   static windows when there are none) per axis, each window less its mean, against the
   AR model the estimator learns from them (``com_core.sensing.noise``); for a run in
@@ -133,9 +134,10 @@ def _rows(run: RunData) -> list[_Row]:
 
 def _inertia_rows(run: RunData) -> list[_Row]:
     """A run in motion's six inertia elements about the COM (kg cm^2, ``ft_sensor``) with
-    sigma, and truth when known; [] for a run without them."""
+    sigma, and truth when known, published or only fitted (``inertia_fit``); [] for a run
+    without them."""
     values = run.diagnostic["values"] if run.diagnostic else {}
-    estimate = vector_value(values, "inertia") or []
+    estimate = vector_value(values, "inertia") or vector_value(values, "inertia_fit") or []
     sigma = vector_value(values, "sigma_inertia") or []
     if not len(estimate) == len(sigma) == len(INERTIA_ELEMENTS):
         return []
@@ -404,9 +406,12 @@ def _error_bar(ax, x: float, y: float, sigma: float | None, colour: str) -> None
     ax.plot(x, y, "o", color="black", ms=6, zorder=5)
 
 
-def _draw_inertia(fig, rows: list[_Row], rect: tuple[float, float, float, float]) -> None:
+def _draw_inertia(
+    fig, rows: list[_Row], rect: tuple[float, float, float, float], published: bool
+) -> None:
     """The inertia's six elements (kg cm^2) on one scale, as ``_draw_bars`` draws a row:
-    estimate minus truth (or the estimate) with 1- and 3-sigma bars, in ``rect``."""
+    estimate minus truth (or the estimate) with 1- and 3-sigma bars, in ``rect``; the
+    title says when it was ``published`` or not."""
     from matplotlib.ticker import MaxNLocator
 
     with_truth = rows[0].truth is not None
@@ -420,7 +425,8 @@ def _draw_inertia(fig, rows: list[_Row], rect: tuple[float, float, float, float]
     ax.yaxis.set_major_locator(MaxNLocator(4))
     ax.grid(True, axis="y", color="#dddddd", lw=0.6)
     what = "estimate - truth" if with_truth else "estimate"
-    ax.set_title(f"inertia about the COM, {what} (kg cm$^2$, ft_sensor)", fontsize=10)
+    state = "" if published else ", not published (a moment within its sigma)"
+    ax.set_title(f"inertia about the COM, {what} (kg cm$^2$, ft_sensor){state}", fontsize=10)
 
 
 def _draw_bars(fig, rows: list[_Row], rect: tuple[float, float, float, float]) -> None:
@@ -748,7 +754,7 @@ def write_report(
     inertia = _inertia_rows(run)
     if rows and inertia:
         _draw_bars(fig, rows, (0.69, 0.645, 0.295, 0.155))
-        _draw_inertia(fig, inertia, (0.69, 0.485, 0.295, 0.09))
+        _draw_inertia(fig, inertia, (0.69, 0.485, 0.295, 0.09), "inertia" in values)
     elif rows:
         _draw_bars(fig, rows, (0.69, 0.5, 0.295, 0.3))
     else:

@@ -13,8 +13,9 @@ error explain (``MotionFit.expected``; a load that moves in the grasp
 leaves a residual the model has no parameter for). The check along the verification
 motion (``MotionCheck``) compares the rms of the compensated wrench with what the noise,
 the fit's covariance and the calibration predict, within what one draw of the fit's and
-the calibration's errors may give. Units: N, N m, kg, m, kg m^2, s; the
-sensor frame.
+the calibration's errors may give. The inertia is published only when the motion told
+it: every principal moment beyond its sigma (``MotionResult.inertia_identified``). Units:
+N, N m, kg, m, kg m^2, s; the sensor frame.
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from com_core.estimation.fits.motion import (
     MotionFit,
     fit_motion,
     joint_motion,
+    principal_moments,
     regressors_along,
 )
 from com_core.estimation.runs.cutting import motion_spans
@@ -47,6 +49,7 @@ from com_core.sensing.noise import NoiseModel
 __all__ = [
     "EXCITATIONS",
     "MAX_CHI2_PER_DOF",
+    "MIN_MOMENT_SIGMAS",
     "MOTION",
     "STATIC",
     "MotionCheck",
@@ -64,6 +67,9 @@ MAX_CHI2_PER_DOF = 1.5
 noise, the encoders and the calibration's error explain (``MotionFit.expected``;
 chi^2/dof 0.99-1.10 measured over 73 sensors with the realistic profile at 0.5 kg, and
 1.69 at 2 kg on the xArm6, 1.37 times the 1.23 explained)."""
+MIN_MOMENT_SIGMAS = 1.0
+"""The inertia is published when every principal moment exceeds this many of its sigmas:
+a moment within its sigma is told no better than by a point mass at the COM."""
 _MIN_JOINT_STATES = 10  # a motion's joint states, at the least
 _DRAWS = 2000  # of the fit's and the calibration's errors, for the check's allowance
 _DRAW_SAMPLES = 300  # samples of the motion each draw is evaluated at
@@ -124,10 +130,26 @@ class MotionResult:
         """(6,) kg m^2, of the ``INERTIA_ELEMENTS``."""
         return np.sqrt(np.diag(self.load_cov)[4:])
 
+    @property
+    def moments(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(the principal moments (3,), ascending, their sigmas (3,)): kg m^2, of
+        ``inertia`` (``principal_moments``)."""
+        return principal_moments(self.inertia, self.load_cov[4:, 4:])
+
+    @property
+    def inertia_identified(self) -> bool:
+        """Every principal moment exceeds ``MIN_MOMENT_SIGMAS`` of its sigma: the motion
+        told the inertia. Otherwise it is not published (nor in the payload: the object a
+        point mass at its COM); its fit stays in the diagnostics as ``inertia_fit``."""
+        moments, sigma = self.moments
+        return bool(np.all(moments > MIN_MOMENT_SIGMAS * sigma))
+
     def as_dict(self) -> dict:
         hand_mass, hand_com, _ = self.hand.load()
         return {
-            "inertia": self.object.load_vector()[4:].tolist(),
+            "inertia" if self.inertia_identified else "inertia_fit": (
+                self.object.load_vector()[4:].tolist()
+            ),
             "sigma_inertia": self.sigma_inertia.tolist(),
             "inertia_cov": self.load_cov[4:, 4:].ravel().tolist(),
             "bias": self.object.bias.tolist(),

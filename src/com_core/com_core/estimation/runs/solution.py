@@ -33,7 +33,6 @@ from com_core.estimation.fits.errors import EstimationError, MissingTareError, W
 from com_core.estimation.fits.estimators import Consistency, Estimate, check_consistency
 from com_core.estimation.fits.in_place import InPlaceCalibration
 from com_core.estimation.fits.known_gravity import KinematicFit, mount_rpy
-from com_core.estimation.fits.motion import principal_moments
 from com_core.estimation.fits.stats import chi2_isf
 from com_core.estimation.fits.windows import Window, subtract_tare
 from com_core.estimation.runs.cutting import (
@@ -47,6 +46,7 @@ from com_core.estimation.runs.cutting import (
 from com_core.estimation.runs.fit_setup import KINEMATICS, WRENCHES, FitSetup, check_load_direction
 from com_core.estimation.runs.inbox import Inbox, shorten
 from com_core.estimation.runs.motion_solution import (
+    MIN_MOMENT_SIGMAS,
     MOTION,
     STATIC,
     MotionCheck,
@@ -404,17 +404,20 @@ def _solved_in_motion(
 
 
 def _motion_summary(e: Estimate, result: MotionResult) -> str:
-    """Mass and COM, the principal moments (kg cm^2) with their sigmas, and the motion's
-    samples."""
-    moments, sigma = principal_moments(result.inertia, result.load_cov[4:, 4:])
+    """Mass and COM, the principal moments (kg cm^2) with their sigmas (or why the inertia
+    is not published), and the motion's samples."""
+    moments, sigma = result.moments
 
     def cm2(values) -> str:
         return ", ".join(f"{1e4 * v:.2f}" for v in values)
 
-    return (
-        f"{_mass_and_com(e)}, principal moments ({cm2(moments)}) +- ({cm2(sigma)}) kg cm^2 "
-        f"from a motion of {result.object.samples} samples"
-    )
+    found = f"principal moments ({cm2(moments)}) +- ({cm2(sigma)}) kg cm^2"
+    if not result.inertia_identified:
+        found = (
+            f"the inertia not published: {found}, one within {MIN_MOMENT_SIGMAS:g} sigma (a "
+            "longer motion or a calibration in place would tell it)"
+        )
+    return f"{_mass_and_com(e)}, {found} from a motion of {result.object.samples} samples"
 
 
 def _verifications(
