@@ -26,15 +26,17 @@ def path(t: np.ndarray) -> np.ndarray:
 
 def test_the_hand_motion_serves_its_own_hand_on_its_own_sensor_only(tmp_path):
     """Saved and read back, it serves its owner along its path; the same hand on another
-    sensor, or another robot model, is told why not."""
+    sensor, another robot model, another path or a longer motion (more cycles) is told
+    why not."""
     file = tmp_path / "hand_motion.json"
     save_hand_motion(file, entry())
     saved = load_hand_motion(file)
     assert saved is not None and saved.owner == OWNER
-    assert saved.serves(OWNER, "sha", path, max_age=np.inf) == ""
+    assert saved.serves(OWNER, "sha", path, 3.0, max_age=np.inf) == ""
     other = cache_owner("panda_hand", "ft-2")
-    assert saved.serves(other, "sha", path, np.inf).startswith("it is of another hand or sensor")
-    assert saved.serves(OWNER, "other", path, np.inf).startswith("it is of another robot model")
-    assert saved.serves(OWNER, "sha", lambda t: path(t) + 1.0, np.inf).startswith(
+    assert saved.serves(other, "sha", path, 3.0, np.inf).startswith("it is of another hand or")
+    assert saved.serves(OWNER, "other", path, 3.0, np.inf).startswith("it is of another robot")
+    assert saved.serves(OWNER, "sha", lambda t: path(t) + 1.0, 3.0, np.inf).startswith(
         "it is of another motion"
     )
+    assert saved.serves(OWNER, "sha", path, 6.0, np.inf).startswith("it is of a shorter motion")

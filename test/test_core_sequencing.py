@@ -4,6 +4,8 @@ controller's result, the way back."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from conftest import PANDA, choreography
@@ -101,3 +103,9 @@ def test_an_excitation_starts_at_home_at_rest_at_its_stamp():
     world = FakeWorld()
     arm = arm_motion(world)
     assert arm.follow(excitation, world.t + 50 * MS, "motion/object") == world.t + 2050 * MS
+    # three cycles: three periods, through home at rest after each, the first one's points
+    cycled = excitation_path(replace(excitation, cycles=3), PANDA.arm_joints, 7 * MS)
+    assert cycled.duration_ns == 6_000 * MS and cycled.points[: len(path.points)] == path.points
+    for k in (1, 2, 3):
+        _, q, v, a = next(p for p in cycled.points if p[0] == pytest.approx(2.0 * k))
+        assert q == pytest.approx(HOME, abs=1e-9) and np.abs([*v, *a]).max() < 1e-9

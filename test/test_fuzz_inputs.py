@@ -184,6 +184,7 @@ DEMO_FLAGS = {
     "--dwell": SEQUENCER["dwell"],
     "--target-sigma": SEQUENCER["target_com_sigma"],
     "--motion-period": SEQUENCER["motion_period"],
+    "--motion-cycles": SEQUENCER["motion_cycles"],
     "--timeout": demo.TIMEOUT,
 }
 TEXT_FLAGS = {

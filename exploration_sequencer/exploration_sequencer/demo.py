@@ -151,6 +151,13 @@ def build_parser() -> argparse.ArgumentParser:
         f"{SEQUENCER['motion_period'].default:g} s)",
     )
     p.add_argument(
+        "--motion-cycles",
+        type=int,
+        help="with --excitation motion: how many periods the empty hand's and the object's "
+        "motions run (python -m com_core.planning.motion_accuracy says how many a target "
+        "needs; default 1)",
+    )
+    p.add_argument(
         "--hold",
         action="store_true",
         help="end holding the object (the sequencer's release:=false) and show 1 s of the "
@@ -289,6 +296,7 @@ def node_parameters(
     for key, value in (
         ("excitation", args.excitation),
         ("motion_period", args.motion_period),
+        ("motion_cycles", args.motion_cycles),
         ("tilt", args.tilt),
         ("max_tilt", args.max_tilt),
         ("dwell", args.dwell),
@@ -314,6 +322,7 @@ FLAGS = {
     "target_com_sigma": "--target-sigma",
     "excitation": "--excitation",
     "motion_period": "--motion-period",
+    "motion_cycles": "--motion-cycles",
     "tilt_axes": "--axes",
     "bag_dir": "--bag-dir",
 }

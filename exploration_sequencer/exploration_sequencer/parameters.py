@@ -11,6 +11,7 @@ import math
 
 from com_core.estimation.runs.motion_solution import EXCITATIONS, STATIC
 from com_core.inputs import Input, table_of
+from com_core.planning.motion_accuracy import MAX_CYCLES
 
 __all__ = ["PARAMETERS"]
 
@@ -33,6 +34,10 @@ PARAMETERS = table_of([
     Input("motion_period", 3.0, "with excitation 'motion': the excitation's period, the time "
           "of each motion (the empty hand's, the object's and the verification's)", unit="s",
           low=1.0, high=30.0),
+    Input("motion_cycles", 1, "with excitation 'motion': how many periods the empty hand's "
+          "and the object's motions run (the noise's share of the inertia's variance goes as "
+          "1 / cycles, the calibration's stays; python -m com_core.planning.motion_accuracy "
+          "says how many a target needs)", kind="int", low=1, high=MAX_CYCLES),
     Input("tilt", math.pi / 6, "wrist tilt from home about each axis", **_TILT,
           fix="a tilt the wrist makes from home, e.g. 0.52 (30 deg)"),
     Input("tilt_axes", ["y", "x"], "sensor axes to tilt about (the pass visits y first)",

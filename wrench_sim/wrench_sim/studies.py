@@ -4,7 +4,7 @@ through a sensor, and a whole exploration in motion, as offline studies
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -119,19 +119,23 @@ class MotionRun:
     solution: Solution
 
 
-def explore_in_motion(calibration_accuracy: float, seed: int, joint_every: int = 10) -> MotionRun:
+def explore_in_motion(
+    calibration_accuracy: float, seed: int, joint_every: int = 10, cycles: int = 1
+) -> MotionRun:
     """As the sequencer runs ``excitation: motion`` on the Panda with a 0.5 kg box: the
-    empty hand at rest and along the D-optimal 3 s excitation, the grasp, the object along
-    it and along another design; through the realistic sensor of serial ``seed`` with
-    ``calibration_accuracy``, joint states every ``joint_every`` steps (10: 100 Hz);
-    solved from its labels (``Exploration.solve``). The caller closes ``MotionRun.world``."""
+    empty hand at rest and along the D-optimal 3 s excitation (``cycles`` periods), the
+    grasp, the object along it and along another design (one period); through the
+    realistic sensor of serial ``seed`` with ``calibration_accuracy``, joint states every
+    ``joint_every`` steps (10: 100 Hz); solved from its labels (``Exploration.solve``). The
+    caller closes ``MotionRun.world``."""
     profile = PROFILES["realistic"].with_overrides(calibration_accuracy=calibration_accuracy)
     sensor = profile_sensor(profile, seed=seed, serial=seed)
     world = ArmWorld(SimConfig(object_mass=0.5, seed=3))
     robot = world.config.robot
     model = RobotModel(world.urdf_text, robot.sensor_frame)
     wrist = robot.arm_joints[-3:]
-    excitation = design_excitation(model, robot.home_joints, wrist, period=3.0, iterations=40)
+    excitation = replace(design_excitation(model, robot.home_joints, wrist, period=3.0,
+                                           iterations=40), cycles=cycles)  # fmt: skip
     other = design_excitation(model, robot.home_joints, wrist, period=3.0, iterations=40, seed=5)
     settings = {"information": "kinematics", "accuracy": calibration_accuracy}
     exploration = exploration_from(settings, world.urdf_text)

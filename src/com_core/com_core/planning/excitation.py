@@ -56,8 +56,9 @@ WAYPOINT_RATE = 20.0
 @dataclass(frozen=True)
 class Excitation:
     """A periodic motion of ``joints`` about ``home`` (rad; every joint of the arm, in
-    ``joint_names`` order), ``period`` s; ``a`` and ``b`` (len(joints), HARMONICS) its
-    Fourier coefficients (rad/s); ``log_det`` its criterion."""
+    ``joint_names`` order), ``period`` s, run ``cycles`` times over (``duration``); ``a``
+    and ``b`` (len(joints), HARMONICS) its Fourier coefficients (rad/s); ``log_det`` its
+    criterion (of one period)."""
 
     joint_names: tuple[str, ...]
     home: NDArray[np.float64]
@@ -66,6 +67,12 @@ class Excitation:
     a: NDArray[np.float64]
     b: NDArray[np.float64]
     log_det: float
+    cycles: int = 1
+
+    @property
+    def duration(self) -> float:
+        """s: ``cycles`` periods."""
+        return self.cycles * self.period
 
     def at(self, t: NDArray[np.float64] | float) -> tuple[NDArray[np.float64], ...]:
         """(positions, velocities, accelerations) of every joint at times ``t`` (s from the
@@ -90,10 +97,10 @@ class Excitation:
         self, joints: Sequence[str], rate: float = WAYPOINT_RATE
     ) -> tuple[NDArray[np.float64], ...]:
         """(times s after the start, positions, velocities, accelerations) of ``joints``
-        (names, any order; rad, rad/s, rad/s^2) every 1 / ``rate`` s over one period, the
-        first at its start and the last at its end, both at rest at home: a trajectory of
-        these points holds the arm still until its first point's time."""
-        times = np.arange(0, round(rate * self.period) + 1) / rate
+        (names, any order; rad, rad/s, rad/s^2) every 1 / ``rate`` s over its ``cycles``
+        periods, the first at its start and the last at its end, both at rest at home: a
+        trajectory of these points holds the arm still until its first point's time."""
+        times = np.arange(0, round(rate * self.duration) + 1) / rate
         index = [self.joint_names.index(name) for name in joints]
         return (times, *(x[:, index] for x in self.at(times)))
 

@@ -162,6 +162,7 @@ def motion_run_phases(
     home: Sequence[float],
     pick: Sequence[float],
     period: float,
+    cycles: int,
     lead: float,
     rest: float,
     hand_moves: bool,
@@ -175,17 +176,18 @@ def motion_run_phases(
     the excitation), the grasp (``pick``, the fingers, lift home and
     ``grasp_check_dwell``), the object along the excitation, along the verification's
     motion, the return (with ``release`` the object put back) and the estimate. Each
-    motion starts ``lead`` s after it is sent, lasts ``period`` s and rests ``rest`` s;
+    motion starts ``lead`` s after it is sent, lasts ``period`` s (the hand's and the
+    object's ``cycles`` times that) and rests ``rest`` s;
     moves at ``speed`` rad/s and ``settle`` s; ``wall`` s (wall) of the sequencer's work
     per phase."""
     move = _mover(motion, speed, settle)
-    excite = lead + period + rest
+    excite, verify = lead + cycles * period + rest, lead + period + rest
     down_and_up = move(home, pick) + GRIPPER_TIME + move(pick, home)
     return (
         PhaseTime(TARE, bias_dwell + (excite if hand_moves else 0.0), wall.get(TARE, 0.0)),
         PhaseTime(GRASP, down_and_up + grasp_check_dwell, wall.get(GRASP, 0.0)),
         PhaseTime(OBJECT_MOTION, excite, wall.get(OBJECT_MOTION, 0.0)),
-        PhaseTime(VERIFICATION, excite, wall.get(VERIFICATION, 0.0)),
+        PhaseTime(VERIFICATION, verify, wall.get(VERIFICATION, 0.0)),
         PhaseTime(RETURN, down_and_up if release else 0.0, wall.get(RETURN, 0.0)),
         PhaseTime(ESTIMATE, 0.0, wall.get(ESTIMATE, 0.0)),
     )

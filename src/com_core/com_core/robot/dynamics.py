@@ -29,6 +29,7 @@ __all__ = [
     "inertia_elements",
     "inertia_matrix",
     "inertial_parameters",
+    "links_beyond",
     "load_of",
     "sensor_regressor",
     "sensor_regressors",
@@ -147,3 +148,47 @@ def load_of(pi: ArrayLike) -> tuple[float, NDArray[np.float64], NDArray[np.float
     about_origin = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
     shift = mass * (np.dot(com, com) * np.eye(3) - np.outer(com, com))  # parallel axes
     return mass, com, about_origin - shift
+
+
+def links_beyond(urdf: str, link: str) -> NDArray[np.float64]:
+    """pi (10,): the inertial parameters of ``link`` and every link the URDF attaches
+    beyond it (a hand and its fingers beyond the sensor's link), their joints at zero, in
+    ``link``'s frame (the URDF's ``<inertial>``: mass kg, origin m and rpy rad, inertia
+    kg m^2 about the COM). ValueError when ``link`` is not a link of the URDF."""
+    import xml.etree.ElementTree as ElementTree
+
+    import pinocchio
+
+    root = ElementTree.fromstring(urdf)
+    links = {e.get("name"): e for e in root.findall("link")}
+    if link not in links:
+        raise ValueError(f"{link!r} is not a link of the URDF")
+    children: dict[str, list[ElementTree.Element]] = {}
+    for joint in root.findall("joint"):  # not a transmission's
+        children.setdefault(joint.find("parent").get("link"), []).append(joint)
+
+    def placement(element: ElementTree.Element | None) -> tuple[NDArray, NDArray]:
+        """(R, p) of an ``<origin>`` (identity when absent)."""
+        if element is None:
+            return np.eye(3), np.zeros(3)
+        xyz = np.array([float(v) for v in element.get("xyz", "0 0 0").split()])
+        rpy = [float(v) for v in element.get("rpy", "0 0 0").split()]
+        return np.asarray(pinocchio.rpy.rpyToMatrix(*rpy)), xyz
+
+    total = np.zeros(10)
+    stack = [(link, np.eye(3), np.zeros(3))]  # each link's pose in ``link``'s frame
+    while stack:
+        name, rotation, origin = stack.pop()
+        inertial = links[name].find("inertial")
+        if inertial is not None and inertial.find("mass") is not None:
+            r, p = placement(inertial.find("origin"))
+            e = inertial.find("inertia")
+            ixx, ixy, ixz, iyy, iyz, izz = (float(e.get(k, 0.0)) for k in INERTIA_ELEMENTS)
+            at_com = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+            turn = rotation @ r
+            mass = float(inertial.find("mass").get("value"))
+            total += inertial_parameters(mass, origin + rotation @ p, turn @ at_com @ turn.T)
+        for joint in children.get(name, []):
+            r, p = placement(joint.find("origin"))
+            stack.append((joint.find("child").get("link"), rotation @ r, origin + rotation @ p))
+    return total

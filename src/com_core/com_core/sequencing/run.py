@@ -26,9 +26,11 @@ import threading
 import time
 import traceback
 from collections.abc import Callable, Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from com_core.bags.cdr import decode_wrench_batch
 from com_core.contract import (
@@ -575,9 +577,10 @@ class ExplorationRun:
                 "'kinematics+mount' (it has 'wrenches'): the fit takes the wrist's motion "
                 "from the URDF and the joint states"
             )
-        config, period = self.config, self.p("motion_period")
+        config, period, cycles = self.config, self.p("motion_period"), self.p("motion_cycles")
         home, pick = list(config.home_joints), list(config.pick_joints)
         excitation, verification = self._excitations(motion, period)
+        excitation = replace(excitation, cycles=cycles)  # the hand's and the object's
         if self.p("preview"):
             names = config.arm_joints
             moves = [("home", home), ("pick", pick)]
@@ -594,6 +597,7 @@ class ExplorationRun:
             home=home,
             pick=pick,
             period=period,
+            cycles=cycles,
             lead=EXCITATION_LEAD,
             rest=EXCITATION_REST,
             hand_moves=hand is None,
@@ -629,7 +633,8 @@ class ExplorationRun:
         if release:
             self.arm.put_back(home, pick)
         joints = ", ".join(excitation.joints)
-        plan_line = f"excitation of {joints}, {period:g} s; object motion {period:.1f} s (sim)"
+        plan_line = (f"excitation of {joints}, {period:g} s x {cycles}; object motion "
+                     f"{excitation.duration:.1f} s (sim)")  # fmt: skip
         return self._estimate(end, plan_line, bag)
 
     def _cached_hand(
@@ -651,8 +656,12 @@ class ExplorationRun:
                 "one tare_cache)"
             )
             return None
-        why = entry.serves(self._owner(), motion.robot.urdf_sha256,
-                           lambda t: excitation.at(t)[0], self.p("tare_max_age"))  # fmt: skip
+
+        def commanded(t: np.ndarray) -> np.ndarray:  # at rest at home after its cycles
+            return excitation.at(np.clip(t, 0.0, excitation.duration))[0]
+
+        why = entry.serves(self._owner(), motion.robot.urdf_sha256, commanded,
+                           excitation.duration, self.p("tare_max_age"))  # fmt: skip
         if why:
             log.info(f"the empty hand's motion fit in {path} not reused: {why}")
             return None

@@ -77,13 +77,17 @@ class HandMotion:
         owner: str,
         urdf_sha256: str,
         path: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+        duration: float,
         max_age: float,
     ) -> str:
         """'' when it serves a run of ``owner`` on that model whose motion is commanded
-        to ``path(t)`` (rad, s from its start; ``joint_names``' positions), within
-        ``PATH_TOLERANCE`` of the kept path, no older than ``max_age`` s; else why not."""
+        to ``path(t)`` (rad, s from its start; ``joint_names``' positions) for
+        ``duration`` s, within ``PATH_TOLERANCE`` of the kept path over as long, no older
+        than ``max_age`` s; else why not."""
         if other := self.other_owner(owner, urdf_sha256):
             return other
+        if self.times[-1] < duration:
+            return f"it is of a shorter motion ({self.times[-1]:.1f} s, this one {duration:g} s)"
         apart = float(np.max(np.abs(path(self.times) - self.positions)))
         if not apart <= PATH_TOLERANCE:
             return f"it is of another motion ({apart:.3f} rad apart)"

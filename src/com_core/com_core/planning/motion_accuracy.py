@@ -1,0 +1,200 @@
+"""What a wrist motion tells of an object before anything moves: the predicted sigmas of
+an exploration in motion (mass, COM, principal moments), and how long a motion the
+inertia needs.
+
+    python -m com_core.planning.motion_accuracy [--robot panda] [--profile realistic]
+        [--masses 0.1,0.5,2.0] [--density 1000] [--com 0,0,0.1] [--period 3] [--target 0.2]
+        [--reference 1.0]
+
+The prediction (``predict_motion``) is the estimator's own fit (``fits.motion.fit_motion``:
+the empty hand's, then the object's with the hand taken off) of the wrench the loads would
+give along the excitation, read without noise at 1 kHz with joint states at 100 Hz: its
+covariance is the bound of the sensor's noise model plus the calibration's share (the
+stated accuracy, or what a calibration in place left), which depend on the design and on
+the loads' wrench, not on the noise drawn. The object is a guess: a solid box of its mass
+and size, its COM where the grasp holds it.
+
+Motions of ``cycles`` periods of the same excitation (the D-optimal design is periodic;
+the sequencer's ``motion_cycles``, the empty hand's and the object's alike) divide the
+noise's share of the variance by ``cycles``; the calibration's share stays: it is the
+same error at every pass. ``cycles_for`` finds the fewest cycles over which every
+principal moment stands ``1 / target`` of its sigma, or says that the calibration's share
+alone forbids it (then a calibration in place, not a longer motion, is what helps). A
+longer period is no substitute: the design is scaled to the URDF's position and velocity
+limits and an acceleration bound, so a slower motion has smaller accelerations, and the
+inertia is told by the accelerations.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from com_core.estimation.fits.motion import MotionFit, fit_motion, principal_moments
+from com_core.planning.excitation import Excitation
+from com_core.robot.dynamics import inertial_parameters, sensor_regressors
+from com_core.robot.model import RobotModel
+from com_core.sensing.calibration import Calibration
+from com_core.sensing.noise import NoiseModel
+
+__all__ = ["MAX_CYCLES", "MotionAccuracy", "box_inertia", "cycles_for", "predict_fit",
+           "predict_motion"]  # fmt: skip
+
+SENSOR_RATE = 1000.0
+"""Hz: the wrenches the prediction reads."""
+JOINT_RATE = 100.0
+"""Hz: the joint states it reads (the shipped configurations' rate)."""
+_REST = 0.5  # s of joint states at rest before and after the motion
+MAX_CYCLES = 20
+"""The most cycles ``cycles_for`` proposes (the sequencer's ``motion_cycles`` range)."""
+
+
+@dataclass(frozen=True)
+class MotionAccuracy:
+    """The predicted 1-sigma of the object's fit over a motion of one period:
+    ``sigma_mass`` (kg), ``sigma_com`` (3,; m), and the principal ``moments`` (3,; kg m^2,
+    ascending, of the guess) with ``sigma_moments``. Of each moment's variance,
+    ``fixed`` (3,; kg^2 m^4) does not shrink with more cycles (the calibration's share),
+    the rest is the noise's."""
+
+    sigma_mass: float
+    sigma_com: NDArray[np.float64]
+    moments: NDArray[np.float64]
+    sigma_moments: NDArray[np.float64]
+    fixed: NDArray[np.float64]
+
+    def sigma_moments_over(self, cycles: int) -> NDArray[np.float64]:
+        """kg m^2: the moments' sigmas over ``cycles`` periods of the empty hand's and the
+        object's motions."""
+        noise = self.sigma_moments**2 - self.fixed
+        return np.sqrt(self.fixed + noise / cycles)
+
+
+def box_inertia(mass: float, size: ArrayLike) -> NDArray[np.float64]:
+    """(3, 3) kg m^2: a solid box of ``mass`` kg and edges ``size`` (3,; m) about its COM,
+    edges along the axes."""
+    a, b, c = np.asarray(size, dtype=np.float64) ** 2
+    return mass / 12.0 * np.diag([b + c, a + c, a + b])
+
+
+def predict_fit(
+    robot: RobotModel,
+    excitation: Excitation,
+    hand: NDArray[np.float64],
+    load: NDArray[np.float64],
+    noise: NoiseModel,
+    calibration: Calibration | None,
+) -> MotionFit:
+    """The object's fit (see module) along ``excitation`` (its ``cycles``; the empty
+    hand's along as many) with the ``hand``'s and the object's (``load``) inertial
+    parameters (10,; sensor frame, ``robot.dynamics``), the sensor's ``noise`` model and
+    ``calibration``: its ``load_cov()`` is the prediction."""
+
+    def fit(ex: Excitation, pi: NDArray[np.float64], under: MotionFit | None) -> MotionFit:
+        joint_times = np.arange(-_REST, ex.duration + _REST, 1.0 / JOINT_RATE)
+        positions = ex.at(np.clip(joint_times, 0.0, ex.duration))[0]
+        times = np.arange(0.0, ex.duration, 1.0 / SENSOR_RATE)
+        wrenches = sensor_regressors(robot, *ex.at(times)) @ pi
+        return fit_motion(robot, joint_times, positions, times, wrenches, noise, under,
+                          calibration)  # fmt: skip
+
+    return fit(excitation, hand + load, fit(excitation, hand, None))
+
+
+def predict_motion(
+    robot: RobotModel,
+    excitation: Excitation,
+    hand: NDArray[np.float64],
+    load: NDArray[np.float64],
+    noise: NoiseModel,
+    calibration: Calibration | None,
+) -> MotionAccuracy:
+    """The object's predicted sigmas over ``excitation`` (``predict_fit``), and the part
+    of the moments' variance more cycles leave: the calibration's, what the same fit
+    without it lacks (the noise's share goes as 1 / cycles)."""
+    one = predict_fit(robot, excitation, hand, load, noise, calibration)
+    bare = predict_fit(robot, excitation, hand, load, noise, None)
+    _, _, inertia = one.load()
+    moments, sigma = principal_moments(inertia, one.load_cov()[4:, 4:])
+    _, sigma_bare = principal_moments(inertia, bare.load_cov()[4:, 4:])
+    fixed = np.clip(sigma**2 - sigma_bare**2, 0.0, sigma**2)
+    sigmas = np.sqrt(np.diag(one.load_cov())[:4])
+    return MotionAccuracy(float(sigmas[0]), sigmas[1:4], moments, sigma, fixed)
+
+
+def cycles_for(accuracy: MotionAccuracy, target: float) -> int | None:
+    """The fewest cycles (at most ``MAX_CYCLES``) over which every principal moment's
+    sigma is within ``target`` of the moment; None when what more cycles leave (the
+    calibration's share) exceeds it already, or ``MAX_CYCLES`` do not reach it."""
+    for cycles in range(1, MAX_CYCLES + 1):
+        if np.all(accuracy.sigma_moments_over(cycles) <= target * accuracy.moments):
+            return cycles
+    return None
+
+
+def main(argv: list[str] | None = None) -> int:
+    from com_core.planning.excitation import cached_excitation
+    from com_core.planning.sensor_accuracy import default_pass, predicted_calibration
+    from com_core.robot.choreography import Choreography
+    from com_core.robot.config import read_robot_config, urdf_file
+    from com_core.robot.dynamics import links_beyond
+    from com_core.sensing.sensor_profiles import PROFILES
+
+    parser = argparse.ArgumentParser(prog="motion_accuracy", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--robot", default="panda")
+    parser.add_argument("--profile", default="realistic", choices=sorted(PROFILES))
+    parser.add_argument("--masses", default="0.1,0.5,2.0")
+    parser.add_argument("--density", type=float, default=1000.0, help="kg/m^3 of the box")
+    parser.add_argument("--com", default="0,0,0.1", help="m, sensor frame")
+    parser.add_argument("--period", type=float, default=3.0)
+    parser.add_argument("--target", type=float, default=0.2)
+    parser.add_argument("--reference", type=float, default=1.0, metavar="KG")
+    parser.add_argument("--cache", default="", help="the excitations' cache file (JSON)")
+    args = parser.parse_args(argv)
+    config = read_robot_config(args.robot)
+    urdf = urdf_file(config).read_text()
+    motion = Choreography.of(config, urdf)
+    robot = motion.robot
+    home = [motion.home_positions()[name] for name in robot.joint_names]
+    cache = args.cache or str(Path(tempfile.gettempdir()) / "com_excitations.json")
+    excitation = cached_excitation(cache, robot, home, config.arm_joints[-3:], args.period)
+    profile = PROFILES[args.profile]
+    hand = links_beyond(urdf, config.sensor_frame)
+    com = np.array([float(v) for v in args.com.split(",")])
+    calibrations = {
+        "stated": profile.calibration(),
+        "calibrated": predicted_calibration(default_pass(profile, args.reference),
+                                            args.reference),
+    }  # fmt: skip
+    print(f"{args.robot}, the {args.profile} sensor, its {args.period:g} s excitation; the "
+          f"object a box of {args.density:g} kg/m^3 (edges 1:1:2), its COM at "
+          f"({', '.join(f'{1e3 * v:g}' for v in com)}) mm; "
+          f"target: every principal moment within {args.target:.0%} (1 sigma); calibrated "
+          f"in place with a {args.reference:g} kg reference")  # fmt: skip
+    print(f"{'kg':>5} {'':>10}  {'mass %':>6} {'COM mm':>6}  {'moments %, 1 cycle':>18}  "
+          f"{'never below %':>13}  cycles to the target")  # fmt: skip
+    for mass in (float(m) for m in args.masses.split(",")):
+        edge = (mass / args.density / 2.0) ** (1 / 3)
+        load = inertial_parameters(mass, com, box_inertia(mass, (edge, edge, 2 * edge)))
+        for name, calibration in calibrations.items():
+            a = predict_motion(robot, excitation, hand, load, profile.noise_model(),
+                               calibration)  # fmt: skip
+            cycles = cycles_for(a, args.target)
+            floor = np.max(np.sqrt(a.fixed) / a.moments)
+            print(f"{mass:5.2f} {name:>10}  {100 * a.sigma_mass / mass:6.3f} "
+                  f"{1e3 * a.sigma_com.max():6.3f}  "
+                  f"{', '.join(f'{100 * v:.0f}' for v in a.sigma_moments / a.moments):>18}  "
+                  f"{100 * floor:13.0f}  "
+                  + (f"{cycles} ({cycles * args.period:g} s)" if cycles else
+                     "none: the calibration's share alone exceeds it" if floor > args.target
+                     else f"more than {MAX_CYCLES}"))  # fmt: skip
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
