@@ -10,7 +10,7 @@
   the mass (g) and each COM axis (mm, ``ft_sensor``) with 1-sigma (thick) and 3-sigma
   (thin) error bars; without ground truth the estimate itself with its error bars; for a
   run in motion, under them, the inertia's six elements about the COM (kg cm^2) the
-  same way (titled "not published" when the motion did not identify it); with no
+  same way (marked "not published" when the motion did not identify it); with no
   estimate (ERROR) the reason, large; under it a table of every number, the status,
   reason, method, chi-square, poses, and which topics the bag lacks;
 - bottom left: the sensor's noise, the autocorrelation of the empty hand's windows (all
@@ -410,8 +410,8 @@ def _draw_inertia(
     fig, rows: list[_Row], rect: tuple[float, float, float, float], published: bool
 ) -> None:
     """The inertia's six elements (kg cm^2) on one scale, as ``_draw_bars`` draws a row:
-    estimate minus truth (or the estimate) with 1- and 3-sigma bars, in ``rect``; the
-    title says when it was ``published`` or not."""
+    estimate minus truth (or the estimate) with 1- and 3-sigma bars, in ``rect``; marked
+    when it was not ``published``."""
     from matplotlib.ticker import MaxNLocator
 
     with_truth = rows[0].truth is not None
@@ -425,8 +425,11 @@ def _draw_inertia(
     ax.yaxis.set_major_locator(MaxNLocator(4))
     ax.grid(True, axis="y", color="#dddddd", lw=0.6)
     what = "estimate - truth" if with_truth else "estimate"
-    state = "" if published else ", not published (a moment within its sigma)"
-    ax.set_title(f"inertia about the COM, {what} (kg cm$^2$, ft_sensor){state}", fontsize=10)
+    ax.set_title(f"inertia about the COM, {what} (kg cm$^2$, ft_sensor)", fontsize=10)
+    if not published:
+        ax.text(0.01, 0.96, "not published: a principal moment within its sigma", fontsize=8,
+                color="#b71c1c", transform=ax.transAxes, va="top", zorder=5,
+                bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.85})  # fmt: skip
 
 
 def _draw_bars(fig, rows: list[_Row], rect: tuple[float, float, float, float]) -> None:
