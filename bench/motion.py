@@ -2,20 +2,23 @@
 
     source ./env.sh && python bench/motion.py [--objects 50] [--robots panda,xarm6]
         [--masses 0.05,0.2,0.5,2.0] [--period 3.0] [--joint-rate 100] [--seed 0]
-        [--calibration-accuracy 0.01] [--static] [--calibrate 1.0]
+        [--profile realistic] [--calibration-accuracy 0.01] [--static] [--calibrate 1.0]
 
 In process, no ROS: for each arm, mass and object (box, cylinder, mug in turn, COM offset
 drawn from the object's seed) a simulator holds the empty hand, runs the arm's D-optimal
 wrist excitation (``planning.excitation``, designed once per arm), grasps the object and
 runs it again; both read through the realistic sensor (``profile_sensor``: coloured noise,
-quantisation, drifting bias, a 1 % calibration drawn per object), the joint states taken
+quantisation, drifting bias, a 1 % calibration drawn per object; ``--profile`` another named
+one, the estimator told its datasheet), the joint states taken
 at ``--joint-rate``. ``estimation.fits.motion.fit_motion`` fits the hand, then the object with
 the hand taken off, the delay estimated and the noise model the profile's. Per case: the
 95th percentile of the mass, COM and principal moments' errors, the rms of error / sigma
-(mass, COM, inertia), the median sigmas the noise alone allows (the bound), and the
-median fit time. Goal, for 0.5 kg and more and at most 3 s of motion: COM <= 1 mm and
-mass <= 0.5 % at the 95th percentile, principal moments within 10 %, rms(error / sigma)
-near 1 (the figures and what they say: bench/README.md).
+(mass, COM, inertia), the median sigmas the noise alone allows (the bound), the median
+fit time, and how many of the objects' inertias the estimator would publish (every
+principal moment beyond its sigma, ``MotionResult.inertia_identified``). Goal, for
+0.5 kg and more and at most 3 s of motion: COM <= 1 mm and mass <= 0.5 % at the 95th
+percentile, principal moments within 10 %, rms(error / sigma) near 1 (the figures and
+what they say: bench/README.md).
 
 ``--static``: the same objects through the same sensor (the same seeds) explored at rest
 as the sequencer's defaults do it, side by side: a tare pass of the empty hand (5 s at
@@ -23,7 +26,9 @@ each of home and the four 30 deg tilts), the grasp, the object pass (0.9 s at ea
 0.3 s settling after 1 s moves), solved by the estimator's ``Exploration`` with its
 defaults (information kinematics+mount, the noise learnt, the calibration's accuracy
 told): the 95th percentile of its mass and COM errors, its rms(error / sigma), and the
-object pass's time against the motion's.
+object pass's time against the motion's; and, on the same windows, the fits users know
+(``BASELINES``): the paper's two-pose method and an ft_calib-style least squares, with
+the ratios of the 95th percentiles (ours / theirs).
 
 ``--calibrate KG``: each object's sensor (its serial) is first calibrated in place as the
 sequencer runs it (``estimation.fits.in_place``): the same static exploration with a
@@ -44,8 +49,12 @@ from dataclasses import replace
 import numpy as np
 
 from com_core.contract import DONE, OBJECT_PREFIX, TARE_PREFIX
+from com_core.estimation.fits.estimators import two_pose
 from com_core.estimation.fits.in_place import BLOCKS
-from com_core.estimation.fits.motion import fit_motion, load_vector
+from com_core.estimation.fits.motion import fit_motion, load_vector, principal_moments
+from com_core.estimation.fits.windows import subtract_tare
+from com_core.estimation.runs.exploration import Exploration
+from com_core.estimation.runs.motion_solution import MIN_MOMENT_SIGMAS
 from com_core.estimation.runs.sensor_calibration import SensorCalibration
 from com_core.estimation.runs.settings import exploration_from, use_sensor_calibration
 from com_core.planning.excitation import design_excitation
@@ -55,6 +64,7 @@ from com_core.robot.config import read_robot_config
 from com_core.robot.dynamics import INERTIA_ELEMENTS, inertial_parameters
 from com_core.robot.model import RobotModel
 from com_core.sensing.sensor_profiles import PROFILES
+from com_core.sensing.wrench_model import STANDARD_GRAVITY, skew
 from wrench_sim.config import SimConfig
 from wrench_sim.physics import ArmWorld
 from wrench_sim.sensor import profile_sensor
@@ -62,7 +72,6 @@ from wrench_sim.studies import feed, grasp, hold_still, run_excitation
 
 SHAPES = ("box", "cylinder", "mug")
 DIAGONAL = [4 + INERTIA_ELEMENTS.index(name) for name in ("ixx", "iyy", "izz")]  # in load_vector
-PROFILE = PROFILES["realistic"]
 
 
 def one_object(
@@ -91,6 +100,9 @@ def one_object(
         truth = load_vector(inertial_parameters(true_mass, true_com, true_inertia))
         mass_, com, inertia = fit.load()
         moments, axes = np.linalg.eigh(inertia)
+        published = np.all(
+            principal_moments(inertia, fit.load_cov()[4:, 4:])[1] * MIN_MOMENT_SIGMAS < moments
+        )
         true_moments, true_axes = np.linalg.eigh(true_inertia)
         return {
             "mass": abs(mass_ - true_mass) / true_mass,
@@ -102,6 +114,7 @@ def one_object(
             "bound_com": np.sqrt(np.diag(fit.load_cov(fit.bound))[1:4]),
             "delay": fit.delay,
             "seconds": seconds,
+            "published": bool(published),
         }
     finally:
         world.close()
@@ -126,8 +139,11 @@ def static_object(
         noise_seed = seed + REFERENCE_SEEDS if reference else seed
         sensor = profile_sensor(profile, seed=noise_seed, serial=seed)
         poses = Choreography.of(config, world.urdf_text).pose_joints(STATIC_PLAN)
-        settings = {"accuracy": profile.calibration_accuracy,
-                    "reference_mass": mass if reference else 0.0}  # fmt: skip
+        settings = profile.datasheet() | {  # as a user tells theirs
+            "accuracy": profile.calibration_accuracy,
+            "sensor_frame": config.sensor_frame,
+            "reference_mass": mass if reference else 0.0,
+        }
         exploration = exploration_from(settings, world.urdf_text)
         use_sensor_calibration(exploration, calibrated)
 
@@ -151,18 +167,62 @@ def static_object(
         if reference:
             return {"calibrated": solution.calibration, "reason": solution.reason}
         true_mass, true_com = world.object_ground_truth()
+
+        def errors(mass_: float, com) -> dict:
+            return {"mass": abs(mass_ - true_mass) / true_mass,
+                    "com": float(np.linalg.norm(np.asarray(com) - true_com))}  # fmt: skip
+
+        others = {name: errors(*fit(exploration)) for name, fit in BASELINES.items()}
         e = solution.estimate
+        outcome = {"status": solution.status, "reason": solution.reason, "baselines": others}
         if e is None:
-            return {"mass": np.nan, "com": np.nan, "z": np.full(4, np.nan), "time": object_time}
+            return {"mass": np.nan, "com": np.nan, "z": np.full(4, np.nan), "time": object_time,
+                    **outcome}  # fmt: skip
         truth = np.concatenate([[true_mass], true_com])
         return {
-            "mass": abs(e.mass - true_mass) / true_mass,
-            "com": float(np.linalg.norm(e.com - true_com)),
+            **errors(e.mass, e.com),
             "z": (np.concatenate([[e.mass], e.com]) - truth) / np.sqrt(np.diag(e.cov)),
             "time": object_time,
+            **outcome,
         }
     finally:
         world.close()
+
+
+def paper_two_pose(exploration: Exploration) -> tuple[float, np.ndarray]:
+    """kg, m: the paper's method (eqs. 3, 7, 8, 11; ``estimators.two_pose``) on the run's
+    first two tare-subtracted object windows (home and the first tilt)."""
+    tares, objects, _, _ = exploration.reduced_windows()
+    e = two_pose(subtract_tare(objects, tares.values()))
+    return e.mass, e.com
+
+
+def ft_calib_least_squares(exploration: Exploration) -> tuple[float, np.ndarray]:
+    """kg, m: an ft_calib-style fit (as ROS's force_torque_tools' ft_calib solves it):
+    per pass, unweighted linear least squares of the load's mass, first moment m c and
+    the sensor's bias (6) from the windows' means and the gravity the kinematics give in
+    the sensor frame, f = m g_s + b_f, tau = m c x g_s + b_tau; the hand's fit (the tare
+    pass) taken from the whole load's (the object pass)."""
+    tares, objects, _, _ = exploration.reduced_windows()
+
+    def fit(prefix: str, windows) -> np.ndarray:
+        rows, values = [], []
+        for w in windows:
+            g_s = exploration.window_rotation(prefix + w.pose).T @ [0.0, 0.0, -STANDARD_GRAVITY]
+            design = np.zeros((6, 10))
+            design[:3, 0], design[:3, 4:7] = g_s, np.eye(3)
+            design[3:, 1:4], design[3:, 7:] = -skew(g_s), np.eye(3)  # m c x g = -g x (m c)
+            rows.append(design)
+            values.append(w.mean)
+        return np.linalg.lstsq(np.vstack(rows), np.concatenate(values), rcond=None)[0]
+
+    whole, hand = fit(OBJECT_PREFIX, objects), fit(TARE_PREFIX, tares.values())
+    mass = whole[0] - hand[0]
+    return mass, (whole[1:4] - hand[1:4]) / mass
+
+
+BASELINES = {"paper two-pose": paper_two_pose, "ft_calib LS": ft_calib_least_squares}
+"""The fits users know, on the same static windows as the estimator's."""
 
 
 def axes_error(moments, axes, true_moments, true_axes) -> float:
@@ -185,8 +245,9 @@ def main() -> None:
     parser.add_argument("--period", type=float, default=3.0)
     parser.add_argument("--joint-rate", type=float, default=100.0)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--profile", default="realistic", choices=sorted(PROFILES))
     parser.add_argument("--calibration-accuracy", type=float,
-                        default=PROFILE.calibration_accuracy)  # fmt: skip
+                        help="in place of the profile's stated accuracy")  # fmt: skip
     parser.add_argument("--static", action="store_true",
                         help="the same objects explored at rest, side by side")  # fmt: skip
     parser.add_argument("--calibrate", type=float, metavar="KG", default=0.0,
@@ -194,16 +255,18 @@ def main() -> None:
     parser.add_argument("--fixture", action="store_true",
                         help="with --calibrate: the reference's COM known to 0.05 mm")  # fmt: skip
     args = parser.parse_args()
-    profile = PROFILE.with_overrides(calibration_accuracy=args.calibration_accuracy)
+    profile = PROFILES[args.profile]
+    if args.calibration_accuracy is not None:
+        profile = profile.with_overrides(calibration_accuracy=args.calibration_accuracy)
     every = round(1000.0 / args.joint_rate)
     print(f"{args.objects} objects per case, {args.period:g} s of motion, joint states at "
-          f"{1000.0 / every:g} Hz, the realistic sensor, calibration accuracy "
-          f"{args.calibration_accuracy:g}")  # fmt: skip
+          f"{1000.0 / every:g} Hz, the {args.profile} sensor, calibration accuracy "
+          f"{profile.calibration_accuracy:g}")  # fmt: skip
     if args.calibrate:
         print(f"each sensor calibrated in place first with a {args.calibrate:g} kg reference")
     header = (f"{'arm':>6} {'kg':>5}  {'mass p95':>8} {'COM p95 mm':>10} {'moments p95':>11} "
               f"{'axes p95':>8}  {'rms z m, COM, I':>17}  {'bound m, COM mm, I':>20} "
-              f"{'delay ms':>8} {'fit s':>5}")  # fmt: skip
+              f"{'delay ms':>8} {'fit s':>5} {'inertia published':>17}")  # fmt: skip
     rows = []
     for robot in args.robots.split(","):
         config = read_robot_config(robot)
@@ -246,7 +309,8 @@ def main() -> None:
                 f"{100 * bound[0]:5.3f}% {1e3 * bound_com.max():6.3f} "
                 f"{100 * np.median(bound[DIAGONAL]):5.1f}% "
                 f"{1e3 * np.median([r['delay'] for r in results]):8.2f} "
-                f"{np.median([r['seconds'] for r in results]):5.2f}"
+                f"{np.median([r['seconds'] for r in results]):5.2f} "
+                f"{sum(r['published'] for r in results):>10} of {len(results)}"
             )
             print(rows[-1], flush=True)
             if args.static:
@@ -266,6 +330,16 @@ def main() -> None:
                     f"motion's {args.period:g} s"
                 )
                 print(rows[-1], flush=True)
+                ours = [np.nanpercentile([r[k] for r in static], 95) for k in ("mass", "com")]
+                for name in BASELINES:
+                    theirs = [np.percentile([r["baselines"][name][k] for r in static], 95)
+                              for k in ("mass", "com")]  # fmt: skip
+                    rows.append(
+                        f"{name:>18}  {100 * theirs[0]:7.3f}% {1e3 * theirs[1]:10.3f}  on the "
+                        f"same windows; ours / theirs: mass {ours[0] / theirs[0]:.2f}, "
+                        f"COM {ours[1] / theirs[1]:.2f}"
+                    )
+                    print(rows[-1], flush=True)
     print(header)
     print("\n".join(rows))
 

@@ -24,6 +24,7 @@ from com_core.estimation.runs.inbox import Inbox
 from com_core.estimation.runs.settings import exploration_from
 from com_core.estimation.runs.solution import Solution
 from com_core.planning.excitation import Excitation, design_excitation
+from com_core.robot.config import read_robot_config
 from com_core.robot.model import RobotModel
 from com_core.sensing.sensor_profiles import PROFILES
 from wrench_sim.config import SimConfig
@@ -120,9 +121,17 @@ class MotionRun:
 
 
 def explore_in_motion(
-    calibration_accuracy: float, seed: int, joint_every: int = 10, cycles: int = 1
+    calibration_accuracy: float,
+    seed: int,
+    joint_every: int = 10,
+    cycles: int = 1,
+    robot: str = "panda",
+    mass: float = 0.5,
+    shape: str = "box",
+    object_seed: int = 3,
 ) -> MotionRun:
-    """As the sequencer runs ``excitation: motion`` on the Panda with a 0.5 kg box: the
+    """As the sequencer runs ``excitation: motion`` on ``robot`` (a shipped configuration)
+    with an object of ``mass`` kg and ``shape`` (its COM drawn from ``object_seed``): the
     empty hand at rest and along the D-optimal 3 s excitation (``cycles`` periods), the
     grasp, the object along it and along another design (one period); through the
     realistic sensor of serial ``seed`` with ``calibration_accuracy``, joint states every
@@ -130,14 +139,16 @@ def explore_in_motion(
     caller closes ``MotionRun.world``."""
     profile = PROFILES["realistic"].with_overrides(calibration_accuracy=calibration_accuracy)
     sensor = profile_sensor(profile, seed=seed, serial=seed)
-    world = ArmWorld(SimConfig(object_mass=0.5, seed=3))
+    world = ArmWorld(SimConfig(robot=read_robot_config(robot), object_shape=shape,
+                               object_mass=mass, seed=object_seed))  # fmt: skip
     robot = world.config.robot
     model = RobotModel(world.urdf_text, robot.sensor_frame)
     wrist = robot.arm_joints[-3:]
     excitation = replace(design_excitation(model, robot.home_joints, wrist, period=3.0,
                                            iterations=40), cycles=cycles)  # fmt: skip
     other = design_excitation(model, robot.home_joints, wrist, period=3.0, iterations=40, seed=5)
-    settings = {"information": "kinematics", "accuracy": calibration_accuracy}
+    settings = {"information": "kinematics", "accuracy": calibration_accuracy,
+                "sensor_frame": robot.sensor_frame}  # fmt: skip
     exploration = exploration_from(settings, world.urdf_text)
     world.move_arm(robot.home_joints, 1.0)
     feed(exploration, world, "tare/home", hold_still(world, sensor, 2.0, joint_every))
