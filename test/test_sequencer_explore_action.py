@@ -64,3 +64,20 @@ def test_the_result_carries_the_estimate_and_its_covariance_unless_cancelled():
     np.testing.assert_array_equal(np.reshape(ok.covariance, (4, 4)), cov)
     cancelled = result_of(Explore.Result.CANCELLED, "[CANCELLED] ...", None, values, "")
     assert cancelled.estimate.inertia.m == 0.0 and np.isnan(cancelled.covariance).all()
+
+
+def test_the_result_carries_the_inertia_and_its_covariance_only_when_published():
+    """A run in motion: the inertia and its covariance when the motion told it; when a
+    principal moment is within its sigma (only ``inertia_fit`` in the answer), zero and
+    NaN, as for a static run."""
+    values = {"mass": "0.5", "com_x": "0.0", "com_y": "0.0", "com_z": "0.1"}
+    values["cov"] = ",".join(["1e-6"] * 16)
+    elements, cov = "2e-4,0.0,0.0,3e-4,0.0,4e-4", ",".join(["1e-10"] * 36)
+    published = result_of("OK", "[OK] ...", None, values | {"inertia": elements,
+                          "inertia_cov": cov}, "ft_sensor")  # fmt: skip
+    assert published.estimate.inertia.ixx == 2e-4 and published.estimate.inertia.izz == 4e-4
+    np.testing.assert_array_equal(published.inertia_covariance, [1e-10] * 36)
+    withheld = result_of("OK", "[OK] ...", None, values | {"inertia_fit": elements,
+                         "inertia_cov": cov}, "ft_sensor")  # fmt: skip
+    assert withheld.estimate.inertia.ixx == 0.0 and withheld.estimate.inertia.m == 0.5
+    assert np.isnan(withheld.inertia_covariance).all()

@@ -105,7 +105,7 @@ def result_of(
         result.estimate.header.frame_id = frame
         _fill_inertia(result.estimate, values)
         result.covariance = [float(v) for v in values["cov"].split(",")]
-        if "inertia_cov" in values:
+        if "inertia" in values:  # published: the motion told it
             result.inertia_covariance = [float(v) for v in values["inertia_cov"].split(",")]
         result.verification = "; ".join(verification_lines(values))
     return result

@@ -12,7 +12,9 @@ give along the excitation, read without noise at 1 kHz with joint states at 100 
 covariance is the bound of the sensor's noise model plus the calibration's share (the
 stated accuracy, or what a calibration in place left), which depend on the design and on
 the loads' wrench, not on the noise drawn. The object is a guess: a solid box of its mass
-and size, its COM where the grasp holds it.
+and size, its COM where the grasp holds it. Two equal principal moments have no axes of
+their own, and each one's sigma then depends on the axes chosen: the guess should have
+three distinct ones (the CLI's box has edges 2:3:4).
 
 Motions of ``cycles`` periods of the same excitation (the D-optimal design is periodic;
 the sequencer's ``motion_cycles``, the empty hand's and the object's alike) divide the
@@ -172,15 +174,15 @@ def main(argv: list[str] | None = None) -> int:
                                             args.reference),
     }  # fmt: skip
     print(f"{args.robot}, the {args.profile} sensor, its {args.period:g} s excitation; the "
-          f"object a box of {args.density:g} kg/m^3 (edges 1:1:2), its COM at "
+          f"object a box of {args.density:g} kg/m^3 (edges 2:3:4), its COM at "
           f"({', '.join(f'{1e3 * v:g}' for v in com)}) mm; "
           f"target: every principal moment within {args.target:.0%} (1 sigma); calibrated "
           f"in place with a {args.reference:g} kg reference")  # fmt: skip
     print(f"{'kg':>5} {'':>10}  {'mass %':>6} {'COM mm':>6}  {'moments %, 1 cycle':>18}  "
           f"{'never below %':>13}  cycles to the target")  # fmt: skip
     for mass in (float(m) for m in args.masses.split(",")):
-        edge = (mass / args.density / 2.0) ** (1 / 3)
-        load = inertial_parameters(mass, com, box_inertia(mass, (edge, edge, 2 * edge)))
+        unit = (mass / args.density / 24.0) ** (1 / 3)  # m: the box's edges 2, 3, 4 of it
+        load = inertial_parameters(mass, com, box_inertia(mass, unit * np.array([2, 3, 4])))
         for name, calibration in calibrations.items():
             a = predict_motion(robot, excitation, hand, load, profile.noise_model(),
                                calibration)  # fmt: skip
