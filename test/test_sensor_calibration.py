@@ -111,3 +111,15 @@ def test_a_calibration_needs_a_named_sensor_and_a_mass(sample, capsys):
     with pytest.raises(SystemExit) as stop:
         replay.main([str(sample), "--reference-mass", "-1"])
     assert stop.value.code == 2
+
+
+def test_a_recording_of_a_calibrated_sensor_is_weighed_with_what_is_left_of_the_error(sample):
+    """The sample bag read as a recording without labels (its labels on another topic):
+    with this sensor's calibration beside it the fit reads the samples corrected and
+    weighs what is left of the error, not the stated accuracy (a smaller sigma)."""
+    raw = replay_json(sample, None, "--pose-topic", "/none")
+    save_calibration(sample / CALIBRATION_FILE, made_up_calibration(SENSOR))
+    calibrated = replay_json(sample, None, "--pose-topic", "/none")
+    assert raw["windows_from"] == calibrated["windows_from"] == "recording"
+    assert calibrated["mass"] != raw["mass"]
+    assert calibrated["sigma_mass"] < 0.7 * raw["sigma_mass"], (calibrated, raw)

@@ -117,6 +117,7 @@ from com_core.inputs import refusal, unwritable
 from com_core.planning.decisions import tare_cache_path
 from com_core.report.recording import write_recording_report
 from com_core.robot.config import BAG_ROBOT_FILE, RobotConfigError, read_robot_config
+from com_core.sensing.calibration import Calibration
 
 ROBOT_FRAMES = ("sensor_frame", "base_frame")
 """The settings a run's robot configuration gives the replay."""
@@ -347,6 +348,7 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
             lambda: recording_from_inbox(exploration, robot, str(args.bag)),
             settings,
             {"messages": n_wrench, "bag": reading.as_dict()},
+            exploration.calibration,  # the samples read through it
         )
     if n_label:
         source = f"pose labels from the bag ({n_label})"
@@ -405,24 +407,33 @@ def keep_calibration(args: argparse.Namespace, solution: Solution, sensor_id: st
 
 
 def replay_recording(
-    args: argparse.Namespace, read, settings: dict, extra: dict
+    args: argparse.Namespace,
+    read,
+    settings: dict,
+    extra: dict,
+    calibration: Calibration | None = None,
 ) -> tuple[int, RecordingFit | None]:
     """A recording without labels fitted (``recording.fit_recording``) and printed, with
     ``--tare-recording``; ``read()`` gives the ``Recording``, ``settings`` the estimator's
     (the run's and the options'; the calibration, gravity and drift prior the fit takes).
+    ``calibration``: the sensor's calibration in place the recording was read through, in
+    place of the settings' stated accuracy (the tare recording is read through it too).
     (exit code, the fit or None when the recording or its tare cannot be read)."""
     settings = defaults() | settings
     exploration = exploration_from(settings)
+    calibration = calibration or exploration.calibration
     try:
         recording = read()
         tare = None if args.tare_recording is None else tare_recording(args)
     except (EstimationError, ValueError, OSError) as error:
         print(f"replay: {args.bag}: {error}", file=sys.stderr)
         return 2, None
+    if tare is not None and calibration is not None:  # the same sensor's readings
+        tare = dataclasses.replace(tare, wrenches=calibration.correct(tare.wrenches))
     fit = fit_recording(
         recording,
         tare,
-        exploration.calibration,
+        calibration,
         settings["gravity"],
         exploration.bias_drift_rate,
     )
