@@ -18,7 +18,7 @@ import numpy as np
 from conftest import PANDA, choreography
 
 from com_core.bags.cdr import WrenchStampedEncoder
-from com_core.contract import DONE, OK, WRENCH_TOPIC
+from com_core.contract import DIAGNOSTICS_TOPIC, DONE, OK, WRENCH_TOPIC
 from com_core.estimation.runs.settings import SETTINGS
 from com_core.sensing.wrench_model import gravity_wrench
 from com_core.sequencing.errors import CancelledRunError, RunError, TimeoutRunError
@@ -187,9 +187,14 @@ class FakeWorld:
         return "the bag's writer stopped: [Errno 28] No space left on device" if full else ""
 
     def capture(self, topic: str) -> None:
+        if topic == DIAGNOSTICS_TOPIC:  # the estimator's statuses: one each look
+            return
         self._captured, self.latest_ns = [], 0
 
     def release(self, topic: str) -> list[bytes]:
+        if topic == DIAGNOSTICS_TOPIC:
+            self.events.append((self.t, "diagnostics heard", None))
+            return [b"a status"]
         raws, self._captured = self._captured or [], None
         self.bag_written += len(raws)
         return raws

@@ -101,6 +101,10 @@ def test_a_default_run_labels_each_window_after_the_arm_rests_and_sends_no_move_
     calls = [kind for kind, _ in world.estimator_calls]
     assert calls[:2] == ["reset", "clear_answers"] and calls[-1] == "restore"
     assert not world.recording and not world.held
+    # the bag closes once the recorder has heard a status after the estimator's answer
+    kinds = [kind for _, kind, _ in world.events]
+    assert "diagnostics heard" in kinds[kinds.index("label") :]
+    assert kinds.index("stopped") > len(kinds) - 1 - kinds[::-1].index("diagnostics heard")
     bag = outcome.bag
     assert (bag / BAG_ROBOT_FILE).is_file() and (bag / BAG_SETTINGS_FILE).is_file()
     assert f"bag {bag}" in outcome.message and "[OK] mass 0.400 kg" in outcome.message
