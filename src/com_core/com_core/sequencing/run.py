@@ -161,7 +161,6 @@ EXCITATION_REST = 0.3  # s (sim) at rest after an excitation, within its span
 EXCITATION_CACHE = "excitation_cache.json"  # beside the tare cache
 VERIFY_ITERATIONS = 40  # the verification's motion needs no optimum, only another motion
 ANSWER_RECORD_WAIT = 5.0  # s (wall) the bag's close waits for the recorder to hear the answer
-ANSWER_LOOK = 0.02  # s (wall) between two looks at what the recorder heard
 CLOCKS_APART = 3600 * 10**9  # ns between the sensor's stamps and this clock: two clocks
 
 
@@ -943,29 +942,18 @@ class ExplorationRun:
         answer: the estimator's statuses come in order from one publisher (one a second at
         least), and the recorder hears them apart from this node, so the answer is then in
         the bag. At most ``ANSWER_RECORD_WAIT`` s (wall), else logged."""
-        recorder, capturing = self.recorder, [True]
-
-        def heard() -> bool:  # what was captured since the last look; then look again
-            capturing[0] = False
-            if recorder.release(DIAGNOSTICS_TOPIC):
-                return True
-            time.sleep(ANSWER_LOOK)
-            recorder.capture(DIAGNOSTICS_TOPIC)
-            capturing[0] = True
-            return False
-
-        recorder.capture(DIAGNOSTICS_TOPIC)
+        recorder = self.recorder
+        recorder.capture(DIAGNOSTICS_TOPIC)  # latest_ns: 0 until a status is heard
         try:
-            self.clock.wait(heard, "the recorder hearing the estimator's answer",
-                            wall_timeout=ANSWER_RECORD_WAIT)  # fmt: skip
+            self.clock.wait(lambda: recorder.latest_ns > 0, "the recorder hearing the "
+                            "estimator's answer", wall_timeout=ANSWER_RECORD_WAIT)  # fmt: skip
         except TimeoutRunError:
             self.log.warning(
                 f"the recorder heard no estimator status within {ANSWER_RECORD_WAIT:g} s of "
                 "its answer: the bag may lack it"
             )
         finally:
-            if capturing[0]:
-                recorder.release(DIAGNOSTICS_TOPIC)
+            recorder.release(DIAGNOSTICS_TOPIC)
 
     def _stop_recording(self) -> dict[str, int]:
         """Close the bag; messages written per topic ({} when none or the recording
