@@ -27,7 +27,7 @@ import argparse
 import time
 
 import numpy as np
-from motion import SHAPES, static_object
+from motion import SHAPES, at_rest
 
 from com_core.estimation.fits.estimators import DEFAULT_ALPHA
 from com_core.estimation.fits.motion import load_vector
@@ -67,17 +67,6 @@ def one_sensor(accuracy: float, serial: int, robot: str, mass: float) -> dict:
         run.world.close()
 
 
-def at_rest(config, serial: int, mass: float, profile) -> dict:
-    """The same object explored at rest through the same sensor (``static_object``): its
-    status and reason; status "no grasp" when the sim's gripper did not hold it (the light
-    mug of serial 5 is knocked off its stand by the direct move from the last tare pose),
-    which is no test's alarm."""
-    try:
-        return static_object(config, SHAPES[serial % 3], mass, serial, 10, profile)
-    except RuntimeError as error:
-        return {"status": "no grasp", "reason": str(error)}
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sensors", type=int, default=10)
@@ -109,7 +98,7 @@ def main() -> None:
             static = []
             if args.static:
                 config = read_robot_config(robot)
-                static = [at_rest(config, k, mass, profile) for k in serials]
+                static = [at_rest(config, SHAPES[k % 3], mass, k, 10, profile) for k in serials]
                 for k, s in zip(serials, static, strict=True):
                     if s["status"] != "OK":
                         print(f"    at rest, sensor {k}: {s['status']} {s['reason'][:300]}")
