@@ -52,10 +52,10 @@ from com_core.contract import DONE, OBJECT_PREFIX, TARE_PREFIX
 from com_core.estimation.fits.errors import EstimationError
 from com_core.estimation.fits.estimators import two_pose
 from com_core.estimation.fits.in_place import BLOCKS
-from com_core.estimation.fits.motion import fit_motion, load_vector, principal_moments
+from com_core.estimation.fits.motion import fit_motion, load_vector
 from com_core.estimation.fits.windows import subtract_tare
 from com_core.estimation.runs.exploration import Exploration
-from com_core.estimation.runs.motion_solution import MIN_MOMENT_SIGMAS
+from com_core.estimation.runs.motion_solution import MotionResult
 from com_core.estimation.runs.sensor_calibration import SensorCalibration
 from com_core.estimation.runs.settings import exploration_from, use_sensor_calibration
 from com_core.planning.excitation import design_excitation
@@ -101,9 +101,6 @@ def one_object(
         truth = load_vector(inertial_parameters(true_mass, true_com, true_inertia))
         mass_, com, inertia = fit.load()
         moments, axes = np.linalg.eigh(inertia)
-        published = np.all(
-            principal_moments(inertia, fit.load_cov()[4:, 4:])[1] * MIN_MOMENT_SIGMAS < moments
-        )
         true_moments, true_axes = np.linalg.eigh(true_inertia)
         return {
             "mass": abs(mass_ - true_mass) / true_mass,
@@ -115,7 +112,7 @@ def one_object(
             "bound_com": np.sqrt(np.diag(fit.load_cov(fit.bound))[1:4]),
             "delay": fit.delay,
             "seconds": seconds,
-            "published": bool(published),
+            "published": MotionResult(hand, fit, fit.load_cov()).inertia_identified,
         }
     finally:
         world.close()

@@ -14,6 +14,7 @@ from com_core.estimation.fits.motion import compensated, load_vector, principal_
 from com_core.estimation.runs.cutting import motion_spans
 from com_core.estimation.runs.motion_solution import joint_arrays
 from com_core.estimation.runs.settings import exploration_from
+from com_core.estimation.runs.solution import inertia_value, vector_value
 from com_core.payload.compensation import Compensator
 from com_core.payload.model import payload_from_solution
 from com_core.planning.excitation import design_excitation
@@ -71,6 +72,7 @@ def test_a_motion_gives_mass_com_and_inertia_within_their_error_bars(solved):
     assert values["excitation"] == "motion" and len(values["inertia"].split(",")) == 6
     assert "principal moments (" in solution.reason
     assert result.inertia_identified and "not published" not in solution.reason
+    assert inertia_value(values) == (vector_value(values, "inertia"), True)
 
 
 def test_an_inertia_the_motion_does_not_tell_is_not_published(unidentified_run):
@@ -87,6 +89,7 @@ def test_an_inertia_the_motion_does_not_tell_is_not_published(unidentified_run):
     assert "the inertia not published: principal moments (" in solution.reason
     values = dict(solution.diagnostic_values())
     assert "inertia" not in values and len(values["inertia_fit"].split(",")) == 6
+    assert inertia_value(values) == (vector_value(values, "inertia_fit"), False)
     (mass, com), inertia = run.world.object_ground_truth(), run.world.inertia_ground_truth()[1]
     truth = load_vector(inertial_parameters(mass, com, inertia))
     z = (result.object.load_vector() - truth) / np.sqrt(np.diag(result.load_cov))

@@ -48,7 +48,12 @@ from com_core.contract import (
 from com_core.estimation.runs.fit_setup import INFORMATION
 from com_core.estimation.runs.motion_solution import EXCITATIONS, MOTION
 from com_core.estimation.runs.settings import SETTINGS
-from com_core.estimation.runs.solution import noise_line, vector_value, verification_lines
+from com_core.estimation.runs.solution import (
+    inertia_value,
+    noise_line,
+    vector_value,
+    verification_lines,
+)
 from com_core.inputs import Input, InputError
 from com_core.payload.files import PAYLOAD_FILE
 from com_core.robot.config import ROBOTS, RobotConfigError, read_robot_config, robot_config_path
@@ -643,8 +648,8 @@ def print_inertia(values: dict[str, str], truth) -> None:
     principal moments."""
     from com_core.estimation.fits.motion import principal_moments
 
-    published = "inertia" in values
-    estimate = np.array(vector_value(values, "inertia" if published else "inertia_fit"))
+    elements, published = inertia_value(values)
+    estimate = np.array(elements)
     cov = np.array(vector_value(values, "inertia_cov")).reshape(6, 6)
     held = np.array([getattr(truth, name) for name in INERTIA_ELEMENTS])
     z = (estimate - held) / np.sqrt(np.diag(cov))
@@ -719,7 +724,7 @@ def print_summary(result, estimates, truths, statuses, wall: float) -> None:
                 f"({', '.join(f'{x:+.2f}' for x in err)}) mm, |e| = "
                 f"{math.sqrt(sum(x * x for x in err)):.2f} mm"
             )
-            if "inertia" in values or "inertia_fit" in values:
+            if inertia_value(values)[0] is not None:
                 print_inertia(values, t)
     print(f"time:     {wall:.1f} s wall in all")
     if " bag " in result.message:

@@ -53,7 +53,12 @@ from com_core.contract import (
     WRENCH_TOPIC,
 )
 from com_core.estimation.runs.motion_solution import MAX_CHI2_PER_DOF, MOTION
-from com_core.estimation.runs.solution import noise_line, vector_value, verification_lines
+from com_core.estimation.runs.solution import (
+    inertia_value,
+    noise_line,
+    vector_value,
+    verification_lines,
+)
 from com_core.report.run import RunData, motion_fitted, read_run
 from com_core.robot.dynamics import INERTIA_ELEMENTS
 from com_core.sensing.noise import learn_noise
@@ -134,10 +139,10 @@ def _rows(run: RunData) -> list[_Row]:
 
 def _inertia_rows(run: RunData) -> list[_Row]:
     """A run in motion's six inertia elements about the COM (kg cm^2, ``ft_sensor``) with
-    sigma, and truth when known, published or only fitted (``inertia_fit``); [] for a run
-    without them."""
+    sigma, and truth when known, published or only fitted (``inertia_value``); [] for a
+    run without them."""
     values = run.diagnostic["values"] if run.diagnostic else {}
-    estimate = vector_value(values, "inertia") or vector_value(values, "inertia_fit") or []
+    estimate = inertia_value(values)[0] or []
     sigma = vector_value(values, "sigma_inertia") or []
     if not len(estimate) == len(sigma) == len(INERTIA_ELEMENTS):
         return []
@@ -757,7 +762,7 @@ def write_report(
     inertia = _inertia_rows(run)
     if rows and inertia:
         _draw_bars(fig, rows, (0.69, 0.645, 0.295, 0.155))
-        _draw_inertia(fig, inertia, (0.69, 0.485, 0.295, 0.09), "inertia" in values)
+        _draw_inertia(fig, inertia, (0.69, 0.485, 0.295, 0.09), inertia_value(values)[1])
     elif rows:
         _draw_bars(fig, rows, (0.69, 0.5, 0.295, 0.3))
     else:

@@ -16,7 +16,7 @@ from those kept for diagnosis (an inconsistent fit, a failed verification).
 
 A solution travels as diagnostic_msgs/KeyValue pairs (``Solution.diagnostic_values``):
 vectors comma-joined per axis, floats as their shortest repr; ``vector_value``,
-``verification_lines`` and ``noise_line`` read them back.
+``inertia_value``, ``verification_lines`` and ``noise_line`` read them back.
 """
 
 from __future__ import annotations
@@ -62,6 +62,7 @@ __all__ = [
     "Solution",
     "Verification",
     "format_solution",
+    "inertia_value",
     "missing_samples",
     "noise_line",
     "solve",
@@ -473,6 +474,16 @@ def vector_value(values: Mapping[str, str], key: str, scale: float = 1.0) -> lis
     times ``scale``; None when ``values`` has no ``key``."""
     text = values.get(key)
     return [float(v) * scale for v in text.split(",")] if text else None
+
+
+def inertia_value(values: Mapping[str, str]) -> tuple[list[float] | None, bool]:
+    """(the object's inertia elements about the COM, kg m^2, ``INERTIA_ELEMENTS``, and
+    whether they were published) of ``Solution.diagnostic_values`` read back: ``inertia``
+    when the motion told it, else the fit kept as ``inertia_fit``
+    (``MotionResult.as_dict``); (None, False) without either (a static run)."""
+    if "inertia" in values:
+        return vector_value(values, "inertia"), True
+    return vector_value(values, "inertia_fit"), False
 
 
 def verification_lines(values: Mapping[str, str]) -> list[str]:
