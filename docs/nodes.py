@@ -8,7 +8,7 @@ from what ``ros2 param describe`` says:
   and the node's own rows of ``com_estimator.estimator_node.PARAMETERS``;
 - ``sequencer_node``: ``exploration_sequencer.parameters.PARAMETERS``;
 - the robot configuration's keys (sim and sequencer, read-only):
-  ``com_core.robot.config.default_robot_config().parameters()``.
+  ``com_core.robot.config.declared_parameters()``.
 
 Topic and service names and types come from ``com_core.contract``; what each carries is
 written here. Run from the workspace with its environment (``source ./env.sh``)::
@@ -36,7 +36,7 @@ from com_core.inputs import Input  # noqa: E402
 from com_core.robot.config import (  # noqa: E402
     DEFAULT_ARM_ACTION,
     DEFAULT_GRIPPER_ACTION,
-    default_robot_config,
+    declared_parameters,
 )
 from com_estimator.estimator_node import PARAMETERS as ESTIMATOR_PARAMETERS  # noqa: E402
 from exploration_sequencer.parameters import PARAMETERS as SEQUENCER_PARAMETERS  # noqa: E402
@@ -517,17 +517,15 @@ def sequencer_node() -> list[str]:
 
 
 def robot_configuration() -> list[str]:
-    rows = [
-        (f"`{key}`", f"`{value_text(value)}`")
-        for key, value in default_robot_config().parameters().items()
-    ]
+    rows = [(f"`{key}`", f"`{value_text(value)}`") for key, value in declared_parameters().items()]
     return [
         "## Robot configuration",
         "",
         "`sim_node` and `sequencer_node` declare every key of the robot configuration, "
         "read-only (a file's `0` is taken for `0.0`); the estimator takes `sensor_frame` and "
         "`hand_id` from it. The defaults are the Panda's file "
-        "(`src/com_core/com_core/config/panda.yaml`); what each key means: "
+        "(`src/com_core/com_core/config/panda.yaml`), but for `max_joint_acceleration`, "
+        "empty (none stated) unless the arm's own file states it; what each key means: "
         "[README, Your own arm](../README.md#your-own-arm).",
         "",
         *table(("key", "default (Panda)"), rows),

@@ -7,7 +7,11 @@ import numpy as np
 import pytest
 from conftest import PANDA
 
-from com_core.planning.excitation import design_excitation, excitation_information
+from com_core.planning.excitation import (
+    acceleration_bounds,
+    design_excitation,
+    excitation_information,
+)
 from com_core.robot.config import urdf_file
 from com_core.robot.model import RobotModel
 
@@ -71,3 +75,19 @@ def test_an_excitation_is_designed_once_and_read_back_to_the_bit(panda, home, tm
     other = cached_excitation(path, panda, home, WRIST, iterations=5, seed=3)
     assert other.a.tobytes() != first.a.tobytes()
     assert len(__import__("json").loads(path.read_text())["entries"]) == 2
+
+
+def test_a_faster_motion_keeps_each_joint_within_its_own_bound(panda, home):
+    """A bound per joint (the Panda's own limits for its wrist, 15, 20 and 20 rad/s^2,
+    over a 2 s period) holds joint by joint, and one of them binds; a bound above an
+    arm's published limit is brought down to it, and an arm that states none keeps it."""
+    bounds = acceleration_bounds(np.inf, WRIST, PANDA.arm_joints, PANDA.max_joint_acceleration)
+    assert bounds == (15.0, 20.0, 20.0)
+    assert acceleration_bounds(16.0, WRIST, PANDA.arm_joints, PANDA.max_joint_acceleration) == (
+        15.0, 16.0, 16.0)  # fmt: skip
+    assert acceleration_bounds(16.0, WRIST, PANDA.arm_joints, ()) == (16.0,) * 3
+    fast = design_excitation(panda, home, WRIST, period=2.0, max_acceleration=bounds,
+                             iterations=20, seed=1)  # fmt: skip
+    ddq = np.abs(fast.at(np.linspace(0.0, fast.period, 4001))[2][:, 4:7]).max(axis=0)
+    assert np.all(ddq <= np.array(bounds) + 1e-9), ddq
+    assert ddq.max() > 8.0  # beyond the default bound, as asked

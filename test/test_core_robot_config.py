@@ -16,6 +16,7 @@ from com_core.robot.config import (
     ROBOTS,
     RobotConfig,
     RobotConfigError,
+    declared_parameters,
     grasp_point,
     read_robot_config,
     robot_config_path,
@@ -72,6 +73,8 @@ def test_files_that_cannot_serve_are_refused_naming_the_file_and_the_key(tmp_pat
         (values | {"arm_joints": ["joint1"] * 6}, "arm_joints names a joint twice"),
         (values | {"joint_state_rate": 0.0}, r"joint_state_rate must be in \(0, 1000\] Hz"),
         (values | {"joint_state_rate": 2000.0}, "joint_state_rate must be in"),
+        (values | {"max_joint_acceleration": [10.0] * 7}, "max_joint_acceleration must be 6"),
+        (values | {"max_joint_acceleration": [10.0] * 5 + [0.0]}, "must be 6 numbers > 0"),
     ]
     for changed, named in cases:
         path = write(tmp_path, changed)
@@ -107,3 +110,18 @@ def test_a_home_outside_the_joint_limits_is_named_with_the_limits():
     assert robot_problems(bad, model) == [
         "home_joints: joint3 = 0.5000 rad is outside its limits [-3.9270, 0.1920]"
     ]
+
+
+def test_an_arm_states_its_own_acceleration_limits_or_none():
+    """Franka's arms state their joints' acceleration limits (the FCI's tables); UR and
+    UFACTORY publish none, and the nodes declare the key empty, so that no arm's file
+    without it inherits the Panda's."""
+    assert read_robot_config("panda").max_joint_acceleration == (15, 7.5, 10, 12.5, 15, 20, 20)
+    assert read_robot_config("fr3").max_joint_acceleration == (10.0,) * 7
+    assert read_robot_config("ur5e").max_joint_acceleration == ()
+    assert read_robot_config("xarm6").max_joint_acceleration == ()
+    declared = declared_parameters()
+    assert declared["max_joint_acceleration"] == []
+    assert declared | {"max_joint_acceleration": [15, 7.5, 10, 12.5, 15, 20, 20]} == (
+        read_robot_config("panda").parameters()
+    )

@@ -185,6 +185,7 @@ DEMO_FLAGS = {
     "--target-sigma": SEQUENCER["target_com_sigma"],
     "--motion-period": SEQUENCER["motion_period"],
     "--motion-cycles": SEQUENCER["motion_cycles"],
+    "--motion-acceleration": SEQUENCER["motion_acceleration"],
     "--timeout": demo.TIMEOUT,
 }
 TEXT_FLAGS = {

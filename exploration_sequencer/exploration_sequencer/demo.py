@@ -163,6 +163,14 @@ def build_parser() -> argparse.ArgumentParser:
         "needs; default 1)",
     )
     p.add_argument(
+        "--motion-acceleration",
+        type=float,
+        help="rad/s^2; with --excitation motion: the bound on each wrist joint's "
+        "acceleration, within the arm's own limits (default: the sequencer's, "
+        f"{SEQUENCER['motion_acceleration'].default:g}); with a shorter --motion-period, a "
+        "faster motion",
+    )
+    p.add_argument(
         "--hold",
         action="store_true",
         help="end holding the object (the sequencer's release:=false) and show 1 s of the "
@@ -302,6 +310,7 @@ def node_parameters(
         ("excitation", args.excitation),
         ("motion_period", args.motion_period),
         ("motion_cycles", args.motion_cycles),
+        ("motion_acceleration", args.motion_acceleration),
         ("tilt", args.tilt),
         ("max_tilt", args.max_tilt),
         ("dwell", args.dwell),
@@ -328,6 +337,7 @@ FLAGS = {
     "excitation": "--excitation",
     "motion_period": "--motion-period",
     "motion_cycles": "--motion-cycles",
+    "motion_acceleration": "--motion-acceleration",
     "tilt_axes": "--axes",
     "bag_dir": "--bag-dir",
 }

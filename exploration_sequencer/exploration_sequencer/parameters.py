@@ -11,6 +11,7 @@ import math
 
 from com_core.estimation.runs.motion_solution import EXCITATIONS, STATIC
 from com_core.inputs import Input, table_of
+from com_core.planning.excitation import DEFAULT_ACCELERATION
 from com_core.planning.motion_accuracy import MAX_CYCLES
 
 __all__ = ["PARAMETERS"]
@@ -38,6 +39,13 @@ PARAMETERS = table_of([
           "and the object's motions run (the noise's share of the inertia's variance goes as "
           "1 / cycles, the calibration's stays; python -m com_core.planning.motion_accuracy "
           "says how many a target needs)", kind="int", low=1, high=MAX_CYCLES),
+    Input("motion_acceleration", DEFAULT_ACCELERATION, "with excitation 'motion': the "
+          "bound on each wrist joint's acceleration, within the arm's own limits where its "
+          "configuration states them (max_joint_acceleration): a faster motion tells the "
+          "inertia more in less time, with a shorter motion_period (python -m "
+          "com_core.planning.motion_accuracy weighs a longer motion against a faster one); "
+          "the load's acceleration grows with it, and the grasp must hold it",
+          unit="rad/s^2", low=1.0, high=100.0),
     Input("tilt", math.pi / 6, "wrist tilt from home about each axis", **_TILT,
           fix="a tilt the wrist makes from home, e.g. 0.52 (30 deg)"),
     Input("tilt_axes", ["y", "x"], "sensor axes to tilt about (the pass visits y first)",

@@ -54,7 +54,7 @@ from com_core.contract import ERROR, EXPLORE_SERVICE, OK, ROBOT_DESCRIPTION_TOPI
 from com_core.inputs import problems
 from com_core.planning.run_time import WALL
 from com_core.robot.choreography import Choreography
-from com_core.robot.config import KEYS, RobotConfig, RobotConfigError, default_robot_config
+from com_core.robot.config import KEYS, RobotConfig, RobotConfigError, declared_parameters
 from com_core.runtime.lifeline import stop_with_parent
 from com_core.runtime.rosenv import discovery_line, keep_dds_local, start_refusal, stop_on_signals
 from com_core.sequencing.errors import RunError
@@ -97,7 +97,7 @@ class SequencerNode(Node):
             read_only=True,
             dynamic_typing=True,  # a file's 0 for 0.0
         )
-        for name, default in default_robot_config().parameters().items():
+        for name, default in declared_parameters().items():
             self.declare_parameter(name, default, robot)
         self.io = io
         # read-only: one configuration for the node's life

@@ -18,7 +18,7 @@ from rclpy.parameter import Parameter
 
 from com_core.contract import APPLY_WRENCH_TOPIC
 from com_core.inputs import Input, InputError, refusal, table_of
-from com_core.robot.config import default_robot_config
+from com_core.robot.config import declared_parameters
 from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES, SensorProfile
 from wrench_sim.objects import SHAPES, com_offset_problem
 from wrench_sim.physics import GRASP_MODES
@@ -203,5 +203,5 @@ def declare_parameters(node: Node) -> None:
         read_only=True,
         dynamic_typing=True,  # a robot file's 0 for 0.0
     )
-    for key, value in default_robot_config().parameters().items():
+    for key, value in declared_parameters().items():
         node.declare_parameter(key, value, robot)

@@ -4,6 +4,7 @@ through a sensor, and a whole exploration in motion, as offline studies
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -23,7 +24,7 @@ from com_core.estimation.runs.exploration import Exploration
 from com_core.estimation.runs.inbox import Inbox
 from com_core.estimation.runs.settings import exploration_from
 from com_core.estimation.runs.solution import Solution
-from com_core.planning.excitation import Excitation, design_excitation
+from com_core.planning.excitation import DEFAULT_ACCELERATION, Excitation, design_excitation
 from com_core.robot.config import read_robot_config
 from com_core.robot.model import RobotModel
 from com_core.sensing.sensor_profiles import PROFILES
@@ -129,11 +130,14 @@ def explore_in_motion(
     mass: float = 0.5,
     shape: str = "box",
     object_seed: int = 3,
+    period: float = 3.0,
+    acceleration: float | Sequence[float] = DEFAULT_ACCELERATION,
 ) -> MotionRun:
     """As the sequencer runs ``excitation: motion`` on ``robot`` (a shipped configuration)
     with an object of ``mass`` kg and ``shape`` (its COM drawn from ``object_seed``): the
-    empty hand at rest and along the D-optimal 3 s excitation (``cycles`` periods), the
-    grasp, the object along it and along another design (one period); through the
+    empty hand at rest and along the D-optimal excitation of ``period`` s and
+    ``acceleration`` bound (rad/s^2; ``cycles`` periods), the grasp, the object along it
+    and along another design (one period); through the
     realistic sensor of serial ``seed`` with ``calibration_accuracy``, joint states every
     ``joint_every`` steps (10: 100 Hz); solved from its labels (``Exploration.solve``). The
     caller closes ``MotionRun.world``."""
@@ -144,9 +148,11 @@ def explore_in_motion(
     robot = world.config.robot
     model = RobotModel(world.urdf_text, robot.sensor_frame)
     wrist = robot.arm_joints[-3:]
-    excitation = replace(design_excitation(model, robot.home_joints, wrist, period=3.0,
-                                           iterations=40), cycles=cycles)  # fmt: skip
-    other = design_excitation(model, robot.home_joints, wrist, period=3.0, iterations=40, seed=5)
+    excitation = design_excitation(model, robot.home_joints, wrist, period, acceleration,
+                                   iterations=40)  # fmt: skip
+    excitation = replace(excitation, cycles=cycles)
+    other = design_excitation(model, robot.home_joints, wrist, period, acceleration,
+                              iterations=40, seed=5)  # fmt: skip
     settings = {"information": "kinematics", "accuracy": calibration_accuracy,
                 "sensor_frame": robot.sensor_frame}  # fmt: skip
     exploration = exploration_from(settings, world.urdf_text)

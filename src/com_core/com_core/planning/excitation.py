@@ -14,9 +14,15 @@ white noise per axis (``SIGMA``): it shrinks the volume of the estimate's confid
 ellipsoid, and unlike the condition number it does not depend on the parameters' units
 (rescaling a parameter adds a constant to log det). Each candidate is scaled to the
 largest amplitude within the URDF's position and velocity limits and ``max_acceleration``
-(rad/s^2; bounded so the grasp holds: the load's acceleration is the joints' times the
-lever, a few m/s^2 here); the shapes are searched by a seeded random search with
-shrinking steps (numpy only). The same seed, arm and grasp give the same motion.
+(rad/s^2 per moved joint: ``acceleration_bounds``, the bound asked for within the arm's
+published limits; ``DEFAULT_ACCELERATION`` keeps the load's acceleration, the joints'
+times the lever, to a few m/s^2 so that the grasp holds); the shapes are searched by a
+seeded random search with shrinking steps (numpy only). The same seed, arm and grasp give
+the same motion.
+
+The velocity limits bind first over a long period, the accelerations over a short one:
+a shorter period at a higher bound is the faster motion, and the inertia is told by the
+accelerations (``planning.motion_accuracy`` weighs a longer motion against a faster one).
 """
 
 from __future__ import annotations
@@ -35,10 +41,12 @@ from com_core.robot.dynamics import sensor_regressors
 from com_core.robot.model import RobotModel
 
 __all__ = [
+    "DEFAULT_ACCELERATION",
     "HARMONICS",
     "SIGMA",
     "WAYPOINT_RATE",
     "Excitation",
+    "acceleration_bounds",
     "cached_excitation",
     "design_excitation",
     "excitation_information",
@@ -46,6 +54,9 @@ __all__ = [
 
 HARMONICS = 3
 """Harmonics per joint."""
+DEFAULT_ACCELERATION = 8.0
+"""rad/s^2: the bound on each moved joint's acceleration unless a faster motion is asked
+for (the sequencer's ``motion_acceleration``)."""
 SIGMA = np.array([0.1, 0.1, 0.1, 0.005, 0.005, 0.005])
 """N, N m: the noise per sample the design weighs the axes by (the realistic sensor's)."""
 _RATE = 100.0  # Hz the design samples the motion at
@@ -118,18 +129,30 @@ def excitation_information(robot: RobotModel, excitation: Excitation) -> NDArray
     return info
 
 
+def acceleration_bounds(
+    requested: float,
+    joints: Sequence[str],
+    arm_joints: Sequence[str],
+    published: Sequence[float],
+) -> tuple[float, ...]:
+    """rad/s^2 per joint of ``joints``: ``requested``, within the arm's ``published``
+    limits (one per joint of ``arm_joints``; none: the arm states none)."""
+    limits = dict(zip(arm_joints, published, strict=True)) if published else {}
+    return tuple(min(requested, limits.get(name, np.inf)) for name in joints)
+
+
 def design_excitation(
     robot: RobotModel,
     home: Sequence[float],
     joints: Sequence[str],
     period: float = 4.0,
-    max_acceleration: float = 8.0,
+    max_acceleration: float | Sequence[float] = DEFAULT_ACCELERATION,
     iterations: int = 150,
     seed: int = 0,
 ) -> Excitation:
     """The D-optimal excitation of ``joints`` (the wrist's) about ``home`` (rad, every
     joint of ``robot.joint_names``) with ``period`` s, within the URDF's limits and
-    ``max_acceleration`` rad/s^2 (see module)."""
+    ``max_acceleration`` rad/s^2 (one for every joint, or one per joint; see module)."""
     rng = np.random.default_rng(seed)
     limits = robot.joint_limits()
     home = np.asarray(home, dtype=np.float64)
@@ -137,6 +160,7 @@ def design_excitation(
     room = np.array([min(home[i] - limits[n][0], limits[n][1] - home[i]) for i, n in
                      zip(index, joints, strict=True)])  # fmt: skip
     speed = np.array([limits[n][2] for n in joints])
+    acceleration = np.broadcast_to(np.asarray(max_acceleration, dtype=np.float64), speed.shape)
 
     def candidate(shape: NDArray[np.float64]) -> Excitation:
         a, b = _at_rest(shape.reshape(2, len(joints), HARMONICS))
@@ -146,7 +170,7 @@ def design_excitation(
         scale = 0.95 * min(
             np.min(room / np.maximum(np.abs(q - home[index]).max(axis=0), 1e-12)),
             np.min(speed / np.maximum(np.abs(dq).max(axis=0), 1e-12)),
-            max_acceleration / max(np.abs(ddq).max(), 1e-12),
+            np.min(acceleration / np.maximum(np.abs(ddq).max(axis=0), 1e-12)),
         )
         scaled = Excitation(robot.joint_names, home, tuple(joints), period, a * scale,
                             b * scale, -np.inf)  # fmt: skip
@@ -173,7 +197,7 @@ def cached_excitation(
     home: Sequence[float],
     joints: Sequence[str],
     period: float = 4.0,
-    max_acceleration: float = 8.0,
+    max_acceleration: float | Sequence[float] = DEFAULT_ACCELERATION,
     iterations: int = 150,
     seed: int = 0,
 ) -> Excitation:
@@ -186,7 +210,7 @@ def cached_excitation(
         "home": [float(x) for x in home],
         "joints": list(joints),
         "period": float(period),
-        "max_acceleration": float(max_acceleration),
+        "max_acceleration": np.asarray(max_acceleration, dtype=np.float64).tolist(),
         "iterations": int(iterations),
         "seed": int(seed),
     }

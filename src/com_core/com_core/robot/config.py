@@ -37,6 +37,11 @@ holds, under ``/**: ros__parameters:`` so that every node reads the keys it uses
   arrived and rests, for every arm joint: the controller's goal tolerance, which the
   sequencer sends with each trajectory and waits for before a window; optional, 5 mrad and
   5 mrad/s.
+- ``max_joint_acceleration``: rad/s^2 per arm joint, the arm's own acceleration limits as
+  its maker publishes them (its controller aborts a motion beyond them: Franka's); the
+  excitation in motion stays within them. Optional: a file without it states none (UR and
+  UFACTORY publish none), and the nodes declare it empty, so that no arm inherits the
+  default arm's.
 
 ``robot_problems`` checks a configuration against a robot model (every frame and joint
 in its URDF, home and pick within the joint limits) and says what is wrong by name.
@@ -65,6 +70,7 @@ __all__ = [
     "ROBOTS",
     "RobotConfig",
     "RobotConfigError",
+    "declared_parameters",
     "default_robot_config",
     "grasp_point",
     "read_robot_config",
@@ -120,6 +126,7 @@ class RobotConfig:
     arm_action: str = DEFAULT_ARM_ACTION
     goal_tolerance: float = 5e-3
     stopped_velocity_tolerance: float = 5e-3
+    max_joint_acceleration: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         for key in ("robot", "urdf", "base_frame", "sensor_frame", "grasp_frame", "hand_id",
@@ -160,6 +167,13 @@ class RobotConfig:
         for key in ("goal_tolerance", "stopped_velocity_tolerance"):
             if not (_finite(getattr(self, key)) and getattr(self, key) > 0.0):
                 raise RobotConfigError(f"{key} must be > 0, got {getattr(self, key)!r}")
+        limits = self.max_joint_acceleration
+        if limits and (len(limits) != len(self.arm_joints)
+                       or not all(_finite(v) and v > 0.0 for v in limits)):  # fmt: skip
+            raise RobotConfigError(
+                f"max_joint_acceleration must be {len(self.arm_joints)} numbers > 0 (rad/s^2, "
+                f"one per arm joint) or none, got {list(limits)}"
+            )
 
     @classmethod
     def from_parameters(cls, values: Mapping[str, Any]) -> RobotConfig:
@@ -197,9 +211,11 @@ KEYS = tuple(RobotConfig.__dataclass_fields__)
 """Every key of a robot configuration, in the file's order."""
 OPTIONAL_KEYS = frozenset(
     {"sensor_id", "joint_state_rate", "gripper_action", "gripper_joint_state_rate", "arm_action",
-     "goal_tolerance", "stopped_velocity_tolerance"}
+     "goal_tolerance", "stopped_velocity_tolerance", "max_joint_acceleration"}
 )  # fmt: skip
 """Keys a file may leave out (added after files were written): their defaults stand."""
+ARM_OWN_KEYS = frozenset({"max_joint_acceleration"})
+"""Optional keys only an arm's own file can tell: the nodes declare them empty."""
 
 
 def _finite(value: object) -> bool:
@@ -210,6 +226,13 @@ def _finite(value: object) -> bool:
 def default_robot_config() -> RobotConfig:
     """The configuration of DEFAULT_ROBOT: every node's defaults."""
     return read_robot_config(DEFAULT_ROBOT)
+
+
+def declared_parameters() -> dict[str, Any]:
+    """The values the nodes declare the configuration's keys with: DEFAULT_ROBOT's, but
+    ARM_OWN_KEYS empty (a file that leaves them out states none)."""
+    values = default_robot_config().parameters()
+    return {key: [] if key in ARM_OWN_KEYS else value for key, value in values.items()}
 
 
 def robot_config_path(robot: str) -> Path:
@@ -245,7 +268,8 @@ def read_robot_config(robot: str) -> RobotConfig:
 def write_robot_config(config: RobotConfig, path: Path) -> None:
     """Write ``config`` as a ROS 2 parameters file (``/**`` section) that
     ``read_robot_config`` reads back to the same values."""
-    document = {"/**": {"ros__parameters": config.parameters()}}
+    values = {key: value for key, value in config.parameters().items() if value != []}
+    document = {"/**": {"ros__parameters": values}}
     path.write_text(f"# robot configuration {config.robot}\n" + yaml.safe_dump(document))
 
 

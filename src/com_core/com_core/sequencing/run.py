@@ -105,7 +105,7 @@ from com_core.planning.decisions import (
     tare_decision,
     tare_reuse,
 )
-from com_core.planning.excitation import Excitation, cached_excitation
+from com_core.planning.excitation import Excitation, acceleration_bounds, cached_excitation
 from com_core.planning.planner import HOME, Plan
 from com_core.planning.prediction import Prediction
 from com_core.planning.run_time import (
@@ -674,19 +674,23 @@ class ExplorationRun:
 
     def _excitations(self, motion: Choreography, period: float) -> tuple[Excitation, Excitation]:
         """(the excitation of the wrist's last three joints, another one for the
-        verification), each designed once per arm, home and period and cached beside the
+        verification), each designed once per arm, home, period and acceleration bound
+        (``motion_acceleration`` within the arm's published limits) and cached beside the
         tare cache (``planning.excitation.cached_excitation``)."""
         path = self._cache_path().with_name(EXCITATION_CACHE)
-        robot = motion.robot
+        robot, config = motion.robot, self.config
         home = [motion.home_positions()[name] for name in robot.joint_names]
-        joints = self.config.arm_joints[-3:]
+        joints = config.arm_joints[-3:]
+        bounds = acceleration_bounds(self.p("motion_acceleration"), joints, config.arm_joints,
+                                     config.max_joint_acceleration)  # fmt: skip
         started = time.monotonic()
-        excitation = cached_excitation(path, robot, home, joints, period)
-        verification = cached_excitation(path, robot, home, joints, period,
+        excitation = cached_excitation(path, robot, home, joints, period, bounds)
+        verification = cached_excitation(path, robot, home, joints, period, bounds,
                                          iterations=VERIFY_ITERATIONS, seed=1)  # fmt: skip
         self.log.info(
-            f"excitation: {', '.join(joints)} over {period:g} s, log det "
-            f"{excitation.log_det:.1f} ({time.monotonic() - started:.1f} s, cache {path})"
+            f"excitation: {', '.join(joints)} over {period:g} s, accelerations within "
+            f"{', '.join(f'{b:g}' for b in bounds)} rad/s^2, log det {excitation.log_det:.1f} "
+            f"({time.monotonic() - started:.1f} s, cache {path})"
         )
         return excitation, verification
 

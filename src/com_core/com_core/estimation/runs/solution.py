@@ -416,7 +416,8 @@ def _motion_summary(e: Estimate, result: MotionResult) -> str:
     if not result.inertia_identified:
         found = (
             f"the inertia not published: {found}, one within {MIN_MOMENT_SIGMAS:g} sigma (a "
-            "longer motion or a calibration in place would tell it)"
+            "faster or longer motion, or a calibration in place, would tell it: python -m "
+            "com_core.planning.motion_accuracy says which)"
         )
     return f"{_mass_and_com(e)}, {found} from a motion of {result.object.samples} samples"
 
