@@ -1,12 +1,14 @@
 """Identification in motion over many objects, against the motion's Cramer-Rao bound.
 
     source ./env.sh && python bench/motion.py [--objects 50] [--robots panda,xarm6]
-        [--masses 0.05,0.2,0.5,2.0] [--period 3.0] [--joint-rate 100] [--seed 0]
-        [--profile realistic] [--calibration-accuracy 0.01] [--static] [--calibrate 1.0]
+        [--masses 0.05,0.2,0.5,2.0] [--period 3.0] [--acceleration 8|limits]
+        [--joint-rate 100] [--seed 0] [--profile realistic] [--calibration-accuracy 0.01]
+        [--static] [--calibrate 1.0]
 
 In process, no ROS: for each arm, mass and object (box, cylinder, mug in turn, COM offset
 drawn from the object's seed) a simulator holds the empty hand, runs the arm's D-optimal
-wrist excitation (``planning.excitation``, designed once per arm), grasps the object and
+wrist excitation (``planning.excitation``, designed once per arm, its accelerations within
+``--acceleration`` rad/s^2, or ``limits``: the arm's own), grasps the object and
 runs it again; both read through the realistic sensor (``profile_sensor``: coloured noise,
 quantisation, drifting bias, a 1 % calibration drawn per object; ``--profile`` another named
 one, the estimator told its datasheet), the joint states taken
@@ -58,10 +60,14 @@ from com_core.estimation.runs.exploration import Exploration
 from com_core.estimation.runs.motion_solution import MotionResult
 from com_core.estimation.runs.sensor_calibration import SensorCalibration
 from com_core.estimation.runs.settings import exploration_from, use_sensor_calibration
-from com_core.planning.excitation import design_excitation
+from com_core.planning.excitation import (
+    DEFAULT_ACCELERATION,
+    acceleration_bounds,
+    design_excitation,
+)
 from com_core.planning.planner import Plan
 from com_core.robot.choreography import Choreography
-from com_core.robot.config import read_robot_config
+from com_core.robot.config import RobotConfig, read_robot_config
 from com_core.robot.dynamics import INERTIA_ELEMENTS, inertial_parameters
 from com_core.robot.model import RobotModel
 from com_core.sensing.sensor_profiles import PROFILES
@@ -256,12 +262,25 @@ def axes_error(moments, axes, true_moments, true_axes) -> float:
     return max(angles) if angles else float("nan")
 
 
+def wrist_bounds(config: RobotConfig, acceleration: str) -> tuple[float, ...]:
+    """rad/s^2, the wrist joints' bounds of ``--acceleration``: a number within the arm's
+    own limits, or ``limits``, the arm's own (SystemExit when it states none)."""
+    bound = np.inf if acceleration == "limits" else float(acceleration)
+    bounds = acceleration_bounds(bound, config.arm_joints[-3:], config.arm_joints,
+                                 config.max_joint_acceleration)  # fmt: skip
+    if not np.all(np.isfinite(bounds)):
+        raise SystemExit(f"{config.robot}: its configuration states no acceleration limits")
+    return bounds
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--objects", type=int, default=50)
     parser.add_argument("--robots", default="panda,xarm6")
     parser.add_argument("--masses", default="0.05,0.2,0.5,2.0")
     parser.add_argument("--period", type=float, default=3.0)
+    parser.add_argument("--acceleration", default=str(DEFAULT_ACCELERATION),
+                        help="rad/s^2, or 'limits': the arm's own")  # fmt: skip
     parser.add_argument("--joint-rate", type=float, default=100.0)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--profile", default="realistic", choices=sorted(PROFILES))
@@ -278,7 +297,8 @@ def main() -> None:
     if args.calibration_accuracy is not None:
         profile = profile.with_overrides(calibration_accuracy=args.calibration_accuracy)
     every = round(1000.0 / args.joint_rate)
-    print(f"{args.objects} objects per case, {args.period:g} s of motion, joint states at "
+    print(f"{args.objects} objects per case, {args.period:g} s of motion within "
+          f"{args.acceleration} rad/s^2, joint states at "
           f"{1000.0 / every:g} Hz, the {args.profile} sensor, calibration accuracy "
           f"{profile.calibration_accuracy:g}")  # fmt: skip
     if args.calibrate:
@@ -293,7 +313,8 @@ def main() -> None:
         model = RobotModel(world.urdf_text, config.sensor_frame)
         world.close()
         excitation = design_excitation(model, config.home_joints, config.arm_joints[-3:],
-                                       period=args.period, seed=args.seed)  # fmt: skip
+                                       args.period, wrist_bounds(config, args.acceleration),
+                                       seed=args.seed)  # fmt: skip
         seeds = range(args.seed, args.seed + args.objects)
         calibrated = {k: None for k in seeds}
         if args.calibrate:

@@ -2,13 +2,14 @@
 
     source ./env.sh && python bench/motion_check.py [--sensors 10] [--first 0]
         [--robots panda,xarm6,ur5e] [--masses 0.1,0.5,2.0] [--static]
-        [--calibration-accuracy 0.01]
+        [--calibration-accuracy 0.01] [--period 3] [--acceleration 8|limits]
 
 In process, no ROS: per arm, mass and sensor serial (the realistic profile, a calibration
 drawn per serial; a box, cylinder or mug in turn, its COM drawn from the serial) the
 exploration the sequencer runs with ``excitation: motion`` (``wrench_sim.studies
 .explore_in_motion``), solved as the estimator and the replay solve it
-(``Exploration.solve``); with ``--static`` also the default exploration at rest of the
+(``Exploration.solve``), its excitation of ``--period`` s within ``--acceleration`` rad/s^2
+(``limits``: the arm's own); with ``--static`` also the default exploration at rest of the
 same object through the same sensor (``bench/motion.py``'s ``static_object``). Nothing
 is wrong with any of these runs, so every WARN is a false alarm: in motion, of the
 one-rigid-load test (chi^2/dof below ``MAX_CHI2_PER_DOF`` times what the noise, the
@@ -27,24 +28,28 @@ import argparse
 import time
 
 import numpy as np
-from motion import SHAPES, at_rest
+from motion import SHAPES, at_rest, wrist_bounds
 
 from com_core.estimation.fits.estimators import DEFAULT_ALPHA
 from com_core.estimation.fits.motion import load_vector
 from com_core.estimation.runs.motion_solution import MAX_CHI2_PER_DOF
+from com_core.planning.excitation import DEFAULT_ACCELERATION
 from com_core.robot.config import read_robot_config
 from com_core.robot.dynamics import inertial_parameters
 from com_core.sensing.sensor_profiles import PROFILES
 from wrench_sim.studies import explore_in_motion
 
 
-def one_sensor(accuracy: float, serial: int, robot: str, mass: float) -> dict:
+def one_sensor(
+    accuracy: float, serial: int, robot: str, mass: float, period: float, acceleration: str
+) -> dict:
     """The run in motion of sensor ``serial``: status, chi^2/dof and what is explained,
     the check's ratios and allowances, the largest |error / sigma|, whether the object's
     fit was constrained and its inertia published."""
     started = time.perf_counter()
-    run = explore_in_motion(accuracy, serial, robot=robot, mass=mass,
-                            shape=SHAPES[serial % 3], object_seed=serial)  # fmt: skip
+    bounds = wrist_bounds(read_robot_config(robot), acceleration)
+    run = explore_in_motion(accuracy, serial, robot=robot, mass=mass, shape=SHAPES[serial % 3],
+                            object_seed=serial, period=period, acceleration=bounds)  # fmt: skip
     try:
         solution, result = run.solution, run.solution.motion
         (mass_, com), inertia = run.world.object_ground_truth(), run.world.inertia_ground_truth()
@@ -76,6 +81,9 @@ def main() -> None:
     parser.add_argument("--static", action="store_true", help="the same objects at rest too")
     parser.add_argument("--calibration-accuracy", type=float,
                         default=PROFILES["realistic"].calibration_accuracy)  # fmt: skip
+    parser.add_argument("--period", type=float, default=3.0)
+    parser.add_argument("--acceleration", default=str(DEFAULT_ACCELERATION),
+                        help="rad/s^2, or 'limits': the arm's own")  # fmt: skip
     args = parser.parse_args()
     profile = PROFILES["realistic"].with_overrides(calibration_accuracy=args.calibration_accuracy)
     serials = range(args.first, args.first + args.sensors)
@@ -84,7 +92,8 @@ def main() -> None:
         for mass in (float(m) for m in args.masses.split(",")):
             runs = []
             for serial in serials:
-                r = one_sensor(args.calibration_accuracy, serial, robot, mass)
+                r = one_sensor(args.calibration_accuracy, serial, robot, mass, args.period,
+                               args.acceleration)  # fmt: skip
                 runs.append(r)
                 print(f"{robot} {mass:g} kg sensor {serial:3d} {r['status']:4s} chi2/dof "
                       f"{r['chi2_dof']:.3f} ({r['chi2_dof'] / r['expected']:.2f} of explained)"

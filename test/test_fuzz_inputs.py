@@ -120,6 +120,9 @@ GOAL_VALUES = {
     "information": ["", " ", "guess", "x" * 300, "wrenches", "kinematics"],
     "excitation": ["", " ", "dynamic", "x" * 300, "static", "motion"],
     "reference_mass": [math.nan, -1.0, math.inf, 1e9, 1.0],
+    "motion_period": [math.nan, -1.0, math.inf, 0.5, 2.0],
+    "motion_cycles": [-(2**31), -1, 21, 2**31 - 1, 3],
+    "motion_acceleration": [math.nan, -8.0, math.inf, 1e9, 0.5, 20.0],
 }
 
 

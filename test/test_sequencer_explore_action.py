@@ -28,17 +28,23 @@ def test_a_goals_options_become_the_runs_parameters():
         "raise_tilt": True,
         "information": "wrenches",
     }
+    faster = Explore.Goal(excitation="motion", motion_period=2.0, motion_acceleration=20.0,
+                          motion_cycles=2)  # fmt: skip
+    motion = {"motion_period": 2.0, "motion_acceleration": 20.0, "motion_cycles": 2}
+    assert goal_options(faster) == ({"excitation": "motion"} | motion, [])
 
 
 def test_each_bad_option_is_named_with_its_value():
-    goal = Explore.Goal(tilt=3.0, dwell=math.nan, fewer_poses=7, information="guess")
+    goal = Explore.Goal(tilt=3.0, dwell=math.nan, fewer_poses=7, information="guess",
+                        motion_cycles=21)  # fmt: skip
     _, problems = goal_options(goal)
-    assert len(problems) == 4, problems
+    assert len(problems) == 5, problems
     text = "; ".join(problems)
     assert "tilt=3.0 refused: must be in [0.01, pi/2) rad" in text
     assert "dwell=nan refused: must be a finite number [0.1, 300] s" in text
     assert "fewer_poses=7 refused: must be PARAMETER (-1), NO (0) or YES (1)" in text
     assert "information='guess' refused: must be one of" in text
+    assert "motion_cycles=21 refused: must be in [1, 20]" in text
 
 
 def test_progress_is_time_done_over_time_done_and_left_and_never_done_before_the_end():

@@ -38,9 +38,10 @@ def goal_options(goal: Explore.Goal) -> tuple[dict[str, object], list[str]]:
     each value set is checked by the parameter's row (``PARAMETERS``; ``information``:
     the estimator's setting)."""
     options: dict[str, object] = {}
-    for name in ("target_com_sigma", "tilt", "max_tilt", "dwell"):
+    for name in ("target_com_sigma", "tilt", "max_tilt", "dwell", "motion_period",
+                 "motion_cycles", "motion_acceleration"):  # fmt: skip
         value = getattr(goal, name)
-        if value != 0.0:
+        if value != 0:
             options[name] = 0.0 if name == "target_com_sigma" and value == math.inf else value
     refused = []
     for name in ("raise_tilt", "fewer_poses"):
