@@ -123,6 +123,7 @@ GOAL_VALUES = {
     "motion_period": [math.nan, -1.0, math.inf, 0.5, 2.0],
     "motion_cycles": [-(2**31), -1, 21, 2**31 - 1, 3],
     "motion_acceleration": [math.nan, -8.0, math.inf, 1e9, 0.5, 20.0],
+    "target_inertia": [math.nan, -0.1, math.inf, 1e9, 0.2],
 }
 
 
@@ -189,6 +190,7 @@ DEMO_FLAGS = {
     "--motion-period": SEQUENCER["motion_period"],
     "--motion-cycles": SEQUENCER["motion_cycles"],
     "--motion-acceleration": SEQUENCER["motion_acceleration"],
+    "--target-inertia": SEQUENCER["target_inertia"],
     "--timeout": demo.TIMEOUT,
 }
 TEXT_FLAGS = {

@@ -171,6 +171,12 @@ def build_parser() -> argparse.ArgumentParser:
         "faster motion",
     )
     p.add_argument(
+        "--target-inertia",
+        type=float,
+        help="with --excitation motion: each principal moment's sigma, as a fraction of it, "
+        "for a guessed box of --mass: the run takes the fastest motion that meets it",
+    )
+    p.add_argument(
         "--hold",
         action="store_true",
         help="end holding the object (the sequencer's release:=false) and show 1 s of the "
@@ -311,6 +317,7 @@ def node_parameters(
         ("motion_period", args.motion_period),
         ("motion_cycles", args.motion_cycles),
         ("motion_acceleration", args.motion_acceleration),
+        ("target_inertia", args.target_inertia),
         ("tilt", args.tilt),
         ("max_tilt", args.max_tilt),
         ("dwell", args.dwell),
@@ -338,6 +345,7 @@ FLAGS = {
     "motion_period": "--motion-period",
     "motion_cycles": "--motion-cycles",
     "motion_acceleration": "--motion-acceleration",
+    "target_inertia": "--target-inertia",
     "tilt_axes": "--axes",
     "bag_dir": "--bag-dir",
 }

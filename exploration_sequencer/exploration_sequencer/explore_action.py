@@ -39,7 +39,7 @@ def goal_options(goal: Explore.Goal) -> tuple[dict[str, object], list[str]]:
     the estimator's setting)."""
     options: dict[str, object] = {}
     for name in ("target_com_sigma", "tilt", "max_tilt", "dwell", "motion_period",
-                 "motion_cycles", "motion_acceleration"):  # fmt: skip
+                 "motion_cycles", "motion_acceleration", "target_inertia"):  # fmt: skip
         value = getattr(goal, name)
         if value != 0:
             options[name] = 0.0 if name == "target_com_sigma" and value == math.inf else value

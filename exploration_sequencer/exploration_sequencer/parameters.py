@@ -46,6 +46,13 @@ PARAMETERS = table_of([
           "com_core.planning.motion_accuracy weighs a longer motion against a faster one); "
           "the load's acceleration grows with it, and the grasp must hold it",
           unit="rad/s^2", low=1.0, high=100.0),
+    Input("target_inertia", 0.0, "with excitation 'motion': the largest 1-sigma of each "
+          "principal moment, as a fraction of it, for a guessed object (a solid box of "
+          "mass_guess at 1000 kg/m^3, edges 2:3:4, its COM at com_guess): the run takes the "
+          "fastest motion that meets it (periods 1.5, 2 and 3 s and motion_period, within "
+          "motion_acceleration or the arm's own limits, up to 20 cycles; "
+          "planning.motion_accuracy), or is refused before anything moves when none does "
+          "(0: the motion as set)", low=0.0, high=10.0),
     Input("tilt", math.pi / 6, "wrist tilt from home about each axis", **_TILT,
           fix="a tilt the wrist makes from home, e.g. 0.52 (30 deg)"),
     Input("tilt_axes", ["y", "x"], "sensor axes to tilt about (the pass visits y first)",

@@ -47,14 +47,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from com_core.estimation.fits.motion import MotionFit, fit_motion, principal_moments
-from com_core.planning.excitation import Excitation
+from com_core.planning.excitation import Excitation, acceleration_bounds
 from com_core.robot.dynamics import inertial_parameters, sensor_regressors
 from com_core.robot.model import RobotModel
 from com_core.sensing.calibration import Calibration
 from com_core.sensing.noise import NoiseModel
 
-__all__ = ["MAX_CYCLES", "PERIODS", "MotionAccuracy", "box_inertia", "cycles_for", "fastest",
-           "predict_fit", "predict_motion"]  # fmt: skip
+__all__ = ["DENSITY_GUESS", "MAX_CYCLES", "PERIODS", "MotionAccuracy", "box_inertia",
+           "candidate_motions", "cycles_for", "fastest", "guessed_load", "predict_fit",
+           "predict_motion"]  # fmt: skip
 
 SENSOR_RATE = 1000.0
 """Hz: the wrenches the prediction reads."""
@@ -64,7 +65,9 @@ _REST = 0.5  # s of joint states at rest before and after the motion
 MAX_CYCLES = 20
 """The most cycles ``cycles_for`` proposes (the sequencer's ``motion_cycles`` range)."""
 PERIODS = (1.5, 2.0, 3.0)
-"""s: the periods the CLI weighs besides the one asked for (``fastest``)."""
+"""s: the periods weighed besides the one asked for (``candidate_motions``)."""
+DENSITY_GUESS = 1000.0
+"""kg/m^3: a guessed object's density (water's) when only its mass is known."""
 
 
 @dataclass(frozen=True)
@@ -93,6 +96,34 @@ def box_inertia(mass: float, size: ArrayLike) -> NDArray[np.float64]:
     edges along the axes."""
     a, b, c = np.asarray(size, dtype=np.float64) ** 2
     return mass / 12.0 * np.diag([b + c, a + c, a + b])
+
+
+def guessed_load(
+    mass: float, com: ArrayLike, density: float = DENSITY_GUESS
+) -> NDArray[np.float64]:
+    """(10,) the inertial parameters of a guessed object: a solid box of ``mass`` kg and
+    ``density`` kg/m^3 with edges 2:3:4 (three distinct moments, see module), its COM at
+    ``com`` (3,; m, sensor frame)."""
+    unit = (mass / density / 24.0) ** (1 / 3)  # m: the box's edges are 2, 3 and 4 of it
+    return inertial_parameters(mass, com, box_inertia(mass, unit * np.array([2, 3, 4])))
+
+
+def candidate_motions(
+    period: float,
+    acceleration: float,
+    joints: Sequence[str],
+    arm_joints: Sequence[str],
+    published: Sequence[float],
+) -> list[tuple[float, tuple[float, ...]]]:
+    """(period s, acceleration bound rad/s^2 per joint of ``joints``) of each motion
+    weighed: the one asked for first, then each of ``PERIODS`` at the bound asked for and
+    at the arm's own limits (``published``, one per joint of ``arm_joints``; none: the
+    bound asked for only; ``planning.excitation.acceleration_bounds``)."""
+    asked = acceleration_bounds(acceleration, joints, arm_joints, published)
+    limits = acceleration_bounds(np.inf, joints, arm_joints, published)
+    bounds = [asked] + ([limits] if np.all(np.isfinite(limits)) and limits != asked else [])
+    others = [(other, bound) for other in PERIODS for bound in bounds]
+    return [(period, asked)] + [motion for motion in others if motion != (period, asked)]
 
 
 def predict_fit(
@@ -165,22 +196,17 @@ def fastest(
 
 
 def main(argv: list[str] | None = None) -> int:
-    from com_core.planning.excitation import (
-        DEFAULT_ACCELERATION,
-        acceleration_bounds,
-        cached_excitation,
-    )
+    from com_core.planning.excitation import DEFAULT_ACCELERATION, cached_excitation
     from com_core.planning.sensor_accuracy import default_pass, predicted_calibration
     from com_core.robot.choreography import Choreography
     from com_core.robot.config import read_robot_config, urdf_file
-    from com_core.robot.dynamics import links_beyond
     from com_core.sensing.sensor_profiles import PROFILES
 
     parser = argparse.ArgumentParser(prog="motion_accuracy", description=__doc__.split("\n\n")[0])
     parser.add_argument("--robot", default="panda")
     parser.add_argument("--profile", default="realistic", choices=sorted(PROFILES))
     parser.add_argument("--masses", default="0.1,0.5,2.0")
-    parser.add_argument("--density", type=float, default=1000.0, help="kg/m^3 of the box")
+    parser.add_argument("--density", type=float, default=DENSITY_GUESS, help="kg/m^3 of the box")
     parser.add_argument("--com", default="0,0,0.1", help="m, sensor frame")
     parser.add_argument("--period", type=float, default=3.0)
     parser.add_argument(
@@ -200,29 +226,21 @@ def main(argv: list[str] | None = None) -> int:
     home = [motion.home_positions()[name] for name in robot.joint_names]
     cache = args.cache or str(Path(tempfile.gettempdir()) / "com_excitations.json")
     wrist = config.arm_joints[-3:]
-
-    def bounds(requested: float) -> tuple[float, ...]:
-        return acceleration_bounds(requested, wrist, config.arm_joints,
+    candidates = candidate_motions(args.period, args.acceleration, wrist, config.arm_joints,
                                    config.max_joint_acceleration)  # fmt: skip
-
-    asked = (args.period, bounds(args.acceleration))
-    others = [(period, bound) for period in PERIODS
-              for bound in {bounds(args.acceleration), bounds(np.inf)}
-              if np.all(np.isfinite(bound))]  # fmt: skip
-    designs = {(period, bound): cached_excitation(cache, robot, home, wrist, period, bound)
-               for period, bound in [asked, *others]}  # fmt: skip
-    keys = list(designs)
+    designs = [cached_excitation(cache, robot, home, wrist, period, bound)
+               for period, bound in candidates]  # fmt: skip
     profile = PROFILES[args.profile]
-    hand = links_beyond(urdf, config.sensor_frame)
     com = np.array([float(v) for v in args.com.split(",")])
     calibrations = {
         "stated": profile.calibration(),
         "calibrated": predicted_calibration(default_pass(profile, args.reference),
                                             args.reference),
     }  # fmt: skip
-    limits = (f"its own limits {', '.join(f'{v:g}' for v in bounds(np.inf))} rad/s^2"
-              if config.max_joint_acceleration else "no limits of its own stated")  # fmt: skip
-    print(f"{args.robot} ({limits}), the {args.profile} sensor, its {args.period:g} s "
+    limits = acceleration_bounds(np.inf, wrist, config.arm_joints, config.max_joint_acceleration)
+    own = (f"its own limits {', '.join(f'{v:g}' for v in limits)} rad/s^2"
+           if config.max_joint_acceleration else "no limits of its own stated")  # fmt: skip
+    print(f"{args.robot} ({own}), the {args.profile} sensor, its {args.period:g} s "
           f"excitation within {args.acceleration:g} rad/s^2; the object a box of "
           f"{args.density:g} kg/m^3 (edges 2:3:4), its COM at "
           f"({', '.join(f'{1e3 * v:g}' for v in com)}) mm; "
@@ -232,20 +250,19 @@ def main(argv: list[str] | None = None) -> int:
           f"{'never below %':>13}  {'cycles to the target':<24}  the fastest motion that "
           "meets it")  # fmt: skip
     for mass in (float(m) for m in args.masses.split(",")):
-        unit = (mass / args.density / 24.0) ** (1 / 3)  # m: the box's edges 2, 3, 4 of it
-        load = inertial_parameters(mass, com, box_inertia(mass, unit * np.array([2, 3, 4])))
+        load = guessed_load(mass, com, args.density)
         for name, calibration in calibrations.items():
-            predicted = {key: predict_motion(robot, excitation, hand, load,
-                                             profile.noise_model(), calibration)
-                         for key, excitation in designs.items()}  # fmt: skip
-            a = predicted[asked]
+            predicted = [predict_motion(robot, excitation, motion.hand, load,
+                                        profile.noise_model(), calibration)
+                         for excitation in designs]  # fmt: skip
+            a = predicted[0]  # the motion asked for
             cycles = cycles_for(a, args.target)
             floor = np.max(np.sqrt(a.fixed) / a.moments)
-            best = fastest([(designs[key], predicted[key]) for key in keys], args.target)
+            best = fastest(list(zip(designs, predicted, strict=True)), args.target)
             longer = (f"{cycles} ({cycles * args.period:g} s)" if cycles else "none"
                       if floor > args.target else f"more than {MAX_CYCLES}")  # fmt: skip
             if best:
-                (period, bound), n, b = keys[best[0]], best[1], predicted[keys[best[0]]]
+                (period, bound), n, b = candidates[best[0]], best[1], predicted[best[0]]
                 faster = (f"{n} x {period:g} s within {', '.join(f'{v:g}' for v in bound)} "
                           f"rad/s^2 (mass {100 * b.sigma_mass / mass:.3f} %, COM "
                           f"{1e3 * b.sigma_com.max():.3f} mm)")  # fmt: skip

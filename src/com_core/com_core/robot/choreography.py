@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from com_core.robot.config import RobotConfig, RobotConfigError, grasp_point, robot_problems
+from com_core.robot.dynamics import links_beyond
 from com_core.robot.inverse_kinematics import largest_reachable_tilt, solve_pose
 from com_core.robot.model import KinematicsError, RobotModel
 from com_core.sensing.wrench_model import rotation_about
@@ -93,6 +94,9 @@ class Choreography:
     pivot: NDArray[np.float64]
     others: dict[str, float]
     """The model's joints that do not move (the gripper's, at open): their positions."""
+    hand: NDArray[np.float64]
+    """(10,) the inertial parameters of what the URDF attaches beyond the sensor (the hand;
+    ``robot.dynamics.links_beyond``), in the sensor frame."""
     _turns: dict[tuple[tuple[float, ...], float], tuple[tuple[float, ...] | None, str]] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
@@ -116,9 +120,9 @@ class Choreography:
             for name in robot.joint_names
             if name not in config.arm_joints
         }
-        return cls(
-            robot, config.arm_joints, config.home_joints, grasp_point(config, robot), others
-        )
+        hand = links_beyond(urdf, config.sensor_frame)
+        return cls(robot, config.arm_joints, config.home_joints, grasp_point(config, robot),
+                   others, hand)  # fmt: skip
 
     def home_positions(self) -> dict[str, float]:
         """Every joint of the model at home (rad, m), by name."""

@@ -105,7 +105,15 @@ from com_core.planning.decisions import (
     tare_decision,
     tare_reuse,
 )
-from com_core.planning.excitation import Excitation, acceleration_bounds, cached_excitation
+from com_core.planning.excitation import Excitation, cached_excitation
+from com_core.planning.motion_accuracy import (
+    DENSITY_GUESS,
+    MAX_CYCLES,
+    candidate_motions,
+    fastest,
+    guessed_load,
+    predict_motion,
+)
 from com_core.planning.planner import HOME, Plan
 from com_core.planning.prediction import Prediction
 from com_core.planning.run_time import (
@@ -388,13 +396,9 @@ class ExplorationRun:
         if self.p("excitation") == MOTION:
             return self._explore_in_motion(motion, values)
         drift_rate = tuple(values["bias_drift_rate"])
-        calibration = estimator_calibration(values["accuracy"], values["full_scale"])
-        if (kept := self._calibration()) is not None and not values["reference_mass"]:
-            calibration = kept.calibration  # what the estimator weighs: what is left of it
+        calibration = self._planning_calibration(values)
         settings = RunSettings.from_parameters(self.p)
-        noise, source = planning_noise(
-            newest_hand_model(self._cache_path(), self._owner()), settings
-        )
+        noise, source = self._planning_noise(settings)
         plan, poses, prediction = self._planned(
             settings, noise, method, information, drift_rate, motion, calibration
         )
@@ -566,6 +570,18 @@ class ExplorationRun:
 
     # --- an exploration in motion -------------------------------------------------------
 
+    def _planning_calibration(self, values: dict[str, object]) -> Calibration | None:
+        """The calibration term the estimator will weigh (``values``: its settings): what
+        is left of a calibration in place kept for this sensor, else its stated accuracy."""
+        calibration = estimator_calibration(values["accuracy"], values["full_scale"])
+        if (kept := self._calibration()) is not None and not values["reference_mass"]:
+            calibration = kept.calibration  # what the estimator weighs: what is left of it
+        return calibration
+
+    def _planning_noise(self, settings: RunSettings) -> tuple[NoiseModel, str]:
+        """The sensor's noise to plan for, and where it comes from (``planning_noise``)."""
+        return planning_noise(newest_hand_model(self._cache_path(), self._owner()), settings)
+
     def _explore_in_motion(
         self, motion: Choreography, settings: dict[str, object]
     ) -> tuple[bool, str]:
@@ -581,9 +597,10 @@ class ExplorationRun:
                 "'kinematics+mount' (it has 'wrenches'): the fit takes the wrist's motion "
                 "from the URDF and the joint states"
             )
-        config, period, cycles = self.config, self.p("motion_period"), self.p("motion_cycles")
+        config = self.config
         home, pick = list(config.home_joints), list(config.pick_joints)
-        excitation, verification = self._excitations(motion, period)
+        period, bounds, cycles = self._motion(motion, settings)
+        excitation, verification = self._excitations(motion, period, bounds)
         excitation = replace(excitation, cycles=cycles)  # the hand's and the object's
         if self.p("preview"):
             names = config.arm_joints
@@ -672,25 +689,82 @@ class ExplorationRun:
         log.info(f"the empty hand's motion fit reused ({entry.age():.0f} s old, {path})")
         return entry
 
-    def _excitations(self, motion: Choreography, period: float) -> tuple[Excitation, Excitation]:
-        """(the excitation of the wrist's last three joints, another one for the
-        verification), each designed once per arm, home, period and acceleration bound
-        (``motion_acceleration`` within the arm's published limits) and cached beside the
-        tare cache (``planning.excitation.cached_excitation``)."""
-        path = self._cache_path().with_name(EXCITATION_CACHE)
-        robot, config = motion.robot, self.config
-        home = [motion.home_positions()[name] for name in robot.joint_names]
-        joints = config.arm_joints[-3:]
-        bounds = acceleration_bounds(self.p("motion_acceleration"), joints, config.arm_joints,
-                                     config.max_joint_acceleration)  # fmt: skip
-        started = time.monotonic()
-        excitation = cached_excitation(path, robot, home, joints, period, bounds)
-        verification = cached_excitation(path, robot, home, joints, period, bounds,
-                                         iterations=VERIFY_ITERATIONS, seed=1)  # fmt: skip
+    def _motion(
+        self, motion: Choreography, settings: dict[str, object]
+    ) -> tuple[float, tuple[float, ...], int]:
+        """(period s, acceleration bound per wrist joint rad/s^2, cycles) of this run's
+        motion: as set (``motion_period``, ``motion_acceleration`` within the arm's own
+        limits, ``motion_cycles``), or with ``target_inertia`` the fastest of
+        ``candidate_motions`` that meets it for the guessed object
+        (``planning.motion_accuracy``); RunError when none does. ``settings``: the
+        estimator's (its calibration term)."""
+        config, joints = self.config, self.config.arm_joints[-3:]
+        period, acceleration = self.p("motion_period"), self.p("motion_acceleration")
+        candidates = candidate_motions(period, acceleration, joints, config.arm_joints,
+                                       config.max_joint_acceleration)  # fmt: skip
+        target = self.p("target_inertia")
+        if target <= 0:
+            return *candidates[0], self.p("motion_cycles")
         self.log.info(
-            f"excitation: {', '.join(joints)} over {period:g} s, accelerations within "
-            f"{', '.join(f'{b:g}' for b in bounds)} rad/s^2, log det {excitation.log_det:.1f} "
-            f"({time.monotonic() - started:.1f} s, cache {path})"
+            f"target_inertia {target:g}: weighing {len(candidates)} motions (each "
+            "designed once, then read from the excitation cache)"
+        )
+        guess, mass = self.p("com_guess"), self.p("mass_guess")
+        load = guessed_load(mass, motion.pivot if len(guess) == 1 else guess)
+        noise, source = self._planning_noise(RunSettings.from_parameters(self.p))
+        calibration = self._planning_calibration(settings)
+        designs = [self._excitation(motion, p, b) for p, b in candidates]
+        predicted = [predict_motion(motion.robot, ex, motion.hand, load, noise, calibration)
+                     for ex in designs]  # fmt: skip
+        best = fastest(list(zip(designs, predicted, strict=True)), target)
+        if best is None:
+            reach = min(max(a.sigma_moments_over(MAX_CYCLES) / a.moments) for a in predicted)
+            raise RunError(
+                f"no motion meets target_inertia {target:g} for the guessed object (a box "
+                f"of {mass:g} kg at {DENSITY_GUESS:g} kg/m^3): {MAX_CYCLES} cycles of the "
+                f"best leave a principal moment's sigma at {reach:.0%} of it; calibrate the "
+                "sensor in place, or set a larger target_inertia (python -m "
+                "com_core.planning.motion_accuracy weighs it)"
+            )
+        (period, bounds), cycles = candidates[best[0]], best[1]
+        a = predicted[best[0]]
+        self.log.info(
+            f"target_inertia {target:g}: {cycles} x {period:g} s within "
+            f"{', '.join(f'{b:g}' for b in bounds)} rad/s^2 for a box of {mass:g} kg; "
+            f"predicted moments' sigmas "
+            f"{', '.join(f'{v:.0%}' for v in a.sigma_moments_over(cycles) / a.moments)} of "
+            f"them, mass {a.sigma_mass / mass:.2%}, COM {1e3 * a.sigma_com.max():.2f} mm "
+            f"(the sensor's noise {source})"
+        )
+        return period, bounds, cycles
+
+    def _excitation(
+        self, motion: Choreography, period: float, bounds: tuple[float, ...], **design: int
+    ) -> Excitation:
+        """The excitation of the wrist's last three joints over ``period`` s within
+        ``bounds`` rad/s^2, designed once per arm, home, period, bounds and ``design``
+        (iterations, seed) and cached beside the tare cache
+        (``planning.excitation.cached_excitation``)."""
+        path = self._cache_path().with_name(EXCITATION_CACHE)
+        robot = motion.robot
+        home = [motion.home_positions()[name] for name in robot.joint_names]
+        return cached_excitation(path, robot, home, self.config.arm_joints[-3:], period, bounds,
+                                 **design)  # fmt: skip
+
+    def _excitations(
+        self, motion: Choreography, period: float, bounds: tuple[float, ...]
+    ) -> tuple[Excitation, Excitation]:
+        """(the excitation of the wrist's last three joints over ``period`` s within
+        ``bounds`` rad/s^2, another one for the verification; ``_excitation``)."""
+        started = time.monotonic()
+        excitation = self._excitation(motion, period, bounds)
+        verification = self._excitation(motion, period, bounds, iterations=VERIFY_ITERATIONS,
+                                        seed=1)  # fmt: skip
+        self.log.info(
+            f"excitation: {', '.join(excitation.joints)} over {period:g} s, accelerations "
+            f"within {', '.join(f'{b:g}' for b in bounds)} rad/s^2, log det "
+            f"{excitation.log_det:.1f} ({time.monotonic() - started:.1f} s, cache "
+            f"{self._cache_path().with_name(EXCITATION_CACHE)})"
         )
         return excitation, verification
 
