@@ -568,8 +568,6 @@ class ExplorationRun:
             self.log.error(f"bag {bag} not read back: {exc!r}")
             return None
 
-    # --- an exploration in motion -------------------------------------------------------
-
     def _planning_calibration(self, values: dict[str, object]) -> Calibration | None:
         """The calibration term the estimator will weigh (``values``: its settings): what
         is left of a calibration in place kept for this sensor, else its stated accuracy."""
@@ -581,6 +579,8 @@ class ExplorationRun:
     def _planning_noise(self, settings: RunSettings) -> tuple[NoiseModel, str]:
         """The sensor's noise to plan for, and where it comes from (``planning_noise``)."""
         return planning_noise(newest_hand_model(self._cache_path(), self._owner()), settings)
+
+    # --- an exploration in motion -------------------------------------------------------
 
     def _explore_in_motion(
         self, motion: Choreography, settings: dict[str, object]
