@@ -11,10 +11,10 @@ the empty hand's, then the object's with the hand taken off) of the wrench the l
 give along the excitation, read without noise at 1 kHz with joint states at 100 Hz: its
 covariance is the bound of the sensor's noise model plus the calibration's share (the
 stated accuracy, or what a calibration in place left), which depend on the design and on
-the loads' wrench, not on the noise drawn. The object is a guess: a solid box of its mass
-and size, its COM where the grasp holds it. Two equal principal moments have no axes of
-their own, and each one's sigma then depends on the axes chosen: the guess should have
-three distinct ones (the CLI's box has edges 2:3:4).
+the loads' wrench, not on the noise drawn. The object is a guess (``guessed_load``): a
+solid box of its mass and a density, its COM where the grasp holds it. Two equal
+principal moments have no axes of their own, and each one's sigma then depends on the
+axes chosen: the guess should have three distinct ones (the box's edges are 2:3:4).
 
 Motions of ``cycles`` periods of the same excitation (the D-optimal design is periodic;
 the sequencer's ``motion_cycles``, the empty hand's and the object's alike) divide the
@@ -29,10 +29,10 @@ limits and an acceleration bound, so a slower motion has smaller accelerations, 
 inertia is told by the accelerations. A faster one is: a shorter period (``PERIODS``)
 with the bound raised up to the arm's own limits (the configuration's
 ``max_joint_acceleration``) makes the inertial wrench larger against the calibration's
-error as well as the noise. ``fastest`` picks, of such designs, the one that meets the
-target in the least time; the sequencer runs it with ``motion_period``,
-``motion_acceleration`` and ``motion_cycles``. The load's acceleration grows with it:
-the grasp must hold it.
+error as well as the noise. ``candidate_motions`` lists such designs and ``fastest``
+picks the one that meets the target in the least time; the sequencer runs it with
+``motion_period``, ``motion_acceleration`` and ``motion_cycles``, or picks it itself for
+``target_inertia``. The load's acceleration grows with it: the grasp must hold it.
 """
 
 from __future__ import annotations
