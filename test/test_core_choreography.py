@@ -6,6 +6,7 @@ between poses against the URDF's velocity limits and the sim's own trajectories.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -15,6 +16,7 @@ from conftest import choreography
 from com_core.planning.planner import Plan
 from com_core.robot.choreography import (
     MAX_PIVOT_SHIFT,
+    QUINTIC_ACCELERATION,
     QUINTIC_PEAK,
     VERIFY_AXIS,
     VERIFY_TILT,
@@ -163,6 +165,13 @@ def test_motion_time_is_the_slowest_joint_at_its_urdf_cap_with_a_floor():
     assert motion.motion_time(home, both) == pytest.approx(1.0 * 1.875 / 2.175)  # the slowest
     assert motion.motion_time(home, wrist, speed=0.5) == pytest.approx(2.0)
     assert motion.motion_time(wrist, home) == motion.motion_time(home, wrist)  # either way
+    elbow = home.copy()
+    elbow[1] += 0.3  # joint 2, 7.5 rad/s^2 the arm's own: its quintic's peak acceleration binds
+    assert motion.motion_time(home, elbow) == pytest.approx(math.sqrt(QUINTIC_ACCELERATION
+                                                                      * 0.3 / 7.5))  # fmt: skip
+    assert motion.motion_time(home, elbow) > max(0.4, 0.3 * 1.875 / 2.175)
+    unstated = dataclasses.replace(motion, acceleration_limits=())
+    assert unstated.motion_time(home, elbow) == 0.4  # an arm that states none: the floor
     with pytest.raises(ValueError):
         motion.motion_time(home[:6], home)  # one joint short
 
@@ -170,8 +179,9 @@ def test_motion_time_is_the_slowest_joint_at_its_urdf_cap_with_a_floor():
 def test_a_motion_of_motion_time_is_one_the_sim_accepts_and_no_faster(arm):
     """The quintic's peak is 1.875x its mean speed (15/8): a move of ``motion_time`` keeps
     every joint under its URDF limit, and the same move 10 % faster does not, when the
-    limit binds (speed above limit / 1.875)."""
-    motion = arm[1]
+    limit binds (speed above limit / 1.875); the arm's own acceleration limits left out
+    (they make a move slower still: ``test_motion_time_is_the_slowest_joint_...``)."""
+    motion = dataclasses.replace(arm[1], acceleration_limits=())
     assert QUINTIC_PEAK == 15 / 8
     rng = np.random.default_rng(4)
     home = np.array(motion.home)

@@ -40,6 +40,7 @@ from com_core.sensing.wrench_model import rotation_about
 __all__ = [
     "AXES",
     "MAX_PIVOT_SHIFT",
+    "QUINTIC_ACCELERATION",
     "QUINTIC_PEAK",
     "VERIFY_AXIS",
     "VERIFY_POSE",
@@ -66,6 +67,8 @@ MAX_PIVOT_SHIFT = 1e-3
 """m; how far the grasp centre may end from its home position at a pose."""
 QUINTIC_PEAK = 1.875
 """Peak over mean speed of a quintic (rest-to-rest) profile."""
+QUINTIC_ACCELERATION = 10.0 / math.sqrt(3.0)
+"""Peak acceleration of a quintic (rest-to-rest) profile, over its distance / duration^2."""
 AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0)}
 """The sensor's axes a plan tilts about, in its home axes."""
 
@@ -97,6 +100,9 @@ class Choreography:
     hand: NDArray[np.float64]
     """(10,) the inertial parameters of what the URDF attaches beyond the sensor (the hand;
     ``robot.dynamics.links_beyond``), in the sensor frame."""
+    acceleration_limits: tuple[float, ...]
+    """rad/s^2 per arm joint: the arm's own (the configuration's ``max_joint_acceleration``;
+    empty: it states none)."""
     _turns: dict[tuple[tuple[float, ...], float], tuple[tuple[float, ...] | None, str]] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
@@ -122,7 +128,7 @@ class Choreography:
         }
         hand = links_beyond(urdf, config.sensor_frame)
         return cls(robot, config.arm_joints, config.home_joints, grasp_point(config, robot),
-                   others, hand)  # fmt: skip
+                   others, hand, config.max_joint_acceleration)  # fmt: skip
 
     def home_positions(self) -> dict[str, float]:
         """Every joint of the model at home (rad, m), by name."""
@@ -193,11 +199,16 @@ class Choreography:
         speed: float = 1.35,
         floor: float = 0.4,
     ) -> float:
-        """s for a smooth motion: each joint at most ``speed`` rad/s on average and its
-        quintic peak under its URDF velocity limit; at least ``floor`` s."""
+        """s for a smooth motion: each joint at most ``speed`` rad/s on average, its quintic
+        peak under its URDF velocity limit and its peak acceleration under the arm's own
+        limit (``acceleration_limits``, when it states them: Franka's controller aborts a
+        motion beyond them); at least ``floor`` s."""
         caps = [
             min(speed, limit / QUINTIC_PEAK) if limit > 0 else speed  # 0: none in the URDF
             for limit in self.velocity_limits()
         ]
         steps = [abs(a - b) / cap for a, b, cap in zip(start, goal, caps, strict=True)]
+        accelerations = self.acceleration_limits or (math.inf,) * len(caps)
+        steps += [math.sqrt(QUINTIC_ACCELERATION * abs(a - b) / limit)
+                  for a, b, limit in zip(start, goal, accelerations, strict=True)]  # fmt: skip
         return max(floor, *steps)

@@ -38,10 +38,10 @@ holds, under ``/**: ros__parameters:`` so that every node reads the keys it uses
   sequencer sends with each trajectory and waits for before a window; optional, 5 mrad and
   5 mrad/s.
 - ``max_joint_acceleration``: rad/s^2 per arm joint, the arm's own acceleration limits as
-  its maker publishes them (its controller aborts a motion beyond them: Franka's); the
-  excitation in motion stays within them. Optional: a file without it states none (UR and
-  UFACTORY publish none), and the nodes declare it empty, so that no arm inherits the
-  default arm's.
+  its maker publishes them (its controller aborts a motion beyond them: Franka's); every
+  move (``Choreography.motion_time``) and the excitation in motion stay within them.
+  Optional: a file without it states none (UR and UFACTORY publish none), and the nodes
+  declare it empty, so that no arm inherits the default arm's.
 
 ``robot_problems`` checks a configuration against a robot model (every frame and joint
 in its URDF, home and pick within the joint limits) and says what is wrong by name.
