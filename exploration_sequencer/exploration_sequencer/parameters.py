@@ -12,7 +12,7 @@ import math
 from com_core.estimation.runs.motion_solution import EXCITATIONS, STATIC
 from com_core.inputs import Input, table_of
 from com_core.planning.excitation import DEFAULT_ACCELERATION
-from com_core.planning.motion_accuracy import MAX_CYCLES
+from com_core.planning.motion_accuracy import DENSITY_GUESS, MAX_CYCLES, PERIODS
 
 __all__ = ["PARAMETERS"]
 
@@ -48,11 +48,12 @@ PARAMETERS = table_of([
           unit="rad/s^2", low=1.0, high=100.0),
     Input("target_inertia", 0.0, "with excitation 'motion': the largest 1-sigma of each "
           "principal moment, as a fraction of it, for a guessed object (a solid box of "
-          "mass_guess at 1000 kg/m^3, edges 2:3:4, its COM at com_guess): the run takes the "
-          "fastest motion that meets it (periods 1.5, 2 and 3 s and motion_period, within "
-          "motion_acceleration or the arm's own limits, up to 20 cycles; "
-          "planning.motion_accuracy), or is refused before anything moves when none does "
-          "(0: the motion as set)", low=0.0, high=10.0),
+          f"mass_guess at {DENSITY_GUESS:g} kg/m^3, edges 2:3:4, its COM at com_guess): the "
+          f"run takes the fastest motion that meets it (periods "
+          f"{', '.join(f'{p:g}' for p in PERIODS)} s and motion_period, within "
+          "motion_acceleration or the arm's own limits, up to "
+          f"{MAX_CYCLES} cycles; planning.motion_accuracy), or is refused before anything "
+          "moves when none does (0: the motion as set)", low=0.0, high=10.0),
     Input("tilt", math.pi / 6, "wrist tilt from home about each axis", **_TILT,
           fix="a tilt the wrist makes from home, e.g. 0.52 (30 deg)"),
     Input("tilt_axes", ["y", "x"], "sensor axes to tilt about (the pass visits y first)",
