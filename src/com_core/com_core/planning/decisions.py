@@ -59,6 +59,7 @@ __all__ = [
     "bag_room_refusal",
     "cached_tare",
     "closing_problem",
+    "com_guess",
     "complete_tare_pass",
     "estimator_calibration",
     "free_room",
@@ -167,12 +168,18 @@ def estimator_calibration(accuracy: float, full_scale: Sequence[float]) -> Calib
     return None
 
 
+def com_guess(settings: RunSettings, motion: Choreography) -> tuple[float, ...]:
+    """m, sensor frame: the settings' guess of the object's COM, ``(0.0,)`` read as the
+    grasp centre."""
+    guess = settings.com_guess
+    return tuple(motion.pivot if len(guess) == 1 else guess)
+
+
 def requested_plan(settings: RunSettings, motion: Choreography, noise: NoiseModel) -> Plan:
     """The plan the settings ask for, as set: the COM guess ((0.0,): the grasp centre)
     and the gravity at home from the arm's model, planned for ``noise`` (its move time
     is set when its poses are solved: ``timed_plan``)."""
     gravity = motion.robot.gravity_in_sensor(motion.home_positions())
-    guess = settings.com_guess
     return Plan(
         tilt=settings.tilt,
         axes=tuple(settings.tilt_axes),
@@ -184,7 +191,7 @@ def requested_plan(settings: RunSettings, motion: Choreography, noise: NoiseMode
             settings.sigma_f, settings.sigma_tau, rate_hz=settings.rate
         ),
         mass_guess=settings.mass_guess,
-        com_guess=tuple(motion.pivot if len(guess) == 1 else guess),
+        com_guess=com_guess(settings, motion),
         gravity_home=tuple(gravity / np.linalg.norm(gravity)),
         bias_dwell=settings.bias_dwell,
         noise=noise,

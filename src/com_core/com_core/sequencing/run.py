@@ -91,6 +91,7 @@ from com_core.planning.decisions import (
     bag_room_refusal,
     cached_tare,
     closing_problem,
+    com_guess,
     complete_tare_pass,
     estimator_calibration,
     free_room,
@@ -709,9 +710,10 @@ class ExplorationRun:
             f"target_inertia {target:g}: weighing {len(candidates)} motions (each "
             "designed once, then read from the excitation cache)"
         )
-        guess, mass = self.p("com_guess"), self.p("mass_guess")
-        load = guessed_load(mass, motion.pivot if len(guess) == 1 else guess)
-        noise, source = self._planning_noise(RunSettings.from_parameters(self.p))
+        run_settings = RunSettings.from_parameters(self.p)
+        mass = run_settings.mass_guess
+        load = guessed_load(mass, com_guess(run_settings, motion))
+        noise, source = self._planning_noise(run_settings)
         calibration = self._planning_calibration(settings)
         designs = [self._excitation(motion, p, b) for p, b in candidates]
         predicted = [predict_motion(motion.robot, ex, motion.hand, load, noise, calibration)
