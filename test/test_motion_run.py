@@ -83,10 +83,10 @@ def test_the_demo_in_motion_gives_the_inertia_within_its_error_bars_and_replays(
     moving = re.search(
         r"in motion: .* over (\d+) samples .*; \(([\d., ]+)\) x the sensor's noise", out
     )
-    # 3 s at 1 kHz on a best-effort stream at 5x real time, which the demo's subscriber
-    # thins out as fast as the machine lets it read (1813, 769, 288 and 225 of 3000 seen
-    # on fresh clones): 100 samples give the rms to some 7 % (each a few of the noise's
-    # 5 ms correlation apart), far inside its 2.5x bound
+    # 3 s at 1 kHz on a best-effort stream at 5x real time: the demo's reader queues 4 s
+    # of wall time of it (3001 read with four busy loops beside it), and one that reads
+    # slower still thins it out; 100 samples give the rms to some 7 % (each a few of the
+    # noise's 5 ms correlation apart), far inside its 2.5x bound
     assert moving and int(moving.group(1)) > 100, out
     assert np.all(np.array(numbers(moving.group(2))) < 2.5), out
 

@@ -69,6 +69,9 @@ POLL = 0.2  # s between checks that the nodes still run, while waiting on the se
 CANCEL_REQUEST_WAIT = 1.0  # s for the sequencer to take a cancel when another node ended
 ECHO_POLL = 0.05  # s between looks at the sequencer's log for lines to echo
 THIRD_MOTION_SEED = 7  # the motion the demo runs while holding, after a run in motion
+COMPENSATED_DEPTH = 20000  # messages the demo's reader of the compensated stream queues:
+# 4 s of wall time at 1 kHz and 5x real time, so that a reader slower than the stream
+# still reads from the whole motion
 STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
 """Signals that end the demo as Ctrl-C does: the run cancelled, then the nodes stopped."""
 NO_SIMULATOR = (
@@ -433,6 +436,29 @@ def exited(children: Sequence[Child]) -> list[Child]:
     return [child for child in children if child.process.poll() is not None]
 
 
+def listen(node, executor, children: Sequence[Child], timeout: float = 10.0) -> tuple[Any, list]:
+    """A new best-effort subscription of ``node`` to the compensated stream, and the list
+    its messages gather ((stamp ns, frame, wrench) each), spun until the first arrives
+    (``timeout`` s at most): the list starts at the stream's present, never at what an
+    older reader's queue kept of the past (a reader slower than the stream reads that
+    first). Destroy it with ``node.destroy_subscription`` once read."""
+    from geometry_msgs.msg import WrenchStamped
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+    gathered: list = []
+    subscription = node.create_subscription(
+        WrenchStamped,
+        COMPENSATED_TOPIC,
+        lambda raw: gathered.append(decode_wrench(raw)),
+        QoSProfile(depth=COMPENSATED_DEPTH, reliability=ReliabilityPolicy.BEST_EFFORT),
+        raw=True,
+    )
+    end = time.monotonic() + timeout
+    while not gathered and time.monotonic() < end and not exited(children):
+        executor.spin_once(timeout_sec=0.05)
+    return subscription, gathered
+
+
 def collect(
     executor,
     compensated: list,
@@ -480,10 +506,10 @@ def cancel(executor, sent, children: Sequence[Child]) -> None:
 def run_exploration(args: argparse.Namespace, started: float, children: Sequence[Child]) -> int:
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
-    from geometry_msgs.msg import InertiaStamped, WrenchStamped
+    from geometry_msgs.msg import InertiaStamped
     from rclpy.action import ActionClient
     from rclpy.executors import SingleThreadedExecutor
-    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from rclpy.qos import DurabilityPolicy, QoSProfile
     from rclpy.signals import SignalHandlerOptions
     from std_msgs.msg import String
 
@@ -510,14 +536,6 @@ def run_exploration(args: argparse.Namespace, started: float, children: Sequence
     compensated: list = []
     urdf: list[str] = []
     if args.hold:
-        best_effort = QoSProfile(depth=5000, reliability=ReliabilityPolicy.BEST_EFFORT)
-        node.create_subscription(
-            WrenchStamped,
-            COMPENSATED_TOPIC,
-            lambda raw: compensated.append(decode_wrench(raw)),
-            best_effort,
-            raw=True,
-        )
         node.create_subscription(String, ROBOT_DESCRIPTION_TOPIC, lambda m: urdf.append(m.data),
                                  latched)  # fmt: skip
     executor = SingleThreadedExecutor()
@@ -569,8 +587,9 @@ def run_exploration(args: argparse.Namespace, started: float, children: Sequence
             executor.spin_once(timeout_sec=0.1)
         result = future.result().result
         if args.hold and result.status == "OK":
-            compensated.clear()
+            subscription, compensated = listen(node, executor, children)
             collect(executor, compensated, 1.0, timeout=10.0, samples=1000, children=children)
+            node.destroy_subscription(subscription)
         ended = exited(children)
         print_summary(result, estimates, truths, statuses, time.monotonic() - started)
         if compensated:
@@ -585,7 +604,7 @@ def run_exploration(args: argparse.Namespace, started: float, children: Sequence
             )
             values = status_values(statuses)
             if values.get("excitation") == MOTION and urdf and not exited(children):
-                in_motion(node, executor, compensated, urdf[-1], args, values)
+                in_motion(node, executor, urdf[-1], args, values)
         if ended:
             print_ended(ended)
             return 1
@@ -596,9 +615,11 @@ def run_exploration(args: argparse.Namespace, started: float, children: Sequence
         rclpy.try_shutdown()
 
 
-def in_motion(node, executor, compensated: list, urdf: str, args, values: dict) -> None:
+def in_motion(node, executor, urdf: str, args, values: dict) -> None:
     """Move the wrist along a motion no fit used (a design of its own seed) while holding,
-    and print the compensated wrench's rms over it against the sensor's noise."""
+    and print the compensated wrench's rms over it against the sensor's noise: the
+    samples stamped from the trajectory's start (sent once the stream is heard, as a
+    trajectory controller starts it on arrival) to the motion's end."""
     from trajectory_msgs.msg import JointTrajectory
 
     from com_core.planning.excitation import design_excitation
@@ -613,9 +634,10 @@ def in_motion(node, executor, compensated: list, urdf: str, args, values: dict) 
     excitation = design_excitation(motion.robot, home, config.arm_joints[-3:], period=period,
                                    iterations=20, seed=THIRD_MOTION_SEED)  # fmt: skip
     publisher = node.create_publisher(JointTrajectory, ARM_COMMAND_TOPIC, 10)
-    compensated.clear()
+    subscription, compensated = listen(node, executor, ())
     publisher.publish(trajectory_message(excitation_path(excitation, config.arm_joints)))
     collect(executor, compensated, excitation.period, timeout=30.0)
+    node.destroy_subscription(subscription)
     if not compensated:
         print(f"in motion: no {COMPENSATED_TOPIC} during the motion")
         return
