@@ -3,6 +3,8 @@ input."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -290,3 +292,30 @@ def test_a_wrench_of_the_opposite_sign_gives_the_same_estimate_with_wrench_sign(
     assert opposite.estimate.com.tolist() == usual.estimate.com.tolist()
     wrong = fed_with_kinematics(kinematic(), -1.0).solve()
     assert wrong.status != OK, wrong.reason
+
+
+def test_the_wrenches_alone_weigh_the_bias_drift_between_tare_and_object():
+    """The wrenches-only fit subtracts each pose's tare: a bias drifting at a rate r moves
+    every tare-subtracted window by r times the time between them. Its covariance holds
+    that share under the kinematic fit's prior (``BIAS_DRIFT_RATE``): with next to no
+    noise and 3 s windows, a bias 2 prior sigmas of drift rate further at each window
+    (on each axis in turn; held within a window, which would read a ramp as motion) moves
+    the estimate by 2 g_k, and the variances are sum_k g_k^2 (to 10 %: first order, and
+    the noise's share)."""
+    from com_core.estimation.fits.known_gravity import BIAS_DRIFT_RATE
+    from com_core.sensing.wrench_model import SensorModel
+
+    plan = replace(PLAN, dwell=3.0, sensor=SensorModel.from_scalars(1e-4, 1e-5))
+    stream = exploration_stream(plan, LOAD, HAND, np.random.default_rng(4))
+    still = fed(stream).solve().estimate
+    starts = np.array([stamp for stamp, _ in stream.labels] + [stream.stamps[-1] + 1])
+    segment = np.searchsorted(starts, stream.stamps, side="right") - 1
+    middles = (starts[:-1] + starts[1:]) / 2 * 1e-9  # s, each segment's
+    gains = []
+    for axis, sigma in enumerate(np.repeat(BIAS_DRIFT_RATE, 3)):
+        drifting = stream.wrenches.copy()
+        drifting[:, axis] += 2.0 * sigma * middles[segment.clip(0)]
+        moved = fed(replace(stream, wrenches=drifting)).solve().estimate
+        gains.append(np.array([moved.mass - still.mass, *(moved.com - still.com)]) / 2.0)
+    variance = np.sum(np.square(gains), axis=0)
+    np.testing.assert_allclose(variance, np.diag(still.cov), rtol=0.1)

@@ -127,6 +127,12 @@ PARAMETERS = table_of([
           **_PROFILE),
     Input("warmup_kelvin", math.nan, "how far the sensor warms from power-on, with "
           f"warmup_time; {_OF}; {_START}", unit="K", high=100.0, read_only=True, **_PROFILE),
+    Input("link_model_error", math.nan, "a wrench estimated from the joint torques (no "
+          "wrist sensor): the arm model's error in each link's inertial parameters, a "
+          f"fraction of each, 1 sigma (wrench_sim.joint_torques; 0: a wrist sensor); {_OF}; "
+          f"{_START}", high=1.0, read_only=True, **_PROFILE),
+    Input("joint_torque_offset", math.nan, "the same: each joint torque sensor's offset, 1 "
+          f"sigma; {_OF}; {_START}", unit="N m", high=100.0, read_only=True, **_PROFILE),
     Input("rate", 1000.0, "wrench publish rate", **_RATE),
     Input("clock_rate", 250.0, f"/clock publish rate (sim); {_START}", read_only=True, **_RATE),
     Input("real_time_factor", 0.0, "sim s per wall s; 0 = as fast as possible", low=0.01,

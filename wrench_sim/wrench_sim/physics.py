@@ -388,6 +388,10 @@ class ArmWorld:
         ``com_core.robot.dynamics``), as pybullet simulates it."""
         return self._truth.inertial_parameters(self._gripper.held)
 
+    def arm_motion(self) -> tuple[list[float], list[float]]:
+        """Positions (rad) and velocities (rad/s) of the configuration's ``arm_joints``."""
+        return self._arm.joint_state()[:2]
+
     def joint_state(
         self,
     ) -> tuple[tuple[str, ...], list[float], list[float], list[float]]:

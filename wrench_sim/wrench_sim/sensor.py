@@ -21,6 +21,7 @@ saturated. Figures: ``com_core.sensing.sensor_profiles``.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -28,6 +29,10 @@ from numpy.typing import ArrayLike, NDArray
 from com_core.sensing.sensor_profiles import SensorProfile
 from com_core.sensing.wrench_model import SensorModel, calibration_matrix
 from wrench_sim.gauges import GaugeErrors, profile_gauges
+from wrench_sim.joint_torques import JointTorqueEstimate, profile_joint_torques
+
+if TYPE_CHECKING:
+    from wrench_sim.physics import ArmWorld
 
 __all__ = [
     "BiasDrift",
@@ -38,13 +43,15 @@ __all__ = [
     "random_streams",
 ]
 
-_STREAMS = ("object", "sensor", "slip", "calibration", "drift", "gauges")
+_STREAMS = ("object", "sensor", "slip", "calibration", "drift", "gauges", "joint_torques")
 _BLOCK = 1000  # samples of unit normals drawn at once
 
 
 def random_streams(seed: int) -> dict[str, np.random.Generator]:
     """Independent generators for the object draw, the sensor noise, the grasp shifts, the
-    calibration error, the bias's drift and the gauges' errors (``wrench_sim.gauges``).
+    calibration error, the bias's drift, the gauges' errors (``wrench_sim.gauges``) and the
+    arm model's error of a wrench estimated from the joint torques
+    (``wrench_sim.joint_torques``).
 
     Separate streams keep the noise sequence of a seed the same whether or not the COM offset
     is drawn, shifts are on or the sensor drifts (later names were appended: SeedSequence's
@@ -114,6 +121,9 @@ class WrenchSensor:
     drift : the bias's warm-up and random walk (None: none).
     gauges : hysteresis, non-linearity and the gain's temperature drift, applied to the
         true wrench first (None: none).
+    joint_torques : for a wrench the arm estimates from its joint torques, the error its
+        model adds (``wrench_sim.joint_torques.wrench_in`` adds it before ``read``; None:
+        a wrist sensor).
     """
 
     def __init__(
@@ -122,10 +132,12 @@ class WrenchSensor:
         rng: np.random.Generator,
         drift: BiasDrift | None = None,
         gauges: GaugeErrors | None = None,
+        joint_torques: JointTorqueEstimate | None = None,
     ) -> None:
         self.model = model
         self.drift = drift
         self.gauges = gauges
+        self.joint_torques = joint_torques
         self._rng = rng
         self._normals = np.empty((0, 6))
         self._next = 0
@@ -194,11 +206,16 @@ def profile_drift(profile: SensorProfile, rng: np.random.Generator) -> BiasDrift
 
 
 def profile_sensor(
-    profile: SensorProfile, seed: int, serial: int, rate_hz: float = 1000.0
+    profile: SensorProfile,
+    seed: int,
+    serial: int,
+    rate_hz: float = 1000.0,
+    world: ArmWorld | None = None,
 ) -> WrenchSensor:
     """A sensor of every part of ``profile`` (``com_core.sensing.sensor_profiles``),
     publishing at ``rate_hz``: its drift and noise drawn from ``seed``'s streams, its
-    calibration from ``serial``'s, as the simulator draws them (for offline studies and
+    calibration (and, of a wrench estimated from the joint torques, ``world``'s arm
+    model's error) from ``serial``'s, as the simulator draws them (for offline studies and
     tests; the node builds its model from its parameters)."""
     p, streams = profile, random_streams(seed)
     model = SensorModel.from_scalars(
@@ -207,5 +224,7 @@ def profile_sensor(
         correlation_time=p.correlation_time, calibration=profile_calibration(p, serial),
     )  # fmt: skip
     drift = profile_drift(p, streams["drift"])
-    gauges = profile_gauges(p, random_streams(serial)["gauges"])
-    return WrenchSensor(model, streams["sensor"], drift, gauges)
+    own = random_streams(serial)
+    gauges = profile_gauges(p, own["gauges"])
+    arm = None if world is None else profile_joint_torques(p, world, own["joint_torques"])
+    return WrenchSensor(model, streams["sensor"], drift, gauges, arm)

@@ -116,6 +116,7 @@ from com_core.sensing.wrench_model import SensorModel, rotation_about
 from wrench_sim.arm_action import ArmController
 from wrench_sim.gauges import profile_gauges
 from wrench_sim.gripper import GripperGoal, GripperOutcome
+from wrench_sim.joint_torques import profile_joint_torques, wrench_in
 from wrench_sim.parameters import (
     SENSOR_PARAMETERS,
     check_parameter,
@@ -173,8 +174,10 @@ class SimNode(Node):
         )
         self._mount_identity = bool(np.array_equal(self._mount, np.eye(3)))
         drift = profile_drift(p, streams["drift"])
-        gauges = profile_gauges(p, random_streams(parameter("sensor_serial").value)["gauges"])
-        self.sensor = WrenchSensor(self._sensor_model(), streams["sensor"], drift, gauges)
+        own = random_streams(parameter("sensor_serial").value)
+        gauges = profile_gauges(p, own["gauges"])
+        arm = profile_joint_torques(p, self.world, own["joint_torques"])
+        self.sensor = WrenchSensor(self._sensor_model(), streams["sensor"], drift, gauges, arm)
         self._drift = np.array(parameter("bias_drift").value, dtype=np.float64)  # per s
         self._real_time_factor = parameter("real_time_factor").value
         self._publish_every = round(1000.0 / parameter("rate").value)
@@ -420,7 +423,7 @@ class SimNode(Node):
         ``publish=False`` skips the DDS publishing (for the benchmark's comparison).
         """
         world, sensor, mounted = self.world, self.sensor, self._mounted
-        step, read = world.step, sensor.read
+        step, read, arm = world.step, sensor.read, sensor.joint_torques
         clock_every, joint_every = self._clock_every, self._joint_state_every
         finger_every = self._finger_state_every
         end_steps = None if duration is None else round(duration / TIME_STEP)
@@ -433,7 +436,7 @@ class SimNode(Node):
             reading = None
             if steps % self._publish_every == 0:  # the rate may be set meanwhile
                 t = now * 1e-9
-                reading = read(mounted(world.wrench) + self._drift * t, t)
+                reading = read(mounted(wrench_in(world, arm)) + self._drift * t, t)
                 self._saturated_readings += sensor.saturated
             if publish:
                 if steps % clock_every == 0:

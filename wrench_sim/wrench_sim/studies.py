@@ -29,6 +29,7 @@ from com_core.robot.config import read_robot_config
 from com_core.robot.model import RobotModel
 from com_core.sensing.sensor_profiles import PROFILES
 from wrench_sim.config import SimConfig
+from wrench_sim.joint_torques import wrench_in
 from wrench_sim.physics import ArmWorld
 from wrench_sim.sensor import WrenchSensor, profile_sensor
 
@@ -88,7 +89,7 @@ def record_until(
         if len(stamps) % joint_every == 0:  # the joint states only where they are kept
             positions.append(world.joint_state()[1][:arm])
         stamps.append(world.time)
-        readings.append(sensor.read(world.wrench, world.time))
+        readings.append(sensor.read(wrench_in(world, sensor.joint_torques), world.time))
     stamps = np.array(stamps)
     return stamps[::joint_every], np.array(positions), stamps, np.array(readings)
 

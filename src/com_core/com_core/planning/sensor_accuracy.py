@@ -15,9 +15,9 @@ place: the calibration a reference of ``--reference`` kg through the same poses 
 (``predicted_calibration``), found from the poses alone (what is left of the error
 depends on the design, not on the readings).
 
-The prediction is linear: a profile's hysteresis and non-linearity are not in it (the
-table says which profiles have them), nor is a motion's (``bench/motion.py`` measures
-those).
+The prediction is linear: a profile's hysteresis and non-linearity are not in it, nor
+the arm model's error of a wrench estimated from the joint torques (the table says which
+profiles have them), nor is a motion's (``bench/motion.py`` measures those).
 """
 
 from __future__ import annotations
@@ -140,6 +140,9 @@ def main(argv: list[str] | None = None) -> int:
         calibrated = lightest_mass(profile, predicted_calibration(plan, args.reference))
         gauges = " (its hysteresis and non-linearity are not in these)" if (
             profile.hysteresis or profile.nonlinearity) else ""  # fmt: skip
+        if profile.link_model_error or profile.joint_torque_offset:
+            gauges = (" (its arm model's error is not in these: the default fit refuses it at "
+                      "rest, bench/README.md, Named sensors)")  # fmt: skip
         print(f"{name:>12}: the lightest object weighed to {TARGET:.0%} (2 sigma): "
               f"{1e3 * lightest:.0f} g, calibrated {1e3 * calibrated:.0f} g{gauges}")  # fmt: skip
     return 0

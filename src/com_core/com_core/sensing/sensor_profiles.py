@@ -47,6 +47,27 @@
   - the rest UFACTORY does not state (noise, low-pass, drift, non-linearity, the arm's
     modes) is the realistic profile's: noise 0.1 N and 5 mN m, at the resolution.
 
+- ``fr3_estimated``: no wrist sensor: the external wrench a Franka Research 3 (or Panda)
+  estimates from its seven link-side joint torque sensors and its dynamic model
+  (libfranka's ``K_F_ext_hat_K`` at 1 kHz; ``wrench_sim.joint_torques``). Franka's
+  documentation says the estimate can be inaccurate depending on the configuration,
+  most during high accelerations (frankaemika/docs, libfranka.rst, "Robot state"), and
+  states no accuracy for the FR3; a user of franka_ros (issue 404) reports, with nothing
+  held and nothing touching, a constant offset in each pose that changes with the
+  configuration, (1.40, -0.37, 1.72) N and (0.00, 0.45, -0.15) N m in one, and its
+  maintainers say the model is averaged over many robots, not identified per robot.
+  From these:
+  - the arm model's error: each inertial parameter of every arm link off by 7 % of its
+    magnitude (1 sigma) and each joint torque sensor's offset 0.2 N m, drawn per arm
+    (the serial): at the default static pass's poses of the FR3 the error's median is
+    1.9 N and 0.44 N m (50 arms; 95th percentile 4.3 N and 0.83 N m), as reported;
+  - noise 0.075 N and 0.025 N m per sample: the Panda's datasheet's force and torque
+    repeatability (0.15 N, 0.05 N m, as quoted from it; the FR3's states none) taken as
+    the 95 % band, as for the UR sensor's precision;
+  - no calibration matrix, range nor quantisation of a strain-gauge sensor; the 5 ms
+    low-pass, the warming bias, its random walk and the arm's modes are the realistic
+    profile's.
+
 Except where a datasheet is named, these are assumptions of a sensor's class: each part is
 a parameter of the simulator that a user sets to their sensor's figures.
 """
@@ -76,6 +97,11 @@ class SensorProfile:
     line through zero and full scale; ``sensitivity_drift`` (1/K) how far each axis's gain
     moves per kelvin, and ``warmup_kelvin`` (K) how far the sensor warms from power-on,
     with the bias's ``warmup_time``. Empty or 0: none.
+
+    A wrench estimated from the joint torques instead (no wrist sensor;
+    ``wrench_sim.joint_torques``): ``link_model_error`` the spread of the arm model's
+    error in each link's inertial parameters, a fraction of each; ``joint_torque_offset``
+    (N m) the spread of each joint torque sensor's offset. 0: a wrist sensor.
     """
 
     sigma_f: float = 0.0
@@ -98,6 +124,8 @@ class SensorProfile:
     nonlinearity: tuple[float, ...] = ()
     sensitivity_drift: float = 0.0
     warmup_kelvin: float = 0.0
+    link_model_error: float = 0.0
+    joint_torque_offset: float = 0.0
 
     def with_overrides(self, **values: object) -> SensorProfile:
         """This profile with the parts in ``values`` changed (names of its fields)."""
@@ -220,6 +248,18 @@ PROFILES["xarm_ft"] = replace(  # UFACTORY's figures (module); the rest the real
     limit_tau=4.0,
     calibration_accuracy=0.03,
     hysteresis=(0.025 * 150.0, 0.025 * 150.0, 0.01 * 200.0, 0.04, 0.04, 0.04),
+)
+PROFILES["fr3_estimated"] = replace(  # the module's figures; the rest the realistic sensor's
+    PROFILES["realistic"],
+    sigma_f=0.075,
+    sigma_tau=0.025,
+    resolution_f=0.0,
+    resolution_tau=0.0,
+    limit_f=0.0,
+    limit_tau=0.0,
+    calibration_accuracy=0.0,
+    link_model_error=0.07,
+    joint_torque_offset=0.2,
 )
 DEFAULT_PROFILE = "realistic"
 

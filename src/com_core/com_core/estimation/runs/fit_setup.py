@@ -82,6 +82,8 @@ METHODS = {"ml": ml, "two_pose": two_pose}
 WRENCHES, KINEMATICS, KINEMATICS_MOUNT = "wrenches", "kinematics", "kinematics+mount"
 INFORMATION = (WRENCHES, KINEMATICS, KINEMATICS_MOUNT)
 """What the fit uses: the wrenches only, or also each window's gravity from kinematics."""
+_DRIFT_STEP = 1e-3
+"""The drift rate's central-difference step in ``wrenches_estimate``, in its sigmas."""
 MAX_DRIFT_F, MAX_DRIFT_TAU = 1.0, 0.05
 """N, N m: a bias drift since the tare beyond either is a WARN (re-tare; the fit absorbs
 it, but a sensor drifting that fast is warming up or was overloaded)."""
@@ -166,23 +168,39 @@ class FitSetup:
             return WRENCHES
         return self.information
 
-    def wrenches_estimate(self, windows: list[Window]) -> Estimate:
+    def wrenches_estimate(
+        self, windows: list[Window], spans: Sequence[float] | None = None
+    ) -> Estimate:
         """``method``'s estimate from the tare-subtracted ``windows``, its covariance with
-        the calibration's share (``Calibration.propagated``)."""
+        the calibration's share (``Calibration.propagated``) and, given ``spans`` (s, per
+        window: its time less its pose's tare's), the bias's drift between them: a rate
+        common to every window of prior sigma ``bias_drift_rate`` per axis, which shifts
+        window i by r span_i, propagated through the estimator's Jacobian by central
+        differences (the kinematic fit weighs the same prior as a bias per epoch)."""
 
         def fit(ws: list[Window]) -> Estimate:
             return METHODS[self.method](ws, g=self.g, min_tilt_sigmas=self.min_tilt_sigmas)
-
-        estimate = fit(windows)
-        if self.calibration is None:
-            return estimate
 
         def numbers(ws: list[Window]) -> NDArray[np.float64]:
             e = fit(ws)
             return np.array([e.mass, *e.com])
 
-        share = self.calibration.propagated(numbers, windows)
-        return replace(estimate, cov=estimate.cov + share)
+        estimate = fit(windows)
+        cov = estimate.cov
+        if self.calibration is not None:
+            cov = cov + self.calibration.propagated(numbers, windows)
+        if spans is not None:
+
+            def moved(shift: NDArray[np.float64]) -> NDArray[np.float64]:
+                return numbers([replace(w, mean=w.mean + dt * shift)
+                                for w, dt in zip(windows, spans, strict=True)])  # fmt: skip
+
+            for axis, sigma in enumerate(np.repeat(self.bias_drift_rate, 3)):
+                shift = np.zeros(6)
+                shift[axis] = _DRIFT_STEP * sigma
+                gain = (moved(shift) - moved(-shift)) / (2.0 * _DRIFT_STEP)
+                cov = cov + np.outer(gain, gain)
+        return replace(estimate, cov=cov)
 
     def wrenches_sigma(self, windows: list[Window]) -> NDArray[np.float64] | None:
         """For a kinematic fit, the COM sigma (m) the wrenches alone give on the same

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from com_core.contract import ERROR, OK, VERIFY_PREFIX, WARN
+from com_core.contract import ERROR, OBJECT_PREFIX, OK, TARE_PREFIX, VERIFY_PREFIX, WARN
 from com_core.estimation.fits.errors import EstimationError, MissingTareError, WindowError
 from com_core.estimation.fits.estimators import Consistency, Estimate, check_consistency
 from com_core.estimation.fits.in_place import InPlaceCalibration
@@ -256,6 +256,23 @@ class Solution:
         return out
 
 
+def _tare_spans(
+    inbox: Inbox, windows: list[Window], fresh_tares: Mapping[str, Window], until_ns: int | None
+) -> list[float] | None:
+    """s: per tare-subtracted window, its object window's time less its pose's tare's, the
+    span the bias drifts over between them; None when a pose's tare is not this run's (a
+    cached one is another session's, on another clock; its drift is the home window's
+    check) or there is no window."""
+    if not windows or any(w.pose not in fresh_tares for w in windows):
+        return None
+    stamps = inbox.samples()[0]
+    return [
+        window_time(inbox, OBJECT_PREFIX + w.pose, stamps, until_ns)
+        - window_time(inbox, TARE_PREFIX + w.pose, stamps, until_ns)
+        for w in windows
+    ]
+
+
 def solve(inbox: Inbox, setup: FitSetup, until_ns: int | None = None) -> Solution:
     """The solution of the exploration in ``inbox`` up to ``until_ns`` (default: its
     ``done`` label): windows, per-pose tare, estimate by ``setup``'s information,
@@ -306,7 +323,9 @@ def solve(inbox: Inbox, setup: FitSetup, until_ns: int | None = None) -> Solutio
         calibrated = None
         if information == WRENCHES:
             fit, wrenches_sigma = None, None
-            estimate = setup.wrenches_estimate(windows)
+            estimate = setup.wrenches_estimate(
+                windows, _tare_spans(inbox, windows, fresh_tares, until_ns)
+            )
             tested = setup.calibration.widened(windows) if setup.calibration else windows
             consistency = check_consistency(tested, alpha=setup.alpha, g=setup.g)
             used = windows
