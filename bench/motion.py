@@ -401,7 +401,7 @@ def main() -> None:
                 ours = [np.nanpercentile([r[k] for r in static], 95) for k in ("mass", "com")]
                 for name in BASELINES:
                     if all(np.isnan(r["baselines"][name]["mass"]) for r in static):
-                        rows.append(f"{name:>18}  refused every run's windows")
+                        rows.append(f"{name:>18}  no estimate from any run's windows")
                         print(rows[-1], flush=True)
                         continue
                     theirs = [np.nanpercentile([r["baselines"][name][k] for r in static], 95)

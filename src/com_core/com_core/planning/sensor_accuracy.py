@@ -125,13 +125,13 @@ def main(argv: list[str] | None = None) -> int:
     masses = [float(m) for m in args.masses.split(",")]
     print(f"the default static pass, predicted (1 sigma); calibrated in place with a "
           f"{args.reference:g} kg reference")  # fmt: skip
-    print(f"{'profile':>12} {'kg':>5}  {'mass %':>7} {'COM mm (worst axis)':>20}  "
+    print(f"{'profile':>13} {'kg':>5}  {'mass %':>7} {'COM mm (worst axis)':>20}  "
           f"{'calibrated: mass %':>18} {'COM mm':>7}")  # fmt: skip
     for name in args.profiles.split(","):
         profile = PROFILES[name]
         for mass in masses:
             a = sensor_accuracy(profile, mass, args.reference)
-            print(f"{name:>12} {mass:5.2f}  {100 * a.sigma_mass / mass:7.3f} "
+            print(f"{name:>13} {mass:5.2f}  {100 * a.sigma_mass / mass:7.3f} "
                   f"{1e3 * a.sigma_com.max():20.3f}  "
                   f"{100 * a.calibrated_sigma_mass / mass:18.3f} "
                   f"{1e3 * a.calibrated_sigma_com.max():7.3f}")  # fmt: skip
@@ -143,7 +143,7 @@ def main(argv: list[str] | None = None) -> int:
         if profile.link_model_error or profile.joint_torque_offset:
             gauges = (" (its arm model's error is not in these: the default fit refuses it at "
                       "rest, bench/README.md, Named sensors)")  # fmt: skip
-        print(f"{name:>12}: the lightest object weighed to {TARGET:.0%} (2 sigma): "
+        print(f"{name:>13}: the lightest object weighed to {TARGET:.0%} (2 sigma): "
               f"{1e3 * lightest:.0f} g, calibrated {1e3 * calibrated:.0f} g{gauges}")  # fmt: skip
     return 0
 
