@@ -135,8 +135,9 @@ SETTINGS = table_of([
     Input("gravity", list(DEFAULT_GRAVITY), "in base_frame (a tilted base gives its own)",
           kind="floats", unit="m/s^2", low=-100.0, high=100.0, lengths=(3,), check=_gravity),
     Input("bias_drift_rate", list(BIAS_DRIFT_RATE), "1-sigma drift rate of the sensor bias to "
-          "allow for within a run (kinematic information; [0, 0]: a constant bias within a "
-          "run)", kind="floats", unit="N/s, N m/s", lengths=(2,), **_DRIFT),
+          "allow for within a run (the kinematic fit's prior; the wrenches alone weigh with it "
+          "the drift between each pose's tare and object windows; [0, 0]: a constant bias "
+          "within a run)", kind="floats", unit="N/s, N m/s", lengths=(2,), **_DRIFT),
     Input("max_drift_f", MAX_DRIFT_F, "a larger bias drift since the cached tare is a WARN",
           unit="N", **_DRIFT),
     Input("max_drift_tau", MAX_DRIFT_TAU, "a larger bias drift since the cached tare is a "
