@@ -281,6 +281,13 @@ def test_the_motion_fit_through_the_realistic_sensor_gives_the_object():
         truth = load_vector(inertial_parameters(mass, com, world.inertia_ground_truth()[1]))
         z = (box.load_vector() - truth) / np.sqrt(np.diag(box.load_cov()))
         assert np.all(np.abs(z) < 4.0), z
+        # the box's covariance: its own noise and calibration shares, widened by its fit,
+        # and the hand's noise share as the hand's fit widened it; none of the hand's
+        # calibration share (common to both motions), widened or not
+        np.testing.assert_allclose(
+            box.cov, box.widening * (box.bound + box.calibration_cov) + hand.widening * hand.bound
+        )
+        assert hand.widening > 1.0  # the case that tells: a widened hand fit
         assert 0.005 < hand.delay < 0.008 and 0.005 < box.delay < 0.008
         assert box.chi2 / box.dof < 1.3
         # a motion the fit did not see: the compensated wrench is the sensor's noise

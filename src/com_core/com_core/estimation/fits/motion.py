@@ -33,8 +33,8 @@ delays slow signals by T). The fit, step by step:
    the fit (``sensing.calibration``), the encoders' noise through the accelerations
    (``position_sigma``), widened by chi^2/dof when the fit's residual is larger than the
    noise model and the encoders' noise allow, and the hand's (when given) but for its
-   calibration share: the calibration's error is common to both motions, so the hand's
-   part of it cancels.
+   calibration share, as the hand's fit widened it: the calibration's error is common to
+   both motions, so the hand's part of it cancels.
 """
 
 from __future__ import annotations
@@ -110,6 +110,12 @@ class MotionFit:
     constrained: bool
     samples: int
     expected: float = 1.0
+
+    @property
+    def widening(self) -> float:
+        """The factor ``cov`` was widened by: chi^2/dof over what the noise, the encoders
+        and the calibration explain (``expected``), at least 1."""
+        return max(1.0, self.chi2 / self.dof / self.expected)
 
     def load(self) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
         """(mass kg, COM m, inertia about the COM kg m^2 (3, 3)), ``ft_sensor``."""
@@ -261,9 +267,9 @@ def fit_motion(
                                          noise, fit.cov, project, A_pi)  # fmt: skip
         cov += share
     expected += misfit / dof
-    cov *= max(1.0, fit.chi2 / dof / expected)
-    if hand is not None:
-        cov += hand.cov - hand.calibration_cov
+    cov *= max(1.0, fit.chi2 / dof / expected)  # MotionFit.widening
+    if hand is not None:  # all of the hand's but its calibration share, as widened
+        cov += hand.cov - hand.widening * hand.calibration_cov
     return MotionFit(fit.pi, cov, fit.cov, calibration_cov, gain, bias, delay, fit.chi2, dof,
                      fit.constrained, len(t), expected)  # fmt: skip
 
