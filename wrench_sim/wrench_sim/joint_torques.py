@@ -104,7 +104,7 @@ def profile_joint_torques(
     torques, drawn from ``rng`` (the serial's stream); None for a wrist sensor (both
     parts 0)."""
     p = profile
-    if not (p.link_model_error or p.joint_torque_offset):
+    if not p.joint_torque_estimate:
         return None
     robot = world.config.robot
     return JointTorqueEstimate(

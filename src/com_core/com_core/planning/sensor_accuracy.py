@@ -138,13 +138,14 @@ def main(argv: list[str] | None = None) -> int:
         plan = default_pass(profile, args.reference)
         lightest = lightest_mass(profile, profile.calibration())
         calibrated = lightest_mass(profile, predicted_calibration(plan, args.reference))
-        gauges = " (its hysteresis and non-linearity are not in these)" if (
+        left_out = " (its hysteresis and non-linearity are not in these)" if (
             profile.hysteresis or profile.nonlinearity) else ""  # fmt: skip
-        if profile.link_model_error or profile.joint_torque_offset:
-            gauges = (" (its arm model's error is not in these: the default fit refuses it at "
-                      "rest, bench/README.md, Named sensors)")  # fmt: skip
+        if profile.joint_torque_estimate:
+            left_out = (" (its arm model's error is not in these: the default fit refuses it "
+                        "at rest, bench/README.md, Named sensors)")  # fmt: skip
         print(f"{name:>13}: the lightest object weighed to {TARGET:.0%} (2 sigma): "
-              f"{1e3 * lightest:.0f} g, calibrated {1e3 * calibrated:.0f} g{gauges}")  # fmt: skip
+              f"{1e3 * lightest:.0f} g, calibrated {1e3 * calibrated:.0f} g"
+              f"{left_out}")  # fmt: skip
     return 0
 
 

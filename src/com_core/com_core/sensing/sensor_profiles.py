@@ -176,6 +176,12 @@ class SensorProfile:
                 )
         return out
 
+    @property
+    def joint_torque_estimate(self) -> bool:
+        """The wrench is estimated from the arm's joint torques (an arm model's error,
+        ``link_model_error`` or ``joint_torque_offset``), not read by a wrist sensor."""
+        return bool(self.link_model_error or self.joint_torque_offset)
+
     def noise_model(self, rate_hz: float = 1000.0) -> NoiseModel:
         """The noise of this sensor's samples at ``rate_hz``, as an estimator that knew it
         would assume (``sensing.noise``: AR(1) through the low-pass)."""

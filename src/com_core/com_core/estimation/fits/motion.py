@@ -61,6 +61,7 @@ __all__ = [
     "load_vector",
     "principal_moments",
     "regressors_along",
+    "widening_factor",
 ]
 
 WINDOW = 0.1
@@ -113,9 +114,8 @@ class MotionFit:
 
     @property
     def widening(self) -> float:
-        """The factor ``cov`` was widened by: chi^2/dof over what the noise, the encoders
-        and the calibration explain (``expected``), at least 1."""
-        return max(1.0, self.chi2 / self.dof / self.expected)
+        """The factor ``cov`` was widened by (``widening_factor``)."""
+        return widening_factor(self.chi2, self.dof, self.expected)
 
     def load(self) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
         """(mass kg, COM m, inertia about the COM kg m^2 (3, 3)), ``ft_sensor``."""
@@ -267,11 +267,17 @@ def fit_motion(
                                          noise, fit.cov, project, A_pi)  # fmt: skip
         cov += share
     expected += misfit / dof
-    cov *= max(1.0, fit.chi2 / dof / expected)  # MotionFit.widening
+    cov *= widening_factor(fit.chi2, dof, expected)
     if hand is not None:  # all of the hand's but its calibration share, as widened
         cov += hand.cov - hand.widening * hand.calibration_cov
     return MotionFit(fit.pi, cov, fit.cov, calibration_cov, gain, bias, delay, fit.chi2, dof,
                      fit.constrained, len(t), expected)  # fmt: skip
+
+
+def widening_factor(chi2: float, dof: int, expected: float) -> float:
+    """The factor a fit's covariance is widened by: chi^2/dof over what the noise, the
+    encoders and the calibration explain (``expected``), at least 1."""
+    return max(1.0, chi2 / dof / expected)
 
 
 def compensated(
