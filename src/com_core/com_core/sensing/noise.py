@@ -224,14 +224,32 @@ def white_noise(sample_cov: ArrayLike, rate_hz: float = 1000.0) -> NoiseModel:
     return NoiseModel(cov, ((),) * 6, np.diag(cov).copy(), 0, rate_hz)
 
 
-def ar1_noise(sigma: ArrayLike, correlation_time: float, rate_hz: float) -> NoiseModel:
-    """An assumed AR(1) ``NoiseModel``: ``sigma`` (6,) per sample, a first-order low-pass
-    of time constant ``correlation_time`` (s), published at ``rate_hz``."""
+def ar1_noise(
+    sigma: ArrayLike, correlation_time: float, rate_hz: float, white: ArrayLike = 0.0
+) -> NoiseModel:
+    """An assumed ``NoiseModel``: ``sigma`` (6,) per sample through a first-order low-pass
+    of time constant ``correlation_time`` (s), published at ``rate_hz``: AR(1); plus,
+    given ``white`` (6,; its sigma per sample, as a quantisation's step / sqrt(12)), a
+    white error added after the filter. The sum is ARMA(1, 1), not AR; its model is the
+    AR(``MAX_ORDER``) of its autocovariance (Levinson-Durbin, as ``learn_noise`` learns
+    it): exact to lag ``MAX_ORDER``, its coefficients falling off geometrically beyond
+    while the white part is small beside the filtered one (a quantisation below the
+    noise: the realistic sensor's eighth force coefficient is 6e-9)."""
     s = np.asarray(sigma, dtype=np.float64) * np.ones(6)
+    w = np.asarray(white, dtype=np.float64) * np.ones(6)
+    variance = s**2 + w**2
     if correlation_time <= 0:
-        return white_noise(np.diag(s**2), rate_hz)
+        return white_noise(np.diag(variance), rate_hz)
     phi = math.exp(-1.0 / (rate_hz * correlation_time))
-    return NoiseModel(np.diag(s**2), ((phi,),) * 6, s**2 * (1 - phi**2), 0, rate_hz)
+    if not np.any(w > 0):
+        return NoiseModel(np.diag(variance), ((phi,),) * 6, s**2 * (1 - phi**2), 0, rate_hz)
+    fits = []
+    for a in range(6):
+        gamma = s[a] ** 2 * phi ** np.arange(MAX_ORDER + 1)
+        gamma[0] += w[a] ** 2
+        fits.append(_levinson(gamma, MAX_ORDER)[-1])
+    ar = tuple(tuple(float(c) for c in coefficients) for coefficients, _ in fits)
+    return NoiseModel(np.diag(variance), ar, np.array([e for _, e in fits]), 0, rate_hz)
 
 
 def _yule_walker_rho(phi: NDArray[np.float64]) -> NDArray[np.float64]:
