@@ -65,10 +65,10 @@ def test_ar1_model_mean_factor_is_the_closed_form():
 
 def test_a_quantisation_after_the_low_pass_is_white_noise_in_the_model():
     """AR(1) through the low-pass plus a white error after it (the realistic sensor's
-    quantisation, 1/16 N and 1/2000 N m): the model's autocovariance is the sum's to lag ``MAX_ORDER``,
-    its long-run factor the ARMA(1, 1)'s closed form, and the white part whitens: its
-    prediction errors of a long simulated sum have the innovation's variance and no lag-1
-    correlation (within 3 % and 0.02)."""
+    quantisation, 1/16 N and 1/2000 N m): the model's autocovariance is the sum's to lag
+    ``MAX_ORDER``, its long-run factor the ARMA(1, 1)'s closed form, and the white part
+    whitens: its prediction errors of a long simulated sum have the innovation's variance
+    and no lag-1 correlation (within 3 % and 0.02)."""
     tau = 0.005
     white = np.array([1 / 16] * 3 + [1 / 2000] * 3) / math.sqrt(12)
     model = ar1_noise(SIGMA, tau, RATE, white)
