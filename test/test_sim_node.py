@@ -166,8 +166,16 @@ class Client:
         assert self.spin_until(arrived, timeout), f"arm did not reach {goal}"
 
     def wait_sim(self, seconds: float, timeout: float = 20.0) -> None:
+        """Spin until ``seconds`` of sim time have passed on the joint states and, once
+        any came, on the wrenches: the executor takes one sample per stream a turn, so
+        on a slow machine the 1 kHz wrenches queue behind the 100 Hz joint states."""
         end = self.sim_time + seconds
-        assert self.spin_until(lambda: self.sim_time >= end, timeout)
+
+        def passed() -> bool:
+            wrenches_in = not self.wrenches or self.wrenches[-1][0] * 1e-9 >= end
+            return self.sim_time >= end and wrenches_in
+
+        assert self.spin_until(passed, timeout)
 
     def grasp(self) -> None:
         """Pick the object from its stand and lift it to the home pose."""
