@@ -256,8 +256,9 @@ def fit_motion(
     dof = A.shape[0] - 16
     gain, misfit = np.zeros((10, 36)), 0.0
     if calibration is not None:
-        gain, misfit = _calibration_share(calibration, Y @ fit.pi, Y @ (fit.pi + hand_pi),
-                                          noise, project, fit.cov, A_pi)  # fmt: skip
+        hand_wrench = None if hand is None else Y @ hand_pi
+        gain, misfit = _calibration_share(calibration, Y @ fit.pi, hand_wrench, noise, project,
+                                          fit.cov, A_pi)  # fmt: skip
     calibration_cov = 0.0 if calibration is None else calibration.spread(gain)
     cov = fit.cov + calibration_cov
     expected = 1.0  # chi^2 / dof the noise model, the encoders' noise and E explain
@@ -346,7 +347,7 @@ def _prediction_errors(x: NDArray[np.float64], phi: Sequence[float]) -> NDArray[
 def _calibration_share(
     calibration: Calibration,
     object_wrench: NDArray[np.float64],
-    load_wrench: NDArray[np.float64],
+    hand_wrench: NDArray[np.float64] | None,
     noise: NoiseModel,
     project,
     cov: NDArray[np.float64],
@@ -357,17 +358,20 @@ def _calibration_share(
     its share of the covariance is ``calibration.spread(gain)``), and the expected sum of
     squares of what of it no load explains, tr(M P M^T) with M the whitened error less
     its fitted part: the misfit a heavier load's calibration error leaves, which is no
-    sign of a load that moved. The misfit is of the whole ``load_wrench`` (hand and
-    object): what of E on the hand's wrench its own fit could not explain is in this
-    motion's residual too, where the hand's parameters took off only what it explained."""
+    sign of a load that moved. The misfit is of the whole load's wrench, the
+    ``hand_wrench`` (n, 6; None: no hand taken off) with the object's: what of E on the
+    hand's wrench its own fit could not explain is in this motion's residual too, where
+    the hand's parameters took off only what it explained."""
     fitted = project(A_pi)
 
     def whitened_error(wrench: NDArray[np.float64]) -> NDArray[np.float64]:
         return project(_whiten(np.stack([calibration.jacobian(x) for x in wrench]), noise))
 
-    gain = cov @ fitted.T @ whitened_error(object_wrench)
-    load = whitened_error(load_wrench)
-    left = load - fitted @ (cov @ fitted.T @ load)
+    whitened = whitened_error(object_wrench)
+    gain = cov @ fitted.T @ whitened
+    if hand_wrench is not None:  # E's error is linear in the wrench
+        whitened = whitened + whitened_error(hand_wrench)
+    left = whitened - fitted @ (cov @ fitted.T @ whitened)
     values, vectors = np.linalg.eigh(calibration.error_cov)
     root = vectors * np.sqrt(np.clip(values, 0.0, None))
     return gain, float(np.sum((left @ root) ** 2))
