@@ -259,7 +259,6 @@ def test_the_motion_fit_through_the_realistic_sensor_gives_the_object():
         regressors_along,
     )
     from com_core.planning.excitation import design_excitation
-    from com_core.sensing.noise import ar1_noise
     from com_core.sensing.sensor_profiles import PROFILES
     from wrench_sim.sensor import profile_sensor
     from wrench_sim.studies import run_excitation
@@ -267,7 +266,6 @@ def test_the_motion_fit_through_the_realistic_sensor_gives_the_object():
     p = PROFILES["realistic"]
     sensor = profile_sensor(p, seed=7, serial=7)
     noise, calibration = p.noise_model(), p.calibration()
-    steps = np.array([p.resolution_f] * 3 + [p.resolution_tau] * 3)
     world = ArmWorld(SimConfig(object_mass=0.5, seed=3))
     robot = world.config.robot
     model = RobotModel(world.urdf_text, robot.sensor_frame)
@@ -288,8 +286,7 @@ def test_the_motion_fit_through_the_realistic_sensor_gives_the_object():
         z = (box.load_vector() - truth) / np.sqrt(np.diag(box.load_cov()))
         assert np.all(np.abs(z) < 4.0), z
         assert hand.widening < 1.005 and box.widening < 1.03  # measured 1.0 and 1.019
-        low_pass = ar1_noise(np.sqrt(noise.variance - steps**2 / 12), p.correlation_time,
-                             noise.rate_hz)  # fmt: skip
+        low_pass = p.with_overrides(resolution_f=0.0, resolution_tau=0.0).noise_model()
         hand_ = fit_motion(model, *hand_motion, low_pass, calibration=calibration)
         box_ = fit_motion(model, *box_motion, low_pass, hand_, calibration)
         assert hand_.widening > 1.05 and box_.widening > 1.05  # measured 1.082 and 1.100
