@@ -14,8 +14,9 @@ OWNER = cache_owner("panda_hand", "ft-1")
 
 def entry(owner: str = OWNER) -> HandMotion:
     zeros = np.zeros((10, 10))
-    fit = MotionFit(np.ones(10), zeros, zeros, zeros, np.zeros((10, 36)), np.zeros(6), 0.0,
-                    10.0, 10, False, 1000)  # fmt: skip
+    fit = MotionFit(np.ones(10), np.ones(10), zeros, zeros, zeros, np.zeros((10, 36)),
+                    np.zeros(6), 0.0, 10.0, 10, False, 1000, 1.0, 0.0,
+                    np.ones((75, 6)))  # fmt: skip
     times = np.linspace(0.0, 3.0, 7)
     return HandMotion(owner, "sha", 5, times, np.zeros((7, 2)), 0.0, fit)
 

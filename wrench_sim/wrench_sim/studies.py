@@ -133,19 +133,22 @@ def explore_in_motion(
     object_seed: int = 3,
     period: float = 3.0,
     acceleration: float | Sequence[float] = DEFAULT_ACCELERATION,
+    profile: str = "realistic",
 ) -> MotionRun:
     """As the sequencer runs ``excitation: motion`` on ``robot`` (a shipped configuration)
     with an object of ``mass`` kg and ``shape`` (its COM drawn from ``object_seed``): the
     empty hand at rest and along the D-optimal excitation of ``period`` s and
     ``acceleration`` bound (rad/s^2; ``cycles`` periods), the grasp, the object along it
     and along another design (one period); through the
-    realistic sensor of serial ``seed`` with ``calibration_accuracy``, joint states every
-    ``joint_every`` steps (10: 100 Hz); solved from its labels (``Exploration.solve``). The
-    caller closes ``MotionRun.world``."""
-    profile = PROFILES["realistic"].with_overrides(calibration_accuracy=calibration_accuracy)
-    sensor = profile_sensor(profile, seed=seed, serial=seed)
+    sensor of ``profile`` (``PROFILES``) and serial ``seed`` with ``calibration_accuracy``,
+    joint states every ``joint_every`` steps (10: 100 Hz); solved from its labels
+    (``Exploration.solve``). The caller closes ``MotionRun.world``."""
     world = ArmWorld(SimConfig(robot=read_robot_config(robot), object_shape=shape,
                                object_mass=mass, seed=object_seed))  # fmt: skip
+    sensor = profile_sensor(
+        PROFILES[profile].with_overrides(calibration_accuracy=calibration_accuracy),
+        seed=seed, serial=seed, world=world,
+    )  # fmt: skip
     robot = world.config.robot
     model = RobotModel(world.urdf_text, robot.sensor_frame)
     wrist = robot.arm_joints[-3:]

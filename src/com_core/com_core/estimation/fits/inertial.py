@@ -65,6 +65,7 @@ class InertialFit:
     chi2 : the weighted sum of squared residuals, ``dof`` = 6 n - 10 degrees of freedom.
     constrained : the least squares estimate was not consistent, and ``pi`` is the
         consistent load closest to the data (log-Cholesky Gauss-Newton).
+    least_squares : (10,) the weighted least squares estimate (``pi`` unless constrained).
     """
 
     pi: NDArray[np.float64]
@@ -72,6 +73,7 @@ class InertialFit:
     chi2: float
     dof: int
     constrained: bool
+    least_squares: NDArray[np.float64]
 
 
 def fit_inertial(
@@ -99,13 +101,13 @@ def fit_whitened(A: ArrayLike, b: ArrayLike, iterations: int = 50) -> InertialFi
     rank = np.linalg.matrix_rank(A)
     if rank < 10:
         raise ValueError(f"the motion excites {rank} of the 10 inertial parameters")
-    pi, *_ = np.linalg.lstsq(A, b, rcond=None)
-    constrained = not _consistent(pi)
-    if constrained:
-        pi = _consistent_fit(A, b, pi, iterations)
+    least_squares, *_ = np.linalg.lstsq(A, b, rcond=None)
+    constrained = not _consistent(least_squares)
+    pi = _consistent_fit(A, b, least_squares, iterations) if constrained else least_squares
     cov = np.linalg.inv(A.T @ A)
     residual = b - A @ pi
-    return InertialFit(pi, cov, float(residual @ residual), A.shape[0] - 10, constrained)
+    return InertialFit(pi, cov, float(residual @ residual), A.shape[0] - 10, constrained,
+                       least_squares)  # fmt: skip
 
 
 def _consistent(pi: NDArray[np.float64]) -> bool:

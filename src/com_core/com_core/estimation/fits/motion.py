@@ -28,13 +28,24 @@ delays slow signals by T). The fit, step by step:
    projected out (variable projection), and the 10 parameters are fitted physically
    consistent (``estimation.fits.inertial``: log-Cholesky when the least squares estimate is
    not). A known hand (its parameters from an empty-hand motion, ``hand``) is taken off
-   first, so what is fitted, and made consistent, is the object alone.
+   first, so what is fitted, and made consistent, is the object alone. What is taken off
+   is the hand's least squares estimate, not the consistent one: a misfit common to both
+   motions along the same trajectory (an arm model's error in a wrench estimated from the
+   joint torques, the hand's cables) moves both least squares estimates alike and
+   cancels in their difference; the hand made consistent would leave the constraint's
+   pull in the object's parameters.
 5. **Error bars.** The covariance adds the calibration's common error propagated through
    the fit (``sensing.calibration``), the encoders' noise through the accelerations
    (``position_sigma``), widened by chi^2/dof when the fit's residual is larger than the
-   noise model and the encoders' noise allow, and the hand's (when given) but for its
-   calibration share, as the hand's fit widened it: the calibration's error is common to
-   both motions, so the hand's part of it cancels.
+   noise model, the encoders' noise, the calibration's error and a misfit common to the
+   hand's motion allow, and the hand's share (when given) but for its calibration share,
+   widened by the hand's own misfit only. What is common to the two motions cancels in
+   the difference: the calibration's error on the hand's wrench (what the object's fit
+   is left with is its error on the object's wrench), and a misfit along the trajectory
+   that both least squares fits left, measured by how the two whitened residuals agree
+   block by block along the motion (``common_misfit``: independent noise, above the
+   model or not, does not agree). A misfit of the object's own (a load that moves in the
+   grasp) and noise above the model widen the fits as before.
 """
 
 from __future__ import annotations
@@ -52,9 +63,11 @@ from com_core.sensing.calibration import Calibration
 from com_core.sensing.noise import NoiseModel
 
 __all__ = [
+    "BLOCK",
     "MAX_DELAY",
     "MotionFit",
     "best_delay",
+    "common_misfit",
     "compensated",
     "fit_motion",
     "joint_motion",
@@ -70,6 +83,12 @@ ORDER = 4
 """The Savitzky-Golay polynomial's degree."""
 MAX_DELAY = 0.03
 """s: the largest delay, either way, searched between wrench and joint stamps."""
+BLOCK = 0.04
+"""s: the spans of the motion over which a fit's whitened residual is summed
+(``MotionFit.residual_blocks``): a misfit along the trajectory (the excitation's few Hz)
+stays in the sums, the noise the model whitens averages out of them."""
+MOVED = 0.01
+"""rad: a joint this far from its first state has begun the motion (the blocks' origin)."""
 _DELAY_STEP = 3e-3  # s, the delay search's grid
 _SEARCH_EVERY = 5  # the delay search uses every 5th wrench sample
 
@@ -80,6 +99,8 @@ class MotionFit:
 
     pi : (10,) the object's (or, without a known hand, the whole load's) parameters: m
         (kg), m c (kg m), inertia about the sensor origin (kg m^2), ``ft_sensor``.
+    least_squares : (10,) their least squares estimate, before it was made consistent
+        (``pi`` unless ``constrained``): what an object's fit takes off as the hand's.
     cov : (10, 10) their covariance, every share included (module, step 5).
     bound : (10, 10) the share of the sensor's noise alone: the Cramer-Rao bound of this
         motion under the noise model.
@@ -95,11 +116,19 @@ class MotionFit:
     constrained : the least squares estimate was not a physical body; ``pi`` is the
         consistent one nearest the data.
     samples : wrench samples fitted.
-    expected : the chi^2 / dof the noise model, the encoders' noise and the calibration's
-        error explain (1: the noise alone).
+    expected : the chi^2 / dof the noise model, the encoders' noise, the calibration's
+        error and a misfit in common with the hand's motion explain (1: the noise alone).
+    common : the chi^2 of a misfit this motion has in common with the hand's, beyond
+        what the calibration's error explains (``common_misfit``; 0 without a hand): in
+        ``expected``, and taken off the hand's widening.
+    residual_blocks : (blocks, 6) the whitened least squares residual per axis summed
+        over each ``BLOCK`` s from the motion's beginning (a joint ``MOVED`` from its
+        first state), over the square root of its samples: unit variance for noise the
+        model whitens, a misfit along the trajectory standing out (``common_misfit``).
     """
 
     pi: NDArray[np.float64]
+    least_squares: NDArray[np.float64]
     cov: NDArray[np.float64]
     bound: NDArray[np.float64]
     calibration_cov: NDArray[np.float64]
@@ -110,7 +139,9 @@ class MotionFit:
     dof: int
     constrained: bool
     samples: int
-    expected: float = 1.0
+    expected: float
+    common: float
+    residual_blocks: NDArray[np.float64]
 
     @property
     def widening(self) -> float:
@@ -222,7 +253,7 @@ def fit_motion(
     t = np.asarray(wrench_times, dtype=np.float64)
     jt = np.asarray(joint_times, dtype=np.float64)
     jq = np.asarray(joint_positions, dtype=np.float64)
-    hand_pi = np.zeros(10) if hand is None else hand.pi
+    hand_pi = np.zeros(10) if hand is None else hand.least_squares
     inner = (t - MAX_DELAY - WINDOW > jt[0]) & (t + MAX_DELAY + WINDOW < jt[-1])
     t, w = t[inner], w[inner]
     if len(t) < 100:
@@ -253,12 +284,17 @@ def fit_motion(
 
     fit = fit_whitened(project(A_pi), project(b))
     bias, *_ = np.linalg.lstsq(A_bias, b - A_pi @ fit.pi, rcond=None)
+    moved = np.flatnonzero(np.max(np.abs(jq - jq[0]), axis=1) > MOVED)
+    began = jt[moved[0]] if len(moved) else jt[0]
+    blocks = _block_sums(project(b) - project(A_pi) @ fit.least_squares, t - delay - began,
+                         noise)  # fmt: skip
+    shared = 0.0 if hand is None else common_misfit(hand.residual_blocks, blocks)
     dof = A.shape[0] - 16
-    gain, misfit = np.zeros((10, 36)), 0.0
+    gain, misfit, explained = np.zeros((10, 36)), 0.0, 0.0
     if calibration is not None:
         hand_wrench = None if hand is None else Y @ hand_pi
-        gain, misfit = _calibration_share(calibration, Y @ fit.pi, hand_wrench, noise, project,
-                                          fit.cov, A_pi)  # fmt: skip
+        gain, misfit, explained = _calibration_share(calibration, Y @ fit.pi, hand_wrench,
+                                                     noise, project, fit.cov, A_pi)  # fmt: skip
     calibration_cov = 0.0 if calibration is None else calibration.spread(gain)
     cov = fit.cov + calibration_cov
     expected = 1.0  # chi^2 / dof the noise model, the encoders' noise and E explain
@@ -267,12 +303,25 @@ def fit_motion(
         share, expected = _encoder_share(robot, jt, jq, t - delay, load, position_sigma,
                                          noise, fit.cov, project, A_pi)  # fmt: skip
         cov += share
-    expected += misfit / dof
+    common = max(0.0, shared - explained)  # a misfit along the motion beyond E's
+    expected += (misfit + common) / dof
     cov *= widening_factor(fit.chi2, dof, expected)
-    if hand is not None:  # all of the hand's but its calibration share, as widened
-        cov += hand.cov - hand.widening * hand.calibration_cov
-    return MotionFit(fit.pi, cov, fit.cov, calibration_cov, gain, bias, delay, fit.chi2, dof,
-                     fit.constrained, len(t), expected)  # fmt: skip
+    if hand is not None:  # the hand's noise and encoders' shares, widened by its own misfit
+        own = widening_factor(hand.chi2 - common, hand.dof, hand.expected)
+        cov += (hand.cov / hand.widening - hand.calibration_cov) * own
+    return MotionFit(fit.pi, fit.least_squares, cov, fit.cov, calibration_cov, gain, bias,
+                     delay, fit.chi2, dof, fit.constrained, len(t), expected, common,
+                     blocks)  # fmt: skip
+
+
+def common_misfit(hand: NDArray[np.float64], loaded: NDArray[np.float64]) -> float:
+    """The chi^2 a misfit common to two fits along the same trajectory adds to each, from
+    their ``residual_blocks`` (the hand's, the loaded motion's): the sum of their products
+    over the blocks both have, at least 0. Noise independent between the motions adds
+    nothing to it but its spread (some 20 over 450 blocks, against 20 000 dof); a misfit
+    d along the trajectory adds about sum(d^2), as it does to each fit's chi^2."""
+    n = min(len(hand), len(loaded))
+    return max(0.0, float(np.sum(hand[:n] * loaded[:n])))
 
 
 def widening_factor(chi2: float, dof: int, expected: float) -> float:
@@ -335,6 +384,25 @@ def _whiten(x: NDArray[np.float64], noise: NoiseModel, every: int = 1) -> NDArra
     return np.concatenate(out)
 
 
+def _block_sums(
+    residual: NDArray[np.float64], since: NDArray[np.float64], noise: NoiseModel
+) -> NDArray[np.float64]:
+    """``MotionFit.residual_blocks`` of the whitened ``residual`` (rows as ``_whiten``
+    stacks them) of samples ``since`` s (n,) after the motion began; those before it are
+    left out."""
+    block = np.floor(since / BLOCK).astype(int)
+    out, start = np.zeros((max(block.max() + 1, 0), 6)), 0
+    for a in range(6):
+        index = block[len(noise.ar[a]) :]
+        rows = residual[start : start + len(index)]
+        start += len(index)
+        after = index >= 0
+        counts = np.bincount(index[after], minlength=len(out))
+        sums = np.bincount(index[after], weights=rows[after], minlength=len(out))
+        out[:, a] = sums / np.sqrt(np.maximum(counts, 1))
+    return out
+
+
 def _prediction_errors(x: NDArray[np.float64], phi: Sequence[float]) -> NDArray[np.float64]:
     """x_t - sum_i phi_i x_(t-i) for t >= len(phi), along the first axis."""
     p = len(phi)
@@ -352,8 +420,9 @@ def _calibration_share(
     project,
     cov: NDArray[np.float64],
     A_pi: NDArray[np.float64],
-) -> tuple[NDArray[np.float64], float]:
-    """(d pi / d vec(E) (10, 36), the chi^2 it adds): the calibration's common error E on
+) -> tuple[NDArray[np.float64], float, float]:
+    """(d pi / d vec(E) (10, 36), the chi^2 it adds, the part of it common to the hand's
+    motion): the calibration's common error E on
     the object's wrench (n, 6) through the whitened least squares (``sensing.calibration``;
     its share of the covariance is ``calibration.spread(gain)``), and the expected sum of
     squares of what of it no load explains, tr(M P M^T) with M the whitened error less
@@ -361,20 +430,27 @@ def _calibration_share(
     sign of a load that moved. The misfit is of the whole load's wrench, the
     ``hand_wrench`` (n, 6; None: no hand taken off) with the object's: what of E on the
     hand's wrench its own fit could not explain is in this motion's residual too, where
-    the hand's parameters took off only what it explained."""
+    the hand's parameters took off only what it explained. That part is in the hand's
+    fit's residual as well: its expected product with this one, tr(M_hand P M^T), is what
+    of ``common_misfit`` the calibration explains (0 without a hand)."""
     fitted = project(A_pi)
 
     def whitened_error(wrench: NDArray[np.float64]) -> NDArray[np.float64]:
         return project(_whiten(np.stack([calibration.jacobian(x) for x in wrench]), noise))
 
+    def left(whitened: NDArray[np.float64]) -> NDArray[np.float64]:
+        return whitened - fitted @ (cov @ fitted.T @ whitened)
+
     whitened = whitened_error(object_wrench)
     gain = cov @ fitted.T @ whitened
-    if hand_wrench is not None:  # E's error is linear in the wrench
-        whitened = whitened + whitened_error(hand_wrench)
-    left = whitened - fitted @ (cov @ fitted.T @ whitened)
     values, vectors = np.linalg.eigh(calibration.error_cov)
     root = vectors * np.sqrt(np.clip(values, 0.0, None))
-    return gain, float(np.sum((left @ root) ** 2))
+    common = 0.0
+    if hand_wrench is not None:  # E's error is linear in the wrench
+        hand = whitened_error(hand_wrench)
+        whitened = whitened + hand
+        common = float(np.sum((left(hand) @ root) * (left(whitened) @ root)))
+    return gain, float(np.sum((left(whitened) @ root) ** 2)), common
 
 
 def _encoder_share(

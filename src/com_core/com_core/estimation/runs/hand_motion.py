@@ -115,8 +115,10 @@ def save_hand_motion(path: str | Path, entry: HandMotion) -> None:
     temporary.replace(path)
 
 
-_SHAPES = {"pi": (10,), "cov": (10, 10), "bound": (10, 10), "calibration_cov": (10, 10),
-           "calibration_gain": (10, 36), "bias": (6,)}  # fmt: skip
+_SHAPES = {"pi": (10,), "least_squares": (10,), "cov": (10, 10), "bound": (10, 10),
+           "calibration_cov": (10, 10), "calibration_gain": (10, 36), "bias": (6,),
+           "residual_blocks": (-1, 6)}  # fmt: skip
+"""The fit's arrays and their shapes (-1: any length)."""
 
 
 def load_hand_motion(path: str | Path) -> HandMotion | None:
@@ -130,7 +132,11 @@ def load_hand_motion(path: str | Path) -> HandMotion | None:
                for k, v in data["fit"].items()}  # fmt: skip
         times = np.array(data["times"], dtype=np.float64)
         positions = np.array(data["positions"], dtype=np.float64)
-        shapes = {k: fit[k].shape for k in _SHAPES} == _SHAPES
+        shapes = all(
+            fit[k].ndim == len(shape)
+            and all(n in (-1, m) for n, m in zip(shape, fit[k].shape, strict=True))
+            for k, shape in _SHAPES.items()
+        )
         arrays = [*(fit[k] for k in _SHAPES), times, positions]
         if (
             not shapes

@@ -8,14 +8,14 @@ hand at rest) give the sensor's noise model. Each motion is fitted by
 of the empty hand; without ``motion/tare`` the hand's fit of an earlier run,
 ``FitSetup.hand_motion``), then the object with the hand taken off. The object's fit is
 consistent with one rigid load when its whitened residual is no larger than
-``MAX_CHI2_PER_DOF`` times what the noise model, the encoders' noise and the calibration's
-error explain (``MotionFit.expected``; a load that moves in the grasp
-leaves a residual the model has no parameter for). The check along the verification
-motion (``MotionCheck``) compares the rms of the compensated wrench with what the noise,
-the fit's covariance and the calibration predict, within what one draw of the fit's and
-the calibration's errors may give. The inertia is published only when the motion told
-it: every principal moment beyond its sigma (``MotionResult.inertia_identified``). Units:
-N, N m, kg, m, kg m^2, s; the sensor frame.
+``MAX_CHI2_PER_DOF`` times what the noise model, the encoders' noise, the calibration's
+error and a misfit in common with the empty hand's motion explain (``MotionFit.expected``;
+a load that moves in the grasp leaves a residual the model has no parameter for). The
+check along the verification motion (``MotionCheck``) compares the rms of the
+compensated wrench with what the noise, the fit's covariance and the calibration predict,
+within what one draw of the fit's and the calibration's errors may give. The inertia is
+published only when the motion told it: every principal moment beyond its sigma
+(``MotionResult.inertia_identified``). Units: N, N m, kg, m, kg m^2, s; the sensor frame.
 """
 
 from __future__ import annotations
@@ -64,7 +64,8 @@ EXCITATIONS = (STATIC, MOTION)
 """How an exploration excites the load: windows at rest, or the wrist's motion."""
 MAX_CHI2_PER_DOF = 1.5
 """The object's fit is one rigid load while chi^2/dof stays below this times what the
-noise, the encoders and the calibration's error explain (``MotionFit.expected``;
+noise, the encoders, the calibration's error and a misfit in common with the hand's
+motion explain (``MotionFit.expected``;
 chi^2/dof 0.99-1.10 measured over 73 sensors with the realistic profile at 0.5 kg, and
 1.69 at 2 kg on the xArm6, 1.37 times the 1.23 explained)."""
 MIN_MOMENT_SIGMAS = 1.0
@@ -246,7 +247,7 @@ def check_motion(
     if len(times) < 100:
         raise EstimationError(f"{pose}: {len(times)} samples within the joint states' span")
     along = regressors_along(robot, *joint_motion(joint_times, positions, times - fit.delay))
-    left = wrenches - along @ (hand.pi + fit.pi)
+    left = wrenches - along @ (hand.least_squares + fit.pi)
     left -= left.mean(axis=0)
     every = max(len(times) // _DRAW_SAMPLES, 1)
     Y = along[::every]
@@ -332,8 +333,8 @@ def solve_motion(
         "" if consistent else (
             f"the object's motion leaves chi^2/dof {per_dof:.2f} (allowed "
             f"{MAX_CHI2_PER_DOF * fit.expected:.2f}: {MAX_CHI2_PER_DOF:g} times the "
-            f"{fit.expected:.2f} the noise and the calibration's error explain): not one "
-            "rigid load (did it move in the grasp?)"
+            f"{fit.expected:.2f} the noise, the calibration's error and the empty hand's "
+            "misfit explain): not one rigid load (did it move in the grasp?)"
         ),
     )  # fmt: skip
     estimate = Estimate(
