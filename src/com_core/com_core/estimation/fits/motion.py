@@ -421,11 +421,11 @@ def _calibration_share(
     cov: NDArray[np.float64],
     A_pi: NDArray[np.float64],
 ) -> tuple[NDArray[np.float64], float, float]:
-    """(d pi / d vec(E) (10, 36), the chi^2 it adds, the part of it common to the hand's
-    motion): the calibration's common error E on
-    the object's wrench (n, 6) through the whitened least squares (``sensing.calibration``;
-    its share of the covariance is ``calibration.spread(gain)``), and the expected sum of
-    squares of what of it no load explains, tr(M P M^T) with M the whitened error less
+    """(d pi / d vec(E) (10, 36), the chi^2 it adds, the part of it the hand's motion
+    shares): the calibration's common error E on the object's wrench (n, 6) through the
+    whitened least squares (``sensing.calibration``; its share of the covariance is
+    ``calibration.spread(gain)``), and the expected sum of squares of what of it no load
+    explains, tr(M P M^T) with M the whitened error less
     its fitted part: the misfit a heavier load's calibration error leaves, which is no
     sign of a load that moved. The misfit is of the whole load's wrench, the
     ``hand_wrench`` (n, 6; None: no hand taken off) with the object's: what of E on the
