@@ -111,6 +111,8 @@ def test_an_arm_models_error_in_an_estimated_wrench_cancels_and_the_other_motion
     try:
         solution, fit = run.solution, run.solution.motion.object
         assert fit.common > 0.2 * fit.dof and fit.widening < 1.1, (fit.common, fit.widening)
+        shown = float(dict(solution.diagnostic_values())["chi2_common_per_dof"])
+        assert shown == pytest.approx(fit.common / fit.dof)  # the status tells it
         assert fit.chi2 / fit.dof > 1.5 and solution.consistency.consistent  # 1.71
         (mass, com), inertia = run.world.object_ground_truth(), run.world.inertia_ground_truth()[1]
         truth = load_vector(inertial_parameters(mass, com, inertia))

@@ -160,6 +160,7 @@ class MotionResult:
             "hand_parameters": self.hand.pi.tolist(),
             "delay": self.object.delay,
             "chi2_expected_per_dof": self.object.expected,
+            "chi2_common_per_dof": self.object.common / self.object.dof,
             "motion_samples": self.object.samples,
         }
 
