@@ -282,26 +282,26 @@ def fit_motion(
     def project(x: NDArray[np.float64]) -> NDArray[np.float64]:
         return x - basis @ (basis.T @ x)
 
-    fit = fit_whitened(project(A_pi), project(b))
+    fitted, target = project(A_pi), project(b)
+    fit = fit_whitened(fitted, target)
     bias, *_ = np.linalg.lstsq(A_bias, b - A_pi @ fit.pi, rcond=None)
     moved = np.flatnonzero(np.max(np.abs(jq - jq[0]), axis=1) > MOVED)
     began = jt[moved[0]] if len(moved) else jt[0]
-    blocks = _block_sums(project(b) - project(A_pi) @ fit.least_squares, t - delay - began,
-                         noise)  # fmt: skip
+    blocks = _block_sums(target - fitted @ fit.least_squares, t - delay - began, noise)
     shared = 0.0 if hand is None else common_misfit(hand.residual_blocks, blocks)
     dof = A.shape[0] - 16
     gain, misfit, explained = np.zeros((10, 36)), 0.0, 0.0
     if calibration is not None:
         hand_wrench = None if hand is None else Y @ hand_pi
         gain, misfit, explained = _calibration_share(calibration, Y @ fit.pi, hand_wrench,
-                                                     noise, project, fit.cov, A_pi)  # fmt: skip
+                                                     noise, project, fit.cov, fitted)  # fmt: skip
     calibration_cov = 0.0 if calibration is None else calibration.spread(gain)
     cov = fit.cov + calibration_cov
     expected = 1.0  # chi^2 / dof the noise model, the encoders' noise and E explain
     if position_sigma > 0:
         load = fit.pi + hand_pi
         share, expected = _encoder_share(robot, jt, jq, t - delay, load, position_sigma,
-                                         noise, fit.cov, project, A_pi)  # fmt: skip
+                                         noise, fit.cov, project, fitted)  # fmt: skip
         cov += share
     common = max(0.0, shared - explained)  # a misfit along the motion beyond E's
     expected += (misfit + common) / dof
@@ -419,7 +419,7 @@ def _calibration_share(
     noise: NoiseModel,
     project,
     cov: NDArray[np.float64],
-    A_pi: NDArray[np.float64],
+    fitted: NDArray[np.float64],
 ) -> tuple[NDArray[np.float64], float, float]:
     """(d pi / d vec(E) (10, 36), the chi^2 it adds, the part of it the hand's motion
     shares): the calibration's common error E on the object's wrench (n, 6) through the
@@ -432,8 +432,8 @@ def _calibration_share(
     hand's wrench its own fit could not explain is in this motion's residual too, where
     the hand's parameters took off only what it explained. That part is in the hand's
     fit's residual as well: its expected product with this one, tr(M_hand P M^T), is what
-    of ``common_misfit`` the calibration explains (0 without a hand)."""
-    fitted = project(A_pi)
+    of ``common_misfit`` the calibration explains (0 without a hand). ``fitted``: the
+    whitened regressors with the bias ``project``ed out, (rows, 10)."""
 
     def whitened_error(wrench: NDArray[np.float64]) -> NDArray[np.float64]:
         return project(_whiten(np.stack([calibration.jacobian(x) for x in wrench]), noise))
@@ -463,7 +463,7 @@ def _encoder_share(
     noise: NoiseModel,
     cov: NDArray[np.float64],
     project,
-    A_pi: NDArray[np.float64],
+    fitted: NDArray[np.float64],
 ) -> tuple[NDArray[np.float64], float]:
     """(the share (10, 10), chi^2 / dof expected with it): the encoders' white noise
     ``sigma`` (rad) per joint sample, through the Savitzky-Golay fit into q, dq, ddq and
@@ -477,7 +477,7 @@ def _encoder_share(
     for _ in range(8):
         shaken = jq + sigma * rng.standard_normal(jq.shape)
         delta = _whiten(regressors_along(robot, *joint_motion(jt, shaken, at)) @ pi - base, noise)
-        shifts.append(cov @ project(A_pi).T @ project(delta))
+        shifts.append(cov @ fitted.T @ project(delta))
         added.append(np.mean(delta**2))
     spread = np.array(shifts)
     return spread.T @ spread / len(shifts), 1.0 + float(np.mean(added))
