@@ -155,58 +155,80 @@ def static_object(
     try:
         noise_seed = seed + REFERENCE_SEEDS if reference else seed
         sensor = profile_sensor(profile, seed=noise_seed, serial=seed, world=world)
-        poses = Choreography.of(config, world.urdf_text).pose_joints(STATIC_PLAN)
-        settings = profile.datasheet() | {  # as a user tells theirs
-            "accuracy": profile.calibration_accuracy,
-            "sensor_frame": config.sensor_frame,
-            "reference_mass": mass if reference else 0.0,
-            "information": information,
-        }
-        exploration = exploration_from(settings, world.urdf_text)
+        windows, object_time = record_static(world, sensor, every)
+        exploration = static_exploration(world, windows, profile, reference, information)
         use_sensor_calibration(exploration, calibrated)
-
-        def window(label: str, joints, dwell: float) -> None:
-            world.move_arm(joints, MOVE)
-            world.run(SETTLE)
-            feed(exploration, world, label, hold_still(world, sensor, dwell, every))
-
-        for name, joints in poses:
-            window(TARE_PREFIX + name, joints, TARE_DWELL)
-        grasp(world)
         if fixture:  # the reference's COM in the hand, as a fixture's drawing gives it
             com = tuple(world.object_ground_truth()[1])
             exploration.reference = replace(exploration.reference, com=com, com_sigma=5e-5)
-        start = world.time
-        for name, joints in poses:
-            window(OBJECT_PREFIX + name, joints, STATIC_PLAN.dwell)
-        object_time = world.time - start
-        exploration.add_label(round(world.time * 1e9), DONE)
         solution = exploration.solve()
         if reference:
             return {"calibrated": solution.calibration, "reason": solution.reason}
-        true_mass, true_com = world.object_ground_truth()
-
-        def errors(mass_: float, com) -> dict:
-            return {"mass": abs(mass_ - true_mass) / true_mass,
-                    "com": float(np.linalg.norm(np.asarray(com) - true_com))}  # fmt: skip
-
-        others = {
-            name: baseline_errors(fit, exploration, errors) for name, fit in BASELINES.items()
-        }
-        e = solution.estimate
-        outcome = {"status": solution.status, "reason": solution.reason, "baselines": others}
-        if e is None:
-            return {"mass": np.nan, "com": np.nan, "z": np.full(4, np.nan), "time": object_time,
-                    **outcome}  # fmt: skip
-        truth = np.concatenate([[true_mass], true_com])
-        return {
-            **errors(e.mass, e.com),
-            "z": (np.concatenate([[e.mass], e.com]) - truth) / np.sqrt(np.diag(e.cov)),
-            "time": object_time,
-            **outcome,
-        }
+        return static_outcome(world, exploration, solution) | {"time": object_time}
     finally:
         world.close()
+
+
+def record_static(world, sensor, every) -> tuple[list, float]:
+    """([(label, what ``hold_still`` recorded)] of the sequencer's default static pass
+    (see module) with ``world``'s object, read through ``sensor``; the object pass's time,
+    s)."""
+    config = world.config.robot
+    poses = Choreography.of(config, world.urdf_text).pose_joints(STATIC_PLAN)
+    windows = []
+
+    def window(label: str, joints, dwell: float) -> None:
+        world.move_arm(joints, MOVE)
+        world.run(SETTLE)
+        windows.append((label, hold_still(world, sensor, dwell, every)))
+
+    for name, joints in poses:
+        window(TARE_PREFIX + name, joints, TARE_DWELL)
+    grasp(world)
+    start = world.time
+    for name, joints in poses:
+        window(OBJECT_PREFIX + name, joints, STATIC_PLAN.dwell)
+    return windows, world.time - start
+
+
+def static_exploration(
+    world, windows, profile, reference=False, information=KINEMATICS_MOUNT, through=None
+) -> Exploration:
+    """The estimator's ``Exploration`` told ``profile``'s datasheet (as a user tells
+    theirs), fed ``record_static``'s ``windows``, each reading multiplied by ``through``
+    (6, 6) when given (another calibration matrix), and done."""
+    config = world.config.robot
+    settings = profile.datasheet() | {
+        "accuracy": profile.calibration_accuracy,
+        "sensor_frame": config.sensor_frame,
+        "reference_mass": world.config.object_mass if reference else 0.0,
+        "information": information,
+    }
+    exploration = exploration_from(settings, world.urdf_text)
+    for label, (joint_times, q, stamps, readings) in windows:
+        readings = readings if through is None else readings @ through.T
+        feed(exploration, world, label, (joint_times, q, stamps, readings))
+    exploration.add_label(round(windows[-1][1][2][-1] * 1e9), DONE)  # the last sample's
+    return exploration
+
+
+def static_outcome(world, exploration, solution) -> dict:
+    """A solved static exploration's mass and COM errors (relative; m), error / sigma
+    (mass, COM), status and reason, and the ``BASELINES``' errors on its windows."""
+    true_mass, true_com = world.object_ground_truth()
+
+    def errors(mass_: float, com) -> dict:
+        return {"mass": abs(mass_ - true_mass) / true_mass,
+                "com": float(np.linalg.norm(np.asarray(com) - true_com))}  # fmt: skip
+
+    others = {name: baseline_errors(fit, exploration, errors) for name, fit in BASELINES.items()}
+    e = solution.estimate
+    outcome = {"status": solution.status, "reason": solution.reason, "baselines": others}
+    if e is None:
+        return {"mass": np.nan, "com": np.nan, "z": np.full(4, np.nan), **outcome}
+    truth = np.concatenate([[true_mass], true_com])
+    z = (np.concatenate([[e.mass], e.com]) - truth) / np.sqrt(np.diag(e.cov))
+    return {**errors(e.mass, e.com), "z": z, **outcome}
 
 
 def at_rest(

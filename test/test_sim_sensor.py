@@ -2,7 +2,8 @@
 
 ``wrench_sim.sensor.WrenchSensor``: the true wrench through the sensor's first-order
 low-pass, the correlated noise as ``SensorModel.measure`` draws it, the calibration, a bias
-that warms up and wanders (``BiasDrift``); the seeds' earlier streams unchanged. The
+that warms up and wanders (``BiasDrift``); the seeds' earlier streams unchanged; a run
+read through a perfect calibration reads through another afterwards. The
 ``ideal`` profile reads the world's wrench as is. ``wrench_sim.physics.ArmWorld`` with
 structural modes: after a move the wrench rings at each mode's frequency and decays at
 zeta w; the ringing after the Panda's 30 deg tilt is printed. The node's refusals of the
@@ -22,7 +23,13 @@ from com_core.robot.config import read_robot_config
 from com_core.sensing.sensor_profiles import PROFILES
 from com_core.sensing.wrench_model import SensorModel, calibration_matrix, gravity_wrench
 from wrench_sim.physics import TIME_STEP, ArmWorld, SimConfig
-from wrench_sim.sensor import BiasDrift, WrenchSensor, random_streams
+from wrench_sim.sensor import (
+    BiasDrift,
+    WrenchSensor,
+    profile_calibration,
+    profile_sensor,
+    random_streams,
+)
 
 CORRELATION_TIME = 0.005  # s
 PANDA = read_robot_config("panda")
@@ -203,6 +210,31 @@ def test_a_tilt_leaves_a_ringing_that_decays_into_the_next_window(tilt, capsys):
     assert at[SETTLE][0] > 0.01  # a window's start still rings
     slowest = min(zeta * 2.0 * math.pi * hz for hz, zeta in PROFILES["realistic"].modes)
     assert at[2.0][0] < at[0.0][0] * math.exp(-slowest * 1.8)
+
+
+def test_a_run_read_through_a_perfect_calibration_reads_through_another_afterwards():
+    """bench/error_bars.py: the xArm sensor's readings (hysteresis, low-pass, noise,
+    warming bias, quantisation) with its calibration C are those of the same sensor with
+    C = I times C^T, but for the two quantisations (independent rounding errors: rms
+    step / sqrt(6), mean within 4 of its standard errors) and C's percent of the bias and
+    noise; without C^T they are its error on the load's wrench off."""
+    profile, serial = PROFILES["xarm_ft"], 7
+    t = np.arange(3000) * 1e-3
+    angle = 0.5 * np.sin(2 * np.pi * t / 3.0)
+    g = 9.81 * np.stack([np.sin(angle), np.zeros_like(angle), -np.cos(angle)], axis=1)
+    wrenches = gravity_wrench(2.0, [0.01, 0.02, 0.08], g)
+
+    def read(p) -> np.ndarray:
+        sensor = profile_sensor(p, seed=1, serial=serial)
+        return np.array([sensor.read(w, s) for w, s in zip(wrenches, t, strict=True)])
+
+    calibrated, perfect = read(profile), read(profile.with_overrides(calibration_accuracy=0.0))
+    off = calibrated - perfect @ profile_calibration(profile, serial).T
+    rounding = np.array([profile.resolution_f] * 3 + [profile.resolution_tau] * 3) / math.sqrt(6)
+    assert_allclose(np.sqrt(np.mean(off**2, axis=0)) / rounding, 1.0, atol=0.1)
+    assert np.all(np.abs(off.mean(axis=0)) < 4 * rounding / math.sqrt(len(t)))
+    uncorrected = np.sqrt(np.mean((calibrated - perfect) ** 2, axis=0))
+    assert np.max(uncorrected[:3] / rounding[:3]) > 5
 
 
 def test_the_ideal_sensor_reads_the_world_as_is():
