@@ -139,9 +139,11 @@ def _consistent_fit(
             damping *= 10.0
             continue
         trial_residual = A @ trial_pi - b
-        if trial_residual @ trial_residual < cost:
+        with np.errstate(over="ignore"):  # a step so long its cost overflows: not taken
+            trial_cost = trial_residual @ trial_residual
+        if trial_cost < cost:
             theta, damping = trial, damping * 0.3
-            if cost - trial_residual @ trial_residual < 1e-12 * max(cost, 1.0):
+            if cost - trial_cost < 1e-12 * max(cost, 1.0):
                 break
         else:
             damping *= 10.0
