@@ -2,7 +2,7 @@
 
     source ./env.sh && python bench/error_bars.py [--objects 10] [--draws 20]
         [--robot panda] [--masses 0.1,0.5,2.0] [--profile realistic] [--seed 0]
-        [--calibrate KG]
+        [--calibration-accuracy 0.03] [--without hysteresis] [--calibrate KG]
 
 A sensor's calibration error is the same in every sample it reads, so the rms of error /
 sigma over the few sensors a bench simulates (``bench/motion.py``: 30, serials 0-29, the
@@ -25,10 +25,12 @@ per case: the rms error / sigma of the mass, the COM (and the inertia in motion)
 serials' own calibrations (n = objects) and over every draw (n = objects x draws), with
 the 95th percentiles of the mass and COM errors over every draw.
 
-``--calibrate KG``: each sensor first calibrated in place under each of its draws, as
-``bench/motion.py --calibrate`` does it (a KG kg box as the reference weight, explored at
-rest once through the same serial with its own noise, solved under each C); the object's
-runs under that C are then corrected by that calibration and weigh what it left.
+``--without PART``: the profile without its hysteresis or non-linearity, in the sensor
+and in what the estimator is told. ``--calibrate KG``: each sensor first calibrated in
+place under each of its draws, as ``bench/motion.py --calibrate`` does it (a KG kg box as
+the reference weight, explored at rest once through the same serial with its own noise,
+solved under each C); the object's runs under that C are then corrected by that
+calibration and weigh what it left.
 """
 
 from __future__ import annotations
@@ -176,10 +178,17 @@ def main() -> None:
     parser.add_argument("--masses", default="0.1,0.5,2.0")
     parser.add_argument("--profile", default="realistic", choices=sorted(PROFILES))
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--calibration-accuracy", type=float,
+                        help="the profile's accuracy changed (of full scale)")  # fmt: skip
+    parser.add_argument("--without", action="append", default=[], metavar="PART",
+                        choices=("hysteresis", "nonlinearity"),
+                        help="the profile without this part, in sensor and estimator")  # fmt: skip
     parser.add_argument("--calibrate", type=float, metavar="KG", default=0.0,
                         help="calibrate each sensor in place with a KG reference")  # fmt: skip
     args = parser.parse_args()
-    profile = PROFILES[args.profile]
+    profile = PROFILES[args.profile].with_overrides(**{part: () for part in args.without})
+    if args.calibration_accuracy is not None:
+        profile = profile.with_overrides(calibration_accuracy=args.calibration_accuracy)
     if profile.calibration_accuracy <= 0:
         raise SystemExit(f"the {args.profile} profile states no calibration accuracy")
     config = read_robot_config(args.robot)
