@@ -23,7 +23,8 @@ once in motion (the empty hand, the grasp, the object; the arm's 3 s excitation)
 through) and draws - 1 more of the profile's accuracy (``calibration_matrix``). Printed
 per case: the rms error / sigma of the mass, the COM (and the inertia in motion) over the
 serials' own calibrations (n = objects) and over every draw (n = objects x draws), with
-the 95th percentiles of the mass and COM errors over every draw.
+the mean error / sigma of the mass (a bias every sensor shares) and the 95th percentiles
+of the mass and COM errors over every draw.
 
 ``--without PART``: the profile without its hysteresis or non-linearity, in the sensor
 and in what the estimator is told. ``--calibrate KG``: each sensor first calibrated in
@@ -155,7 +156,8 @@ def in_motion(config, model, excitation, shape, mass, serial, profile, matrices,
 
 
 def row(label: str, runs: list[list[np.ndarray]]) -> str:
-    """One case's line: rms z over the serials' own calibrations and over every draw."""
+    """One case's line: rms z over the serials' own calibrations and over every draw, the
+    mean z of the mass over every draw (a bias the sensors share), the errors' p95."""
     own = np.array([r[0] for r in runs if r])
     every = np.array([x for r in runs for x in r])
 
@@ -165,7 +167,8 @@ def row(label: str, runs: list[list[np.ndarray]]) -> str:
 
     return (
         f"{label:>12}  own ({len(own):3d}) {rms(own):14}  every draw ({len(every):4d}) "
-        f"{rms(every):14}  {100 * np.nanpercentile(every[:, 0], 95):6.3f}% "
+        f"{rms(every):14}  {np.nanmean(every[:, 2]):+5.2f}  "
+        f"{100 * np.nanpercentile(every[:, 0], 95):6.3f}% "
         f"{1e3 * np.nanpercentile(every[:, 1], 95):7.3f}"
     )
 
@@ -200,7 +203,8 @@ def main() -> None:
                                    seed=args.seed)  # fmt: skip
     print(
         f"{args.robot}, the {args.profile} sensor, {args.objects} objects, {args.draws} "
-        "calibrations each: rms z of mass, COM (, inertia); mass and COM p95 of every draw"
+        "calibrations each: rms z of mass, COM (, inertia); of every draw, the mass's mean z "
+        "and the mass and COM errors' p95"
     )
     serials = range(args.seed, args.seed + args.objects)
     matrices = {k: calibrations(profile, k, args.draws) for k in serials}
