@@ -62,7 +62,7 @@ from wrench_sim.physics import ArmWorld
 from wrench_sim.sensor import profile_calibration, profile_sensor
 from wrench_sim.studies import grasp, run_excitation
 
-DRAWS_SEED = 7_000  # the extra calibrations' stream: (DRAWS_SEED, serial, draw)
+DRAWS_SEED = 7_000  # the extra calibrations' stream: (DRAWS_SEED, serial)
 EVERY = 10  # joint states at 100 Hz, as bench/motion.py's default
 
 
@@ -83,15 +83,21 @@ def through(recorded: tuple, c: np.ndarray, calibration=None) -> tuple:
     return (*joints, readings if calibration is None else calibration.correct(readings))
 
 
+def perfectly_calibrated(config, shape, kg, serial, profile, noise_seed) -> tuple:
+    """(world holding the object, its sensor ``serial`` of ``profile`` but for a
+    calibration matrix I, its noise drawn from ``noise_seed``)."""
+    world = ArmWorld(SimConfig(robot=config, object_shape=shape, object_mass=kg, seed=serial))
+    perfect = profile.with_overrides(calibration_accuracy=0.0)
+    return world, profile_sensor(perfect, seed=noise_seed, serial=serial, world=world)
+
+
 def in_place(config, kg, serial, profile, matrices) -> list[SensorCalibration | None]:
     """The sensor's calibration in place under each of ``matrices`` (None where refused):
     a box of ``kg`` kg explored at rest as the reference weight (``bench/motion.py``'s
     ``--calibrate``, its noise drawn apart from the object's), recorded once."""
-    world = ArmWorld(SimConfig(robot=config, object_shape="box", object_mass=kg, seed=serial))
+    world, sensor = perfectly_calibrated(config, "box", kg, serial, profile,
+                                         serial + REFERENCE_SEEDS)  # fmt: skip
     try:
-        perfect = profile.with_overrides(calibration_accuracy=0.0)
-        sensor = profile_sensor(perfect, seed=serial + REFERENCE_SEEDS, serial=serial,
-                                world=world)  # fmt: skip
         windows, _ = record_static(world, sensor, EVERY)
         out = []
         for c in matrices:
@@ -107,10 +113,8 @@ def at_rest(config, shape, mass, serial, profile, matrices, calibrated) -> list[
     """(mass error, COM error m, z (4,)) of the static exploration under each of
     ``matrices``, with the sensor's calibration in place under it (``calibrated``, None:
     the stated accuracy); [] when the sim's gripper did not hold the object."""
-    world = ArmWorld(SimConfig(robot=config, object_shape=shape, object_mass=mass, seed=serial))
+    world, sensor = perfectly_calibrated(config, shape, mass, serial, profile, serial)
     try:
-        perfect = profile.with_overrides(calibration_accuracy=0.0)
-        sensor = profile_sensor(perfect, seed=serial, serial=serial, world=world)
         try:
             windows, _ = record_static(world, sensor, EVERY)
         except RuntimeError:  # not grasped (bench/motion.py's at_rest)
@@ -129,10 +133,8 @@ def at_rest(config, shape, mass, serial, profile, matrices, calibrated) -> list[
 def in_motion(config, model, excitation, shape, mass, serial, profile, matrices, calibrated):
     """(mass error, COM error m, z (10,)) of the motion fits under each of ``matrices``,
     the readings corrected by the calibration in place under it (``calibrated``)."""
-    world = ArmWorld(SimConfig(robot=config, object_shape=shape, object_mass=mass, seed=serial))
+    world, sensor = perfectly_calibrated(config, shape, mass, serial, profile, serial)
     try:
-        perfect = profile.with_overrides(calibration_accuracy=0.0)
-        sensor = profile_sensor(perfect, seed=serial, serial=serial, world=world)
         empty = run_excitation(world, excitation, sensor, EVERY)
         grasp(world)
         loaded = run_excitation(world, excitation, sensor, EVERY)
