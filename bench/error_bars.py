@@ -43,12 +43,14 @@ from motion import (
     REFERENCE_SEEDS,
     SHAPES,
     record_static,
+    stated_hysteresis,
     static_exploration,
     static_outcome,
     wrist_bounds,
 )
 
 from com_core.estimation.fits.motion import fit_motion, load_vector
+from com_core.estimation.runs.motion_solution import motion_calibration
 from com_core.estimation.runs.sensor_calibration import SensorCalibration
 from com_core.estimation.runs.settings import use_sensor_calibration
 from com_core.planning.excitation import DEFAULT_ACCELERATION, design_excitation
@@ -144,10 +146,10 @@ def in_motion(config, model, excitation, shape, mass, serial, profile, matrices,
         noise = profile.noise_model()
         out = []
         for c, entry in zip(matrices, calibrated, strict=True):
-            calibration = entry.calibration if entry else profile.calibration()
-            hand = fit_motion(model, *through(empty, c, calibration), noise,
-                              calibration=calibration)  # fmt: skip
-            fit = fit_motion(model, *through(loaded, c, calibration), noise, hand, calibration)
+            stated = entry.calibration if entry else profile.calibration()
+            calibration = motion_calibration(stated, stated_hysteresis(profile))
+            hand = fit_motion(model, *through(empty, c, stated), noise, calibration=calibration)
+            fit = fit_motion(model, *through(loaded, c, stated), noise, hand, calibration)
             got = fit.load_vector()
             z = (got - truth) / np.sqrt(np.diag(fit.load_cov()))
             errors = [abs(got[0] - true_mass) / true_mass, np.linalg.norm(got[1:4] - true_com)]

@@ -61,9 +61,13 @@ from com_core.estimation.fits.motion import fit_motion, load_vector
 from com_core.estimation.fits.windows import subtract_tare
 from com_core.estimation.runs.exploration import Exploration
 from com_core.estimation.runs.fit_setup import INFORMATION, KINEMATICS_MOUNT
-from com_core.estimation.runs.motion_solution import MotionResult
+from com_core.estimation.runs.motion_solution import MotionResult, motion_calibration
 from com_core.estimation.runs.sensor_calibration import SensorCalibration
-from com_core.estimation.runs.settings import exploration_from, use_sensor_calibration
+from com_core.estimation.runs.settings import (
+    exploration_from,
+    hysteresis_of,
+    use_sensor_calibration,
+)
 from com_core.planning.excitation import (
     DEFAULT_ACCELERATION,
     acceleration_bounds,
@@ -94,11 +98,12 @@ def one_object(
     try:
         sensor = profile_sensor(profile, seed=seed, serial=seed, world=world)
         noise = profile.noise_model()
-        calibration = calibrated.calibration if calibrated else profile.calibration()
+        stated = calibrated.calibration if calibrated else profile.calibration()
+        calibration = motion_calibration(stated, stated_hysteresis(profile))
 
         def excite() -> tuple:
             times, q, stamps, readings = run_excitation(world, excitation, sensor, every)
-            return times, q, stamps, calibration.correct(readings) if calibration else readings
+            return times, q, stamps, stated.correct(readings) if stated else readings
 
         hand = fit_motion(model, *excite(), noise, calibration=calibration)
         grasp(world)
@@ -126,6 +131,12 @@ def one_object(
         }
     finally:
         world.close()
+
+
+def stated_hysteresis(profile):
+    """The hysteresis a user of ``profile``'s sensor states (its datasheet's), or None."""
+    datasheet = profile.datasheet()
+    return hysteresis_of(datasheet) if datasheet else None
 
 
 STATIC_PLAN = Plan(axes=("y", "x"), dwell=0.9)  # the sequencer's default poses and dwell

@@ -156,3 +156,50 @@ def test_the_estimator_weighs_the_hysteresis_a_static_pass_leaves():
     assert np.median(blind) > 5, blind  # the hysteresis, read as a load that moved: ~12
     assert np.max(weighed) < 2.0, weighed
     assert np.all(np.abs(z) < 3.5) and np.sqrt(np.mean(np.square(z))) < 1.3, z
+
+
+def test_an_excursion_after_a_turn_reads_short_by_the_gain_deficit_the_motion_fit_weighs():
+    """From the middle of its band a small excursion of the load reads short by
+    ``Hysteresis.gain_deficit`` (b / (SATURATION r)), after a turn from near the far edge
+    by nearly twice it, and on along the near edge hardly at all; the fit in motion weighs it as
+    a further gain error per axis (``motion_calibration``), with or without a stated
+    accuracy, and no hysteresis leaves the calibration as it is."""
+    from com_core.estimation.runs.motion_solution import motion_calibration
+    from com_core.sensing.calibration import Calibration
+    from com_core.sensing.hysteresis import Hysteresis
+
+    profile = PROFILES["xarm_ft"]
+    full_scale = (150.0,) * 3 + (4.0,) * 3
+    deficit = Hysteresis(profile.hysteresis, full_scale).gain_deficit()
+    assert_allclose(deficit[:3], [0.034, 0.034, 0.0182], atol=5e-4)  # UFACTORY's bands
+    top, small = np.array(full_scale), 1e-4 * np.array(full_scale)
+
+    def excursion(g: GaugeErrors, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+        """(6,): what ``g`` reads of the load's step from ``start`` to ``end``, over the step."""
+        before = g.apply(start)
+        return (g.apply(end) - before) / (end - start)
+
+    middle = gauges(hysteresis=BAND)
+    middle.apply(np.zeros(6))
+    assert_allclose(excursion(middle, np.zeros(6), small), 1 - deficit, rtol=1e-3)
+    edge = gauges(hysteresis=BAND)
+    edge.apply(np.zeros(6))
+    edge.apply(top)  # the load rises to the range: the state to 0.86 of its edge
+    turned = excursion(edge, top, top - small)  # a turn from there
+    assert np.all((turned > 1 - 2 * deficit) & (turned < 1 - 1.8 * deficit)), turned
+    assert_allclose(excursion(edge, top - small, top - 2 * small), 1 - 1.86 * deficit,
+                    rtol=2e-3)  # fmt: skip
+    along = gauges(hysteresis=BAND)
+    for x in np.linspace(0.0, 1.0, 200):  # rising all the way: at the near edge
+        along.apply(x * top)
+    assert_allclose(excursion(along, top, top + small), 1 - 0.14 * deficit, rtol=2e-3)
+
+    stated = Calibration(0.03, 150.0, 4.0)
+    hysteresis = Hysteresis(profile.hysteresis, full_scale)
+    weighed = motion_calibration(stated, hysteresis).error_cov
+    extra = np.diag(weighed - stated.error_cov).reshape(6, 6)
+    assert_allclose(np.diag(extra), (2 * deficit) ** 2, rtol=1e-12)  # the largest deficit
+    assert_allclose(extra - np.diag(np.diag(extra)), 0.0, atol=0)
+    assert_allclose(motion_calibration(None, hysteresis).error_cov, weighed - stated.error_cov,
+                    atol=1e-18)  # fmt: skip
+    assert motion_calibration(stated, None) is stated

@@ -76,6 +76,14 @@ class Calibration:
             return self.sigma**2 * np.eye(36)
         return self.residual_cov
 
+    def with_gain_spread(self, sigma: ArrayLike) -> Calibration:
+        """This calibration with each axis's own gain (E's diagonal) off by a further
+        independent error of spread ``sigma`` (6,; a fraction): a sensor's hysteresis
+        along a motion (``sensing.hysteresis``). Its estimate, if any, is kept."""
+        extra = np.zeros(36)
+        extra[np.arange(6) * 7] = np.asarray(sigma, dtype=np.float64) ** 2
+        return replace(self, residual_cov=self.error_cov + np.diag(extra))
+
     def spread(self, gain: ArrayLike) -> NDArray[np.float64]:
         """(k, k): the covariance of k numbers that move with vec(E) by ``gain`` (k, 36)."""
         g = np.asarray(gain, dtype=np.float64)

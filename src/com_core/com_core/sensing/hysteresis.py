@@ -9,6 +9,13 @@ moves a state from the middle of its band by b_a |dx_a| / (SATURATION r_a) (at m
 b_a), toward the side the load came from; from the far edge, after the load turned, by up
 to twice that, and from the near edge not at all.
 
+Along a motion the load turns after every swing, and each excursion after a turn reads
+short by a fraction of it (``Hysteresis.gain_deficit``): a gain below one, the same sign
+on every sensor. The fit in motion weighs it as the calibration's error on each axis's
+own gain (``sensing.calibration``, ``Calibration.with_gain_spread``;
+``motion_solution.motion_calibration``), zero-mean, its spread the largest deficit,
+2 b / (``SATURATION`` r): a swing's turn leaves the state near the far edge.
+
 The estimator weighs it per static window (``Hysteresis.window_sigma``): the change of
 load since the window before it (in time) moves the state by a sigma of the middle's
 move, and the state keeps what it moved (``FitSetup._with_hysteresis`` sums the increments
@@ -63,3 +70,10 @@ class Hysteresis:
         change = np.abs(np.diff(m, axis=0, prepend=np.zeros((1, 6))))
         scale = SATURATION * np.asarray(self.full_scale, dtype=np.float64)
         return np.minimum(b * change / scale, b)
+
+    def gain_deficit(self) -> NDArray[np.float64]:
+        """(6,): how much short of the load's change a small excursion reads per axis
+        when the state starts from the middle of its band, b / (``SATURATION`` r)
+        (module; from the far edge, after a turn, up to twice it; from the near edge,
+        none): a gain below one along a motion, the same sign on every sensor."""
+        return edge(self.band) / (SATURATION * np.asarray(self.full_scale, dtype=np.float64))

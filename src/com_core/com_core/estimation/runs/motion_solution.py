@@ -44,6 +44,7 @@ from com_core.estimation.runs.hand_motion import PATH_POINTS, HandMotion
 from com_core.estimation.runs.inbox import Inbox
 from com_core.robot.model import RobotModel
 from com_core.sensing.calibration import Calibration
+from com_core.sensing.hysteresis import Hysteresis
 from com_core.sensing.noise import NoiseModel
 
 __all__ = [
@@ -56,6 +57,7 @@ __all__ = [
     "MotionResult",
     "fitted_wrenches",
     "hand_motion_of",
+    "motion_calibration",
     "solve_motion",
 ]
 
@@ -309,8 +311,9 @@ def solve_motion(
             "no noise model: no empty-hand window at rest to learn it from, and none known"
         )
     spans = motion_spans(inbox, until_ns)
+    calibration = motion_calibration(setup.calibration, setup.hysteresis)
     if MOTION_TARE in spans:
-        hand = _fit(inbox, robot, MOTION_TARE, noise, until_ns, None, setup.calibration)
+        hand = _fit(inbox, robot, MOTION_TARE, noise, until_ns, None, calibration)
     elif setup.hand_motion is not None:  # the empty hand's motion of an earlier run
         hand = setup.hand_motion
     else:
@@ -318,7 +321,7 @@ def solve_motion(
             f"no {MOTION_TARE!r} span and no empty hand's motion fit of an earlier run "
             "(hand_motion.json beside the tare cache): the object's fit needs the hand's"
         )
-    fit = _fit(inbox, robot, MOTION_OBJECT, noise, until_ns, hand, setup.calibration)
+    fit = _fit(inbox, robot, MOTION_OBJECT, noise, until_ns, hand, calibration)
     mass, com, _ = fit.load()
     load_cov = fit.load_cov()
     result = MotionResult(hand, fit, load_cov)
@@ -346,12 +349,27 @@ def solve_motion(
     if MOTION_VERIFY in spans:
         try:
             data = _motion_data(inbox, robot, MOTION_VERIFY, until_ns)
-            check = check_motion(robot, result, noise, setup.calibration, data, "motion",
+            check = check_motion(robot, result, noise, calibration, data, "motion",
                                  setup.alpha)  # fmt: skip
             checks = (check,)
         except (EstimationError, ValueError) as exc:
             notes.append(f"verification left out: {exc}")
     return estimate, consistency, result, checks
+
+
+def motion_calibration(
+    calibration: Calibration | None, hysteresis: Hysteresis | None
+) -> Calibration | None:
+    """The sensor's error a fit in motion weighs: the ``calibration`` term with, for a
+    sensor of stated ``hysteresis``, its gain deficit along the motion as a further gain
+    error per axis, zero-mean, its spread the largest deficit: twice the middle's
+    (``sensing.hysteresis``), as the excitation turns the load after every swing."""
+    if hysteresis is None:
+        return calibration
+    if calibration is None:
+        force, torque = hysteresis.full_scale[0], hysteresis.full_scale[3]
+        calibration = Calibration(0.0, force, torque)
+    return calibration.with_gain_spread(2.0 * hysteresis.gain_deficit())
 
 
 def fitted_wrenches(
