@@ -57,6 +57,7 @@ from com_core.planning.excitation import DEFAULT_ACCELERATION, design_excitation
 from com_core.robot.config import read_robot_config
 from com_core.robot.dynamics import inertial_parameters
 from com_core.robot.model import RobotModel
+from com_core.sensing.calibration import reading_correction
 from com_core.sensing.sensor_profiles import PROFILES
 from com_core.sensing.wrench_model import calibration_matrix
 from wrench_sim.config import SimConfig
@@ -77,12 +78,12 @@ def calibrations(profile, serial: int, draws: int) -> list[np.ndarray]:
     return [profile_calibration(profile, serial), *more]
 
 
-def through(recorded: tuple, c: np.ndarray, calibration=None) -> tuple:
+def through(recorded: tuple, c: np.ndarray, correction=None) -> tuple:
     """``recorded`` (joint stamps, positions, wrench stamps, readings) read through C,
-    then corrected by ``calibration`` (``sensing.calibration``; None: as read)."""
+    then by ``correction`` (6, 6; ``sensing.calibration.reading_correction``; None: as
+    read)."""
     *joints, readings = recorded
-    readings = readings @ c.T
-    return (*joints, readings if calibration is None else calibration.correct(readings))
+    return (*joints, readings @ (c.T if correction is None else c.T @ correction.T))
 
 
 def perfectly_calibrated(config, shape, kg, serial, profile, noise_seed) -> tuple:
@@ -147,9 +148,12 @@ def in_motion(config, model, excitation, shape, mass, serial, profile, matrices,
         out = []
         for c, entry in zip(matrices, calibrated, strict=True):
             stated = entry.calibration if entry else profile.calibration()
-            calibration = motion_calibration(stated, stated_hysteresis(profile))
-            hand = fit_motion(model, *through(empty, c, stated), noise, calibration=calibration)
-            fit = fit_motion(model, *through(loaded, c, stated), noise, hand, calibration)
+            hysteresis = stated_hysteresis(profile)
+            correction = reading_correction(stated, hysteresis)
+            read = [through(run, c, correction) for run in (empty, loaded)]
+            weighed = [motion_calibration(stated, hysteresis, run[3]) for run in read]
+            hand = fit_motion(model, *read[0], noise, calibration=weighed[0])
+            fit = fit_motion(model, *read[1], noise, hand, weighed[1])
             got = fit.load_vector()
             z = (got - truth) / np.sqrt(np.diag(fit.load_cov()))
             errors = [abs(got[0] - true_mass) / true_mass, np.linalg.norm(got[1:4] - true_com)]

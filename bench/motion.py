@@ -78,6 +78,7 @@ from com_core.robot.choreography import Choreography
 from com_core.robot.config import RobotConfig, read_robot_config
 from com_core.robot.dynamics import INERTIA_ELEMENTS, inertial_parameters
 from com_core.robot.model import RobotModel
+from com_core.sensing.calibration import Calibration, reading_correction
 from com_core.sensing.sensor_profiles import PROFILES
 from com_core.sensing.wrench_model import STANDARD_GRAVITY, skew
 from wrench_sim.config import SimConfig
@@ -99,17 +100,24 @@ def one_object(
         sensor = profile_sensor(profile, seed=seed, serial=seed, world=world)
         noise = profile.noise_model()
         stated = calibrated.calibration if calibrated else profile.calibration()
-        calibration = motion_calibration(stated, stated_hysteresis(profile))
+        hysteresis = stated_hysteresis(profile)
+        correction = reading_correction(stated, hysteresis)
 
         def excite() -> tuple:
             times, q, stamps, readings = run_excitation(world, excitation, sensor, every)
-            return times, q, stamps, stated.correct(readings) if stated else readings
+            if correction is not None:
+                readings = readings @ correction.T
+            return times, q, stamps, readings
 
-        hand = fit_motion(model, *excite(), noise, calibration=calibration)
+        def weighed(recorded: tuple) -> Calibration | None:
+            return motion_calibration(stated, hysteresis, recorded[3])
+
+        empty = excite()
+        hand = fit_motion(model, *empty, noise, calibration=weighed(empty))
         grasp(world)
         recorded = excite()
         start = time.perf_counter()
-        fit = fit_motion(model, *recorded, noise, hand, calibration)
+        fit = fit_motion(model, *recorded, noise, hand, weighed(recorded))
         seconds = time.perf_counter() - start
         true_mass, true_com = world.object_ground_truth()
         true_inertia = world.inertia_ground_truth()[1]

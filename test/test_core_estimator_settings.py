@@ -54,3 +54,21 @@ def test_a_runs_settings_beside_its_bag_read_back_as_written_and_refused_values_
     path.write_text("accuracy: -2.0\nmethod: ml\nno_such_setting: 1\n")
     assert read_bag_settings(path) == {"method": "ml"}
     assert read_bag_settings(tmp_path / "none.yaml") == {}
+
+
+def test_a_stated_hysteresis_takes_its_gain_off_every_sample():
+    """The samples an exploration fits are the readings divided by the gain 1 - d the
+    stated band gives each axis (``Hysteresis.gain``); with no band, as read."""
+    import numpy as np
+
+    band = [3.75, 3.75, 2.0, 0.04, 0.04, 0.04]  # the xArm F/T's
+    made = exploration_from({"hysteresis": band, "full_scale": [150.0, 4.0]})
+    plain = exploration_from({"full_scale": [150.0, 4.0]})
+    readings = np.random.default_rng(0).normal(0.0, 5.0, (4, 6))
+    for exploration in (made, plain):
+        assert exploration.add_samples([1, 2, 3, 4], readings, exploration.expected_frame) == 4
+    assert made.hysteresis is not None and plain.hysteresis is None
+    gain = made.hysteresis.gain()
+    assert np.all((gain > 0.96) & (gain < 0.99))  # 3.4 % of fx, fy; 1.8 % of fz
+    np.testing.assert_allclose(made.samples()[1], readings / gain, rtol=1e-15)
+    np.testing.assert_array_equal(plain.samples()[1], readings)

@@ -112,9 +112,9 @@ def test_the_xarm_sensor_carries_ufactorys_figures_and_its_own_hysteresis():
 def test_the_estimator_weighs_the_hysteresis_a_static_pass_leaves():
     """A static pass (a tare pass, the grasp of 1 kg, the object pass; each pose reached
     along a straight path of the load) read through the xArm F/T's hysteresis: the
-    kinematic fit told the band (``FitSetup.hysteresis``) fits its windows as the noise
-    and the hysteresis explain, where the fit without it is tens of times off; the
-    estimate stays within its error bars."""
+    kinematic fit told the band (``FitSetup.hysteresis``) fits its windows, their gain
+    taken off (``Hysteresis.gain``), as the noise and what the gain leaves explain, where
+    the fit without it is tens of times off; the estimate stays within its error bars."""
     from dataclasses import replace
 
     from com_core.estimation.fits.known_gravity import Observation, kinematic_ml
@@ -147,6 +147,8 @@ def test_the_estimator_weighs_the_hysteresis_a_static_pass_leaves():
                 obs.append(Observation(window, rotation, loaded, 0, 10.0 * len(obs)))
         e = kinematic_ml(obs).estimate
         blind.append(e.chi2 / e.dof)
+        obs = [replace(o, window=replace(o.window, mean=o.window.mean / told.hysteresis.gain()))
+               for o in obs]  # fmt: skip
         carried, cov = told._with_hysteresis(obs), told.hysteresis_cov(obs)
         e = kinematic_ml(carried, nuisance_cov=cov).estimate
         weighed.append(e.chi2 / e.dof)
@@ -155,7 +157,8 @@ def test_the_estimator_weighs_the_hysteresis_a_static_pass_leaves():
         assert replace(told, hysteresis=None).hysteresis_cov(obs) is None
     assert np.median(blind) > 5, blind  # the hysteresis, read as a load that moved: ~12
     assert np.max(weighed) < 2.0, weighed
-    assert np.all(np.abs(z) < 3.5) and np.sqrt(np.mean(np.square(z))) < 1.3, z
+    rms = np.sqrt(np.mean(np.square(z), axis=0))  # mass, COM x y z: ~1.05, 0.37, 0.94, 0.33
+    assert np.all(np.abs(z) < 3.5) and np.all(rms < 1.4) and np.sqrt(np.mean(rms**2)) < 1.1, z
 
 
 def test_an_excursion_after_a_turn_reads_short_by_the_gain_deficit_the_motion_fit_weighs():
@@ -196,10 +199,34 @@ def test_an_excursion_after_a_turn_reads_short_by_the_gain_deficit_the_motion_fi
 
     stated = Calibration(0.03, 150.0, 4.0)
     hysteresis = Hysteresis(profile.hysteresis, full_scale)
-    weighed = motion_calibration(stated, hysteresis).error_cov
+    swings = np.outer([0.0, 0.3, -0.1], full_scale)  # spans 0.4 of the range: u = 0.8
+    weighed = motion_calibration(stated, hysteresis, swings).error_cov
     extra = np.diag(weighed - stated.error_cov).reshape(6, 6)
-    assert_allclose(np.diag(extra), (2 * deficit) ** 2, rtol=1e-12)  # the largest deficit
+    assert_allclose(np.diag(extra), (0.4 * deficit) ** 2, rtol=1e-12)  # u / 2 of it
     assert_allclose(extra - np.diag(np.diag(extra)), 0.0, atol=0)
-    assert_allclose(motion_calibration(None, hysteresis).error_cov, weighed - stated.error_cov,
-                    atol=1e-18)  # fmt: skip
-    assert motion_calibration(stated, None) is stated
+    assert_allclose(motion_calibration(None, hysteresis, swings).error_cov,
+                    weighed - stated.error_cov, atol=1e-18)  # fmt: skip
+    assert motion_calibration(stated, None, swings) is stated
+    wide = motion_calibration(None, hysteresis, 3 * swings).error_cov  # u / 2 > 1: all of d
+    assert_allclose(np.sqrt(np.diag(wide)[::7]), deficit, rtol=1e-12)
+
+
+def test_readings_are_corrected_by_the_hysteresis_gain_before_the_calibration_in_place():
+    """``reading_correction``: none without a hysteresis or a calibration in place; the
+    stated hysteresis's gain 1 - d taken off each axis; with a calibration in place
+    (identified from readings so corrected) C^-1 after it."""
+    from com_core.sensing.calibration import Calibration, reading_correction
+    from com_core.sensing.hysteresis import Hysteresis
+
+    stated = Calibration(0.03, 150.0, 4.0)
+    hysteresis = Hysteresis(PROFILES["xarm_ft"].hysteresis, (150.0,) * 3 + (4.0,) * 3)
+    assert reading_correction(None, None) is None and reading_correction(stated, None) is None
+    gain = hysteresis.gain()
+    assert_allclose(reading_correction(stated, hysteresis), np.diag(1 / gain), rtol=1e-15)
+    estimate = 0.01 * np.random.default_rng(0).standard_normal((6, 6))
+    calibrated = Calibration(0.03, 150.0, 4.0, estimate=estimate)
+    load = np.array([5.0, -3.0, 20.0, 0.3, -0.2, 0.1])
+    c = np.eye(6) + calibrated.scale[:, None] * estimate / calibrated.scale[None, :]
+    read = gain * (c @ load)  # corrected by the gain alone, it reads c load: c was so identified
+    assert_allclose(reading_correction(calibrated, hysteresis) @ read, load, rtol=1e-12)
+    assert_allclose(reading_correction(calibrated, None), calibrated.correction)

@@ -122,6 +122,7 @@ from com_core.robot.dynamics import INERTIA_ELEMENTS, inertia_elements
 from com_core.robot.model import RobotModel
 from com_core.runtime.lifeline import stop_with_parent
 from com_core.runtime.rosenv import discovery_line, keep_dds_local, start_refusal, stop_on_signals
+from com_core.sensing.calibration import reading_correction
 from com_estimator.stream_qos import subscribe_adapted
 
 MAX_MESSAGE_LENGTH = 1000  # characters of a diagnostic message
@@ -379,7 +380,9 @@ class EstimatorNode(Node):
                 return
         previous = self._compensator
         calibration = self._calibration()  # the payload is of the load: read it corrected
-        correction = calibration and tuple(map(tuple, calibration.calibration.correction.tolist()))
+        matrix = reading_correction(calibration and calibration.calibration,
+                                    self._exploration.hysteresis)  # fmt: skip
+        correction = None if matrix is None else tuple(map(tuple, matrix.tolist()))
         self._compensator = Compensator(
             self._payload, self._robot, self._payload_source, self._param("max_joint_state_age"),
             correction,

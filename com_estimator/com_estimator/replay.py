@@ -117,7 +117,8 @@ from com_core.inputs import refusal, unwritable
 from com_core.planning.decisions import tare_cache_path
 from com_core.report.recording import write_recording_report
 from com_core.robot.config import BAG_ROBOT_FILE, RobotConfigError, read_robot_config
-from com_core.sensing.calibration import Calibration
+from com_core.sensing.calibration import Calibration, reading_correction
+from com_core.sensing.hysteresis import Hysteresis
 
 ROBOT_FRAMES = ("sensor_frame", "base_frame")
 """The settings a run's robot configuration gives the replay."""
@@ -348,7 +349,8 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
             lambda: recording_from_inbox(exploration, robot, str(args.bag)),
             settings,
             {"messages": n_wrench, "bag": reading.as_dict()},
-            exploration.calibration,  # the samples read through it
+            exploration.calibration,  # the samples read through it, and the gain
+            exploration.hysteresis,
         )
     if n_label:
         source = f"pose labels from the bag ({n_label})"
@@ -412,12 +414,14 @@ def replay_recording(
     settings: dict,
     extra: dict,
     calibration: Calibration | None = None,
+    hysteresis: Hysteresis | None = None,
 ) -> tuple[int, RecordingFit | None]:
     """A recording without labels fitted (``recording.fit_recording``) and printed, with
     ``--tare-recording``; ``read()`` gives the ``Recording``, ``settings`` the estimator's
     (the run's and the options'; the calibration, gravity and drift prior the fit takes).
     ``calibration``: the sensor's calibration in place the recording was read through, in
-    place of the settings' stated accuracy (the tare recording is read through it too).
+    place of the settings' stated accuracy, and ``hysteresis``, whose gain it was read with
+    (``sensing.calibration.reading_correction``; the tare recording is read so too).
     (exit code, the fit or None when the recording or its tare cannot be read)."""
     settings = defaults() | settings
     exploration = exploration_from(settings)
@@ -428,8 +432,9 @@ def replay_recording(
     except (EstimationError, ValueError, OSError) as error:
         print(f"replay: {args.bag}: {error}", file=sys.stderr)
         return 2, None
-    if tare is not None and calibration is not None:  # the same sensor's readings
-        tare = dataclasses.replace(tare, wrenches=calibration.correct(tare.wrenches))
+    correction = reading_correction(calibration, hysteresis)
+    if tare is not None and correction is not None:  # the same sensor's readings
+        tare = dataclasses.replace(tare, wrenches=tare.wrenches @ correction.T)
     fit = fit_recording(
         recording,
         tare,

@@ -9,8 +9,8 @@ v_k h) - W_k) / h. For a sample stamped t it returns
 
     w_contact = w - W(t)      (N, N m; sensor frame)
 
-(w corrected first by the sensor's calibration in place, C^-1 w, when it has one:
-``correction``, ``sensing.calibration``) with W(t) interpolated linearly between the
+(w corrected first by the sensor's hysteresis gain and calibration in place, when it has
+them: ``correction``, ``sensing.calibration``) with W(t) interpolated linearly between the
 joint states around t or, past the latest (a sample usually arrives before the joint
 state after it), W_k + dW_k (t - t_k), for at most ``max_age`` s; a sample further out
 is not compensated and is counted (``stale``): its orientation is not known. Linear in
@@ -62,8 +62,9 @@ RATE_STEP = 1e-3
 class Compensator:
     """Compensates samples with ``payload`` at the orientation ``robot`` gives for the
     latest joint states (see module); counts what it compensated and what it left out.
-    ``correction`` (6 rows of 6): the sensor's calibration in place, C^-1, each sample
-    read through it first; None: as read.
+    ``correction`` (6 rows of 6): what corrects a reading (the sensor's calibration in
+    place and its hysteresis's gain, ``sensing.calibration.reading_correction``), each
+    sample read through it first; None: as read.
 
     ``add_joint_state`` takes a sensor_msgs/JointState's content (names in any order;
     velocities optional: without them W is held past the latest state); states come in

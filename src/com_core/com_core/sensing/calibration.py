@@ -40,7 +40,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["Calibration"]
+from com_core.sensing.hysteresis import Hysteresis
+
+__all__ = ["Calibration", "reading_correction"]
 
 _STEP = 1e-3
 """Central-difference step of ``propagated``, in sigmas of each window mean."""
@@ -159,3 +161,16 @@ class Calibration:
                 columns.append((estimate_of(plus) - estimate_of(minus)) / (2 * h))
         jac = np.array(columns).T
         return jac @ self.cov(np.array([w.mean for w in windows])) @ jac.T
+
+
+def reading_correction(
+    calibration: Calibration | None, hysteresis: Hysteresis | None
+) -> NDArray[np.float64] | None:
+    """(6, 6) what corrects a reading (N, N m; readings times its transpose): the gauges'
+    gain under the stated ``hysteresis`` taken off first (``Hysteresis.gain``), then the
+    calibration in place (``Calibration.correction``), which was identified from readings
+    so corrected; None when there is neither."""
+    if hysteresis is None and (calibration is None or calibration.estimate is None):
+        return None
+    correction = np.eye(6) if calibration is None else calibration.correction
+    return correction if hysteresis is None else correction / hysteresis.gain()

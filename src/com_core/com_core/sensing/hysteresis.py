@@ -1,5 +1,5 @@
 """A strain-gauge sensor's hysteresis: the model the simulator reads through
-(``wrench_sim.gauges``) and the share of it the estimator weighs.
+(``wrench_sim.gauges``) and what of it the estimator takes off and weighs.
 
 Per axis a (N or N m) of range r_a, a state h_a moves toward -b_a while the load x_a
 rises and +b_a while it falls by the fraction 1 - exp(-|dx_a| / (``SATURATION`` r_a)) of
@@ -9,19 +9,20 @@ moves a state from the middle of its band by b_a |dx_a| / (SATURATION r_a) (at m
 b_a), toward the side the load came from; from the far edge, after the load turned, by up
 to twice that, and from the near edge not at all.
 
-Along a motion the load turns after every swing, and each excursion after a turn reads
-short by a fraction of it (``Hysteresis.gain_deficit``): a gain below one, the same sign
-on every sensor. The fit in motion weighs it as the calibration's error on each axis's
-own gain (``sensing.calibration``, ``Calibration.with_gain_spread``;
-``motion_solution.motion_calibration``), zero-mean, its spread the largest deficit,
-2 b / (``SATURATION`` r): a swing's turn leaves the state near the far edge.
-
-The estimator weighs it per static window (``Hysteresis.window_sigma``): the change of
-load since the window before it (in time) moves the state by a sigma of the middle's
-move, and the state keeps what it moved (``FitSetup._with_hysteresis`` sums the increments
-so far, a persistent nuisance). The sign follows the direction the load came from, which
-the fit's model does not carry; the sum over many changes can exceed the band, which the
-state cannot: conservative there.
+So for loads that stay well within SATURATION r_a of one another, h_a = -d_a x_a + c_a to
+first order, d_a = b_a / (SATURATION r_a) (``Hysteresis.gain_deficit``): the gauges read
+the load with a gain 1 - d_a below one, the same sign on every sensor, and c_a, set by the
+load's history, is a constant the fits' bias takes up. The estimator takes the gain off
+every reading (``gain``; ``sensing.calibration.reading_correction``) and weighs what the
+first order leaves, ``residual_share``: from the middle of the band the slope of h_a
+moves by d_a u / 2 over an excursion u = span / (SATURATION r_a), and a state off the
+middle by h moves it by d_a h / b_a, h within +-d_a span / 2 once the loads have swung
+over their span; the share min(1, u / 2) of d_a weighs either. Along a motion it is the
+spread of each axis's own gain (``motion_solution.motion_calibration``,
+``Calibration.with_gain_spread``); at rest each static window carries it as a share of
+its change of load, over the path from no load (``Hysteresis.window_sigma``), a state
+that keeps what it moved (``FitSetup._with_hysteresis`` sums the increments so far, a
+persistent nuisance).
 """
 
 from __future__ import annotations
@@ -61,19 +62,29 @@ class Hysteresis:
     band: tuple[float, ...]
     full_scale: tuple[float, ...]
 
-    def window_sigma(self, means: ArrayLike) -> NDArray[np.float64]:
-        """(n, 6): each window's sigma (N, N m) for windows whose ``means`` (n, 6) follow
-        one another in time (module); the first is taken as after a change to its load
-        from none."""
-        m = np.asarray(means, dtype=np.float64).reshape(-1, 6)
-        b = edge(self.band)
-        change = np.abs(np.diff(m, axis=0, prepend=np.zeros((1, 6))))
-        scale = SATURATION * np.asarray(self.full_scale, dtype=np.float64)
-        return np.minimum(b * change / scale, b)
-
     def gain_deficit(self) -> NDArray[np.float64]:
-        """(6,): how much short of the load's change a small excursion reads per axis
-        when the state starts from the middle of its band, b / (``SATURATION`` r)
-        (module; from the far edge, after a turn, up to twice it; from the near edge,
-        none): a gain below one along a motion, the same sign on every sensor."""
+        """(6,): d = b / (``SATURATION`` r) per axis, how much short of the load's change a
+        small excursion reads when the state starts from the middle of its band (module;
+        from the far edge, after a turn, up to twice it; from the near edge, none)."""
         return edge(self.band) / (SATURATION * np.asarray(self.full_scale, dtype=np.float64))
+
+    def gain(self) -> NDArray[np.float64]:
+        """(6,): 1 - d, the gain the gauges read a load's changes with (module)."""
+        return 1.0 - self.gain_deficit()
+
+    def residual_share(self, loads: ArrayLike) -> NDArray[np.float64]:
+        """(6,): the share of d left uncertain once the gain is taken off, for loads
+        (n, 6; N, N m) spanning what ``loads`` span: min(1, u / 2), u = span /
+        (``SATURATION`` r) (module)."""
+        x = np.asarray(loads, dtype=np.float64).reshape(-1, 6)
+        span = np.ptp(x, axis=0) if len(x) else np.zeros(6)
+        return np.minimum(span / (2.0 * SATURATION * np.asarray(self.full_scale)), 1.0)
+
+    def window_sigma(self, means: ArrayLike) -> NDArray[np.float64]:
+        """(n, 6): each window's sigma (N, N m), the ``residual_share`` of the state's move
+        d |dx| with its change of load dx over the path they span, for windows whose
+        ``means`` (n, 6) follow one another in time (module); the path starts from no load
+        (the first window's change is from none)."""
+        m = np.asarray(means, dtype=np.float64).reshape(-1, 6)
+        path = np.vstack([np.zeros((1, 6)), m])
+        return self.residual_share(path) * self.gain_deficit() * np.abs(np.diff(path, axis=0))

@@ -21,6 +21,7 @@ from com_core.estimation.runs.cutting import Segments
 from com_core.estimation.runs.fit_setup import FitSetup
 from com_core.estimation.runs.inbox import Inbox
 from com_core.estimation.runs.solution import Solution, solve
+from com_core.sensing.calibration import reading_correction
 from com_core.sensing.noise import NoiseModel
 
 __all__ = ["Exploration"]
@@ -32,12 +33,12 @@ class Exploration(Inbox, FitSetup):
     ``FitSetup`` (attributes of both; ``method`` first)."""
 
     def samples(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
-        """All kept samples (``Inbox.samples``), corrected by the sensor's calibration in
-        place when it has one (``sensing.calibration``; kept as read)."""
+        """All kept samples (``Inbox.samples``), corrected by the gain of the sensor's
+        stated hysteresis and its calibration in place, where it has them
+        (``sensing.calibration.reading_correction``; kept as read)."""
         stamps, wrenches = Inbox.samples(self)
-        if self.calibration is None:
-            return stamps, wrenches
-        return stamps, self.calibration.correct(wrenches)
+        correction = reading_correction(self.calibration, self.hysteresis)
+        return stamps, wrenches if correction is None else wrenches @ correction.T
 
     def spans(self, until_ns: int | None = None) -> dict[str, list[tuple[int, int]]]:
         """[start, stop) stamps (ns) of every tare, object and verify window, per label

@@ -25,7 +25,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from com_core.contract import MOTION_OBJECT, MOTION_TARE, MOTION_VERIFY
 from com_core.estimation.fits.errors import EstimationError
@@ -207,16 +207,17 @@ def _motion_data(
 
 def _fit(
     inbox: Inbox,
-    robot: RobotModel,
+    setup: FitSetup,
     label: str,
     noise: NoiseModel,
     until_ns: int | None,
     hand: MotionFit | None = None,
-    calibration: Calibration | None = None,
 ) -> MotionFit:
+    assert setup.robot is not None
+    data = _motion_data(inbox, setup.robot, label, until_ns)
+    calibration = motion_calibration(setup.calibration, setup.hysteresis, data[3])
     try:
-        return fit_motion(robot, *_motion_data(inbox, robot, label, until_ns), noise, hand,
-                          calibration)  # fmt: skip
+        return fit_motion(setup.robot, *data, noise, hand, calibration)
     except ValueError as exc:
         raise EstimationError(f"{label}: {exc}") from exc
 
@@ -311,9 +312,8 @@ def solve_motion(
             "no noise model: no empty-hand window at rest to learn it from, and none known"
         )
     spans = motion_spans(inbox, until_ns)
-    calibration = motion_calibration(setup.calibration, setup.hysteresis)
     if MOTION_TARE in spans:
-        hand = _fit(inbox, robot, MOTION_TARE, noise, until_ns, None, calibration)
+        hand = _fit(inbox, setup, MOTION_TARE, noise, until_ns)
     elif setup.hand_motion is not None:  # the empty hand's motion of an earlier run
         hand = setup.hand_motion
     else:
@@ -321,7 +321,7 @@ def solve_motion(
             f"no {MOTION_TARE!r} span and no empty hand's motion fit of an earlier run "
             "(hand_motion.json beside the tare cache): the object's fit needs the hand's"
         )
-    fit = _fit(inbox, robot, MOTION_OBJECT, noise, until_ns, hand, calibration)
+    fit = _fit(inbox, setup, MOTION_OBJECT, noise, until_ns, hand)
     mass, com, _ = fit.load()
     load_cov = fit.load_cov()
     result = MotionResult(hand, fit, load_cov)
@@ -349,6 +349,7 @@ def solve_motion(
     if MOTION_VERIFY in spans:
         try:
             data = _motion_data(inbox, robot, MOTION_VERIFY, until_ns)
+            calibration = motion_calibration(setup.calibration, setup.hysteresis, data[3])
             check = check_motion(robot, result, noise, calibration, data, "motion",
                                  setup.alpha)  # fmt: skip
             checks = (check,)
@@ -358,18 +359,20 @@ def solve_motion(
 
 
 def motion_calibration(
-    calibration: Calibration | None, hysteresis: Hysteresis | None
+    calibration: Calibration | None, hysteresis: Hysteresis | None, wrenches: ArrayLike
 ) -> Calibration | None:
-    """The sensor's error a fit in motion weighs: the ``calibration`` term with, for a
-    sensor of stated ``hysteresis``, its gain deficit along the motion as a further gain
-    error per axis, zero-mean, its spread the largest deficit: twice the middle's
-    (``sensing.hysteresis``), as the excitation turns the load after every swing."""
+    """The sensor's error a fit in motion of ``wrenches`` (n, 6; N, N m) weighs: the
+    ``calibration`` term with, for a sensor of stated ``hysteresis``, what is left of its
+    gain deficit once taken off the readings as a further gain error per axis, zero-mean,
+    its spread the share of the deficit the motion's span leaves
+    (``Hysteresis.residual_share``)."""
     if hysteresis is None:
         return calibration
     if calibration is None:
         force, torque = hysteresis.full_scale[0], hysteresis.full_scale[3]
         calibration = Calibration(0.0, force, torque)
-    return calibration.with_gain_spread(2.0 * hysteresis.gain_deficit())
+    share = hysteresis.residual_share(wrenches)
+    return calibration.with_gain_spread(share * hysteresis.gain_deficit())
 
 
 def fitted_wrenches(

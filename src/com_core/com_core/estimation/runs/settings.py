@@ -109,9 +109,9 @@ SETTINGS = table_of([
           "(weighs the calibration's cross-talk)", kind="floats", unit="N, N m", low=1e-3,
           high=1e6, lengths=(2,)),
     Input("hysteresis", [0.0] * 6, "the sensor's hysteresis band per axis (fx fy fz tx ty "
-          "tz: a datasheet's % of full scale times the axis's range): each static window "
-          "weighs what its load's change leaves, a motion the gain it takes off "
-          "(com_core.sensing.hysteresis); zeros: none",
+          "tz: a datasheet's % of full scale times the axis's range): the gain below one "
+          "it reads load changes with is taken off every reading, and the fits weigh what "
+          "is left (com_core.sensing.hysteresis); zeros: none",
           kind="floats", unit="N, N m", low=0.0, high=1e6, lengths=(6,)),
     Input("limit_f", 0.0, "sensor force range (0: no saturation check)", unit="N", low=0.0,
           high=1e6),
