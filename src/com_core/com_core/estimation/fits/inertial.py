@@ -138,8 +138,8 @@ def _consistent_fit(
         if not np.all(np.isfinite(trial_pi)):  # a step too long for the exponentials
             damping *= 10.0
             continue
-        trial_residual = A @ trial_pi - b
-        with np.errstate(over="ignore"):  # a step so long its cost overflows: not taken
+        with np.errstate(over="ignore", invalid="ignore"):  # a step so long it overflows:
+            trial_residual = A @ trial_pi - b  # not taken
             trial_cost = trial_residual @ trial_residual
         if trial_cost < cost:
             theta, damping = trial, damping * 0.3
