@@ -256,7 +256,7 @@ def check_motion(
     every = max(len(times) // _DRAW_SAMPLES, 1)
     Y = along[::every]
     rng = np.random.default_rng(0)
-    widened = fit.bound * max(1.0, fit.chi2 / fit.dof)
+    widened = fit.bound * fit.widening
     shift = rng.multivariate_normal(np.zeros(10), widened, _DRAWS, method="eigh")
     errors = np.einsum("nai,di->dna", Y, shift)
     if calibration is not None:
