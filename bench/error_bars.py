@@ -43,7 +43,6 @@ from motion import (
     REFERENCE_SEEDS,
     SHAPES,
     record_static,
-    stated_hysteresis,
     static_exploration,
     static_outcome,
     wrist_bounds,
@@ -148,7 +147,7 @@ def in_motion(config, model, excitation, shape, mass, serial, profile, matrices,
         out = []
         for c, entry in zip(matrices, calibrated, strict=True):
             stated = entry.calibration if entry else profile.calibration()
-            hysteresis = stated_hysteresis(profile)
+            hysteresis = profile.stated_hysteresis()
             correction = reading_correction(stated, hysteresis)
             read = [through(run, c, correction) for run in (empty, loaded)]
             weighed = [motion_calibration(stated, hysteresis, run[3]) for run in read]

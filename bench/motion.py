@@ -65,7 +65,6 @@ from com_core.estimation.runs.motion_solution import MotionResult, motion_calibr
 from com_core.estimation.runs.sensor_calibration import SensorCalibration
 from com_core.estimation.runs.settings import (
     exploration_from,
-    hysteresis_of,
     use_sensor_calibration,
 )
 from com_core.planning.excitation import (
@@ -100,7 +99,7 @@ def one_object(
         sensor = profile_sensor(profile, seed=seed, serial=seed, world=world)
         noise = profile.noise_model()
         stated = calibrated.calibration if calibrated else profile.calibration()
-        hysteresis = stated_hysteresis(profile)
+        hysteresis = profile.stated_hysteresis()
         correction = reading_correction(stated, hysteresis)
 
         def excite() -> tuple:
@@ -139,12 +138,6 @@ def one_object(
         }
     finally:
         world.close()
-
-
-def stated_hysteresis(profile):
-    """The hysteresis a user of ``profile``'s sensor states (its datasheet's), or None."""
-    datasheet = profile.datasheet()
-    return hysteresis_of(datasheet) if datasheet else None
 
 
 STATIC_PLAN = Plan(axes=("y", "x"), dwell=0.9)  # the sequencer's default poses and dwell

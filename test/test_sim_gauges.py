@@ -149,11 +149,11 @@ def test_the_estimator_weighs_the_hysteresis_a_static_pass_leaves():
         blind.append(e.chi2 / e.dof)
         obs = [replace(o, window=replace(o.window, mean=o.window.mean / told.hysteresis.gain()))
                for o in obs]  # fmt: skip
-        carried, cov = told._with_hysteresis(obs), told.hysteresis_cov(obs)
+        carried, cov = told.with_hysteresis(obs), told.hysteresis_cov(obs)
         e = kinematic_ml(carried, nuisance_cov=cov).estimate
         weighed.append(e.chi2 / e.dof)
         z.append((np.r_[e.mass, e.com] - np.r_[load[0], load[1]]) / np.sqrt(np.diag(e.cov)))
-        assert replace(told, hysteresis=None)._with_hysteresis(obs) == obs
+        assert replace(told, hysteresis=None).with_hysteresis(obs) == obs
         assert replace(told, hysteresis=None).hysteresis_cov(obs) is None
     assert np.median(blind) > 5, blind  # the hysteresis, read as a load that moved: ~12
     assert np.max(weighed) < 2.0, weighed

@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 
 from com_core.estimation.fits.known_gravity import BIAS_DRIFT_RATE
 from com_core.sensing.calibration import Calibration
+from com_core.sensing.hysteresis import Hysteresis
 from com_core.sensing.noise import COV_FLOOR, NoiseModel, white_noise
 from com_core.sensing.wrench_model import SensorModel, as_vector, rotation_about
 
@@ -50,6 +51,8 @@ class Plan:
         None: white at ``sensor``'s sigma.
     calibration : the sensor's stated accuracy (``com_core.sensing.calibration``): the kinematic
         fit's prediction holds its systematic share, a floor no dwell lowers.
+    hysteresis : the sensor's stated hysteresis (``com_core.sensing.hysteresis``): the
+        kinematic fit's prediction holds what its gain leaves; None: none.
     mass_guess : kg. com_guess : shape (3,); m; sensor frame.
     gravity_home : shape (3,); gravity direction at home in the sensor frame (measure it
         from the tare's force; the paper's top grasp is (0, 0, -1)).
@@ -78,6 +81,7 @@ class Plan:
     hand_com_guess: tuple[float, float, float] = (0.0, 0.0, 0.04)
     noise: NoiseModel | None = None
     calibration: Calibration | None = None
+    hysteresis: Hysteresis | None = None
 
     def __post_init__(self) -> None:
         if not 0.0 < self.tilt < math.pi / 2:

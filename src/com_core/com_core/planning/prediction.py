@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 from com_core.estimation.fits.estimators import crlb, two_pose
 from com_core.estimation.fits.known_gravity import Observation, kinematic_ml
 from com_core.estimation.fits.windows import Window
+from com_core.estimation.runs.fit_setup import FitSetup
 from com_core.planning.planner import HOME, Plan
 from com_core.robot.model import DEFAULT_GRAVITY
 from com_core.sensing.wrench_model import (
@@ -181,11 +182,12 @@ def _kinematic_cov(plan: Plan, fit_mount: bool) -> NDArray[np.float64]:
     """The CRLB (4, 4) of (m, p) of the kinematic fit for a run of ``plan``
     (``plan_observations``), its bias drifting at up to ``bias_drift_rate``: the fit's
     covariance at noise-free windows of the guesses is its CRLB."""
-    observations = plan_observations(plan)
+    told = FitSetup(hysteresis=plan.hysteresis)  # what its gain leaves, as the fit weighs it
+    observations = told.with_hysteresis(plan_observations(plan))
     rate = None if all(o.load for o in observations) else plan.bias_drift_rate
-    return kinematic_ml(
-        observations, DEFAULT_GRAVITY, fit_mount, rate, calibration=plan.calibration
-    ).estimate.cov
+    return kinematic_ml(observations, DEFAULT_GRAVITY, fit_mount, rate,
+                        calibration=plan.calibration,
+                        nuisance_cov=told.hysteresis_cov(observations)).estimate.cov  # fmt: skip
 
 
 def _check_method(method: str) -> None:

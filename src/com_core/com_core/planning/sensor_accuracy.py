@@ -15,7 +15,9 @@ place: the calibration a reference of ``--reference`` kg through the same poses 
 (``predicted_calibration``), found from the poses alone (what is left of the error
 depends on the design, not on the readings).
 
-The prediction is linear: a profile's hysteresis and non-linearity are not in it, nor
+The prediction holds what a profile's stated hysteresis leaves once its gain is taken
+off (``sensing.hysteresis``), as the fits weigh it. It is linear: a profile's
+non-linearity is not in it, nor
 the arm model's error of a wrench estimated from the joint torques (the table says which
 profiles have them), nor is a motion's (``bench/motion.py`` measures those).
 """
@@ -30,6 +32,7 @@ import numpy as np
 
 from com_core.estimation.fits.in_place import calibrate_in_place
 from com_core.estimation.fits.known_gravity import Reference
+from com_core.estimation.runs.fit_setup import FitSetup
 from com_core.estimation.runs.settings import REFERENCE_MASS_SHARE
 from com_core.planning.planner import Plan
 from com_core.planning.prediction import plan_observations, predict
@@ -52,7 +55,8 @@ def default_pass(profile: SensorProfile, mass: float) -> Plan:
     sensor = SensorModel.from_scalars(max(profile.sigma_f, 1e-6), max(profile.sigma_tau, 1e-7))
     return Plan(axes=("y", "x"), dwell=0.9, tare_dwell=5.0, sensor=sensor, mass_guess=mass,
                 com_guess=(0.0, 0.0, 0.1), noise=profile.noise_model(),
-                calibration=profile.calibration())  # fmt: skip
+                calibration=profile.calibration(),
+                hysteresis=profile.stated_hysteresis())  # fmt: skip
 
 
 def predicted_calibration(plan: Plan, reference_mass: float) -> Calibration | None:
@@ -62,10 +66,11 @@ def predicted_calibration(plan: Plan, reference_mass: float) -> Calibration | No
     stated = plan.calibration
     if stated is None:
         return None
-    session = plan_observations(replace(plan, mass_guess=reference_mass))
-    result, _ = calibrate_in_place(
-        session, Reference(reference_mass, REFERENCE_MASS_SHARE * reference_mass), stated
-    )
+    told = FitSetup(hysteresis=plan.hysteresis)  # what its gain leaves, as the fit weighs it
+    session = told.with_hysteresis(plan_observations(replace(plan, mass_guess=reference_mass)))
+    reference = Reference(reference_mass, REFERENCE_MASS_SHARE * reference_mass)
+    result, _ = calibrate_in_place(session, reference, stated,
+                                   nuisance_cov=told.hysteresis_cov(session))  # fmt: skip
     return replace(stated, residual_cov=result.calibration.residual_cov)
 
 
@@ -138,8 +143,7 @@ def main(argv: list[str] | None = None) -> int:
         plan = default_pass(profile, args.reference)
         lightest = lightest_mass(profile, profile.calibration())
         calibrated = lightest_mass(profile, predicted_calibration(plan, args.reference))
-        left_out = " (its hysteresis and non-linearity are not in these)" if (
-            profile.hysteresis or profile.nonlinearity) else ""  # fmt: skip
+        left_out = " (its non-linearity is not in these)" if profile.nonlinearity else ""
         if profile.joint_torque_estimate:
             left_out = (" (its arm model's error is not in these: the default fit refuses it "
                         "at rest, bench/README.md, Named sensors)")  # fmt: skip

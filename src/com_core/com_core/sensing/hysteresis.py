@@ -21,7 +21,7 @@ over their span; the share min(1, u / 2) of d_a weighs either. Along a motion it
 spread of each axis's own gain (``motion_solution.motion_calibration``,
 ``Calibration.with_gain_spread``); at rest each static window carries it as a share of
 its change of load, over the path from no load (``Hysteresis.window_sigma``), a state
-that keeps what it moved (``FitSetup._with_hysteresis`` sums the increments so far, a
+that keeps what it moved (``FitSetup.with_hysteresis`` sums the increments so far, a
 persistent nuisance).
 """
 

@@ -83,6 +83,7 @@ import yaml
 
 from com_core.inputs import refusal
 from com_core.sensing.calibration import Calibration
+from com_core.sensing.hysteresis import Hysteresis
 from com_core.sensing.noise import NoiseModel, ar1_noise
 
 __all__ = ["DEFAULT_PROFILE", "PROFILES", "SensorProfile", "file_profile"]
@@ -199,6 +200,14 @@ class SensorProfile:
         if self.calibration_accuracy <= 0:
             return None
         return Calibration(self.calibration_accuracy, self.limit_f, self.limit_tau)
+
+    def stated_hysteresis(self) -> Hysteresis | None:
+        """The hysteresis a user of this sensor states (its datasheet's band over its
+        ranges; ``sensing.hysteresis``), None without a band or a stated accuracy (as
+        ``datasheet``)."""
+        if self.calibration_accuracy <= 0 or not any(self.hysteresis):
+            return None
+        return Hysteresis(tuple(self.hysteresis), (self.limit_f,) * 3 + (self.limit_tau,) * 3)
 
     def datasheet(self) -> dict[str, object]:
         """What a user tells the estimator of this sensor from its datasheet (its settings

@@ -320,9 +320,9 @@ class FitSetup:
             loads = subtracted
         for window in loads:
             add(window, OBJECT_PREFIX + window.pose, True, 0)
-        return self._with_hysteresis(observations)
+        return self.with_hysteresis(observations)
 
-    def _with_hysteresis(self, observations: list[Observation]) -> list[Observation]:
+    def with_hysteresis(self, observations: list[Observation]) -> list[Observation]:
         """``observations`` with the sensor's hysteresis as a nuisance each window carries
         (``Observation.nuisance``): the state's increment at every change of load up to
         it in its epoch (each epoch's windows in time order), which persists, of the
@@ -339,7 +339,7 @@ class FitSetup:
         return out
 
     def hysteresis_cov(self, observations: Sequence[Observation]) -> NDArray[np.float64] | None:
-        """(6n, 6n): the covariance of the hysteresis increments ``_with_hysteresis``
+        """(6n, 6n): the covariance of the hysteresis increments ``with_hysteresis``
         gives ``observations``; None without a hysteresis."""
         if self.hysteresis is None:
             return None
