@@ -105,6 +105,20 @@ def test_more_cycles_divide_the_noises_share_and_leave_the_calibrations(panda):
             assert np.all(one.fixed > 0.05 * one.sigma_moments**2), (one.fixed, one.sigma_moments)
 
 
+def test_the_prediction_holds_what_a_stated_hysteresis_leaves_and_more_cycles_keep_it(panda):
+    """The xArm F/T's stated hysteresis, its gain taken off: what it leaves widens the
+    predicted sigmas as the estimator weighs it (``motion_calibration`` of the motion's
+    wrenches), a gain error the same at every pass, so more cycles leave it too."""
+    model, excitation, hand, box = panda
+    profile = PROFILES["xarm_ft"]
+    noise, hysteresis = profile.noise_model(), profile.stated_hysteresis()
+    told = predict_motion(model, excitation, hand, box, noise, None, hysteresis)
+    untold = predict_motion(model, excitation, hand, box, noise, None)
+    assert told.sigma_mass > 1.1 * untold.sigma_mass, (told.sigma_mass, untold.sigma_mass)  # 1.24
+    np.testing.assert_allclose(untold.fixed, 0.0, atol=1e-6 * untold.sigma_moments.max() ** 2)
+    assert np.all(told.fixed > 0.0) and np.all(told.sigma_moments >= untold.sigma_moments)
+
+
 def test_the_cycles_a_target_needs_or_that_none_reach_it():
     """The fewest cycles that bring every moment's sigma within the target; none when the
     share more cycles leave exceeds it, or when more than MAX_CYCLES would be needed."""

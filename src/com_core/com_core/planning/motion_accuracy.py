@@ -10,8 +10,9 @@ The prediction (``predict_motion``) is the estimator's own fit (``fits.motion.fi
 the empty hand's, then the object's with the hand taken off) of the wrench the loads would
 give along the excitation, read without noise at 1 kHz with joint states at 100 Hz: its
 covariance is the bound of the sensor's noise model plus the calibration's share (the
-stated accuracy, or what a calibration in place left), which depend on the design and on
-the loads' wrench, not on the noise drawn. The object is a guess (``guessed_load``): a
+stated accuracy, or what a calibration in place left) and what a stated hysteresis leaves
+(``sensing.hysteresis``), which depend on the design and on the loads' wrench, not on the
+noise drawn. The object is a guess (``guessed_load``): a
 solid box of its mass and a density, its COM where the grasp holds it. Two equal
 principal moments have no axes of their own, and each one's sigma then depends on the
 axes chosen: the guess should have three distinct ones (the box's edges are 2:3:4).
@@ -47,10 +48,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from com_core.estimation.fits.motion import MotionFit, fit_motion, principal_moments
+from com_core.estimation.runs.motion_solution import motion_calibration
 from com_core.planning.excitation import Excitation, acceleration_bounds
 from com_core.robot.dynamics import inertial_parameters, sensor_regressors
 from com_core.robot.model import RobotModel
 from com_core.sensing.calibration import Calibration
+from com_core.sensing.hysteresis import Hysteresis
 from com_core.sensing.noise import NoiseModel
 
 __all__ = ["DENSITY_GUESS", "MAX_CYCLES", "PERIODS", "MotionAccuracy", "box_inertia",
@@ -133,19 +136,23 @@ def predict_fit(
     load: NDArray[np.float64],
     noise: NoiseModel,
     calibration: Calibration | None,
+    hysteresis: Hysteresis | None = None,
 ) -> MotionFit:
     """The object's fit (see module) along ``excitation`` (its ``cycles``; the empty
     hand's along as many) with the ``hand``'s and the object's (``load``) inertial
-    parameters (10,; sensor frame, ``robot.dynamics``), the sensor's ``noise`` model and
-    ``calibration``: its ``load_cov()`` is the prediction."""
+    parameters (10,; sensor frame, ``robot.dynamics``), the sensor's ``noise`` model,
+    ``calibration`` and stated ``hysteresis`` (what its gain leaves, as the estimator
+    weighs it: ``motion_solution.motion_calibration``): its ``load_cov()`` is the
+    prediction."""
 
     def fit(ex: Excitation, pi: NDArray[np.float64], under: MotionFit | None) -> MotionFit:
         joint_times = np.arange(-_REST, ex.duration + _REST, 1.0 / JOINT_RATE)
         positions = ex.at(np.clip(joint_times, 0.0, ex.duration))[0]
         times = np.arange(0.0, ex.duration, 1.0 / SENSOR_RATE)
         wrenches = sensor_regressors(robot, *ex.at(times)) @ pi
+        weighed = motion_calibration(calibration, hysteresis, wrenches)
         return fit_motion(robot, joint_times, positions, times, wrenches, noise, under,
-                          calibration)  # fmt: skip
+                          weighed)  # fmt: skip
 
     return fit(excitation, hand + load, fit(excitation, hand, None))
 
@@ -157,11 +164,12 @@ def predict_motion(
     load: NDArray[np.float64],
     noise: NoiseModel,
     calibration: Calibration | None,
+    hysteresis: Hysteresis | None = None,
 ) -> MotionAccuracy:
     """The object's predicted sigmas over ``excitation`` (``predict_fit``), and the part
-    of the moments' variance more cycles leave: the calibration's, what the same fit
-    without it lacks (the noise's share goes as 1 / cycles)."""
-    one = predict_fit(robot, excitation, hand, load, noise, calibration)
+    of the moments' variance more cycles leave: the calibration's and the hysteresis's,
+    what the same fit without them lacks (the noise's share goes as 1 / cycles)."""
+    one = predict_fit(robot, excitation, hand, load, noise, calibration, hysteresis)
     bare = predict_fit(robot, excitation, hand, load, noise, None)
     _, _, inertia = one.load()
     moments, sigma = principal_moments(inertia, one.load_cov()[4:, 4:])
@@ -253,7 +261,8 @@ def main(argv: list[str] | None = None) -> int:
         load = guessed_load(mass, com, args.density)
         for name, calibration in calibrations.items():
             predicted = [predict_motion(robot, excitation, motion.hand, load,
-                                        profile.noise_model(), calibration)
+                                        profile.noise_model(), calibration,
+                                        profile.stated_hysteresis())
                          for excitation in designs]  # fmt: skip
             a = predicted[0]  # the motion asked for
             cycles = cycles_for(a, args.target)
