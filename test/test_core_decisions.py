@@ -184,6 +184,21 @@ def test_the_estimators_drift_rate_and_calibration_enter_the_plan():
     assert planned.plan.calibration is calibration
     default = plan_within_reach(SETTINGS, PANDA, NOISE, None, ())
     assert default.plan.bias_drift_rate != (1e-3, 1e-4) and default.plan.calibration is None
+    assert default.plan.hysteresis is None
+
+
+def test_the_estimators_hysteresis_enters_the_plan_and_widens_its_prediction():
+    """The estimator's stated band (the xArm F/T's): the kinematic prediction weighs what
+    its gain leaves, as the fit does (``FitSetup.with_hysteresis``)."""
+    from com_core.estimation.runs.settings import hysteresis_of
+
+    hysteresis = hysteresis_of({"hysteresis": [3.75, 3.75, 2.0, 0.04, 0.04, 0.04],
+                                "full_scale": [150.0, 4.0]})  # fmt: skip
+    planned = plan_within_reach(settings(mass_guess=2.0), PANDA, NOISE, None, (), hysteresis)
+    assert planned.plan.hysteresis is hysteresis
+    told = predict(planned.plan, "ml", "kinematics")
+    untold = predict(replace(planned.plan, hysteresis=None), "ml", "kinematics")
+    assert told.sigma_mass > 3 * untold.sigma_mass, (told.sigma_mass, untold.sigma_mass)  # ~6.8
 
 
 def test_without_a_target_the_plan_is_the_reachable_one():

@@ -39,6 +39,7 @@ from com_core.planning.prediction import Prediction, predict
 from com_core.planning.search import within_max_tilt
 from com_core.robot.choreography import Choreography, PoseUnreachable
 from com_core.sensing.calibration import Calibration
+from com_core.sensing.hysteresis import Hysteresis
 from com_core.sensing.noise import NoiseModel, ar1_noise
 from com_core.sensing.wrench_model import STANDARD_GRAVITY, SensorModel
 
@@ -241,13 +242,15 @@ def plan_within_reach(
     noise: NoiseModel,
     calibration: Calibration | None = None,
     bias_drift_rate: Sequence[float] = (),
+    hysteresis: Hysteresis | None = None,
 ) -> PlannedRun:
     """The plan of ``settings`` within ``max_tilt`` and the arm's reach (a pose no joint
     solution reaches is refused and the tilt lowered to the largest the arm reaches),
-    with the estimator's ``calibration`` and ``bias_drift_rate`` (N/s, N m/s; used when
-    it has both) and its move time the longest move of the pass. PlanInfeasible when a
-    pose is out of reach at any tilt."""
-    plan = replace(requested_plan(settings, motion, noise), calibration=calibration)
+    with the estimator's ``calibration``, ``bias_drift_rate`` (N/s, N m/s; used when it
+    has both) and ``hysteresis``, and its move time the longest move of the pass.
+    PlanInfeasible when a pose is out of reach at any tilt."""
+    plan = replace(requested_plan(settings, motion, noise), calibration=calibration,
+                   hysteresis=hysteresis)  # fmt: skip
     if len(bias_drift_rate) == 2:  # the estimator's (kinematic information)
         plan = replace(plan, bias_drift_rate=tuple(bias_drift_rate))
     plan, lowered = within_max_tilt(plan, settings.max_tilt)

@@ -71,7 +71,12 @@ from com_core.estimation.runs.sensor_calibration import (
     kept_calibration,
     save_calibration,
 )
-from com_core.estimation.runs.settings import BAG_SETTINGS_FILE, SETTINGS, write_bag_settings
+from com_core.estimation.runs.settings import (
+    BAG_SETTINGS_FILE,
+    SETTINGS,
+    hysteresis_of,
+    write_bag_settings,
+)
 from com_core.estimation.runs.solution import noise_line, vector_value, verification_lines
 from com_core.estimation.runs.tare_cache import (
     BAG_TARE_FILE,
@@ -133,6 +138,7 @@ from com_core.report import RunData, read_run, write_report
 from com_core.robot.choreography import VERIFY_POSE, Choreography
 from com_core.robot.config import BAG_ROBOT_FILE, RobotConfig, write_robot_config
 from com_core.sensing.calibration import Calibration
+from com_core.sensing.hysteresis import Hysteresis
 from com_core.sensing.noise import NoiseModel
 from com_core.sequencing.errors import (
     CancelledRunError,
@@ -401,8 +407,9 @@ class ExplorationRun:
         settings = RunSettings.from_parameters(self.p)
         noise, source = self._planning_noise(settings)
         plan, poses, prediction = self._planned(
-            settings, noise, method, information, drift_rate, motion, calibration
-        )
+            settings, noise, method, information, drift_rate, motion, calibration,
+            hysteresis_of(values),
+        )  # fmt: skip
         log.info(f"planned for the sensor's {noise.summary()} ({source})")
         log.info(
             f"run {run_id}: {config.robot}, poses {[n for n, _ in poses]}, "
@@ -462,12 +469,14 @@ class ExplorationRun:
         bias_drift_rate: tuple[float, ...],
         motion: Choreography,
         calibration: Calibration | None = None,
+        hysteresis: Hysteresis | None = None,
     ) -> tuple[Plan, Poses, Prediction]:
         """The plan of ``settings``, the joints of its poses and its prediction
         (``plan_within_reach``, ``predicted_run``), each pose refused and each change
         logged. RunError when no plan is feasible (the reason says what would be)."""
         try:
-            planned = plan_within_reach(settings, motion, noise, calibration, bias_drift_rate)
+            planned = plan_within_reach(settings, motion, noise, calibration, bias_drift_rate,
+                                        hysteresis)  # fmt: skip
             for refusal in planned.refusals:
                 self.log.warning(f"refused before moving: {refusal}")
             planned, prediction = predicted_run(planned, settings, motion, method, information)
@@ -716,8 +725,9 @@ class ExplorationRun:
         noise, source = self._planning_noise(run_settings)
         calibration = self._planning_calibration(settings)
         designs = [self._excitation(motion, p, b) for p, b in candidates]
-        predicted = [predict_motion(motion.robot, ex, motion.hand, load, noise, calibration)
-                     for ex in designs]  # fmt: skip
+        hysteresis = hysteresis_of(settings)
+        predicted = [predict_motion(motion.robot, ex, motion.hand, load, noise, calibration,
+                                    hysteresis) for ex in designs]  # fmt: skip
         best = fastest(list(zip(designs, predicted, strict=True)), target)
         if best is None:
             reach = min(max(a.sigma_moments_over(MAX_CYCLES) / a.moments) for a in predicted)
