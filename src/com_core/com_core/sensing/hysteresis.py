@@ -14,15 +14,17 @@ first order, d_a = b_a / (SATURATION r_a) (``Hysteresis.gain_deficit``): the gau
 the load with a gain 1 - d_a below one, the same sign on every sensor, and c_a, set by the
 load's history, is a constant the fits' bias takes up. The estimator takes the gain off
 every reading (``gain``; ``sensing.calibration.reading_correction``) and weighs what the
-first order leaves, ``residual_share``: from the middle of the band the slope of h_a
-moves by d_a u / 2 over an excursion u = span / (SATURATION r_a), and a state off the
-middle by h moves it by d_a h / b_a, h within +-d_a span / 2 once the loads have swung
-over their span; the share min(1, u / 2) of d_a weighs either. Along a motion it is the
-spread of each axis's own gain (``motion_solution.motion_calibration``,
-``Calibration.with_gain_spread``); at rest each static window carries it as a share of
-its change of load, over the path from no load (``Hysteresis.window_sigma``), a state
-that keeps what it moved (``FitSetup.with_hysteresis`` sums the increments so far, a
-persistent nuisance).
+first order leaves. Along a motion, ``residual_share``: from the middle of the band the
+slope of h_a moves by d_a u / 2 over an excursion u = span / (SATURATION r_a), and a
+state off the middle by h moves it by d_a h / b_a, h within +-d_a span / 2 once the loads
+have swung over their span; the share min(1, u / 2) of d_a weighs either, as a spread of
+each axis's own gain (``motion_solution.motion_calibration``,
+``Calibration.with_gain_spread``). At rest the path between two windows is the arm's
+move, whose transients turn the load on the way (an acceleration, the grasp's lift), and
+a turn moves the state from the middle by up to twice the first order's: each static
+window carries the state's whole move with its change of load (``Hysteresis.window_sigma``)
+about the gain's, a state that keeps what it moved (``FitSetup.with_hysteresis`` sums the
+increments so far, a persistent nuisance).
 """
 
 from __future__ import annotations
@@ -81,10 +83,9 @@ class Hysteresis:
         return np.minimum(span / (2.0 * SATURATION * np.asarray(self.full_scale)), 1.0)
 
     def window_sigma(self, means: ArrayLike) -> NDArray[np.float64]:
-        """(n, 6): each window's sigma (N, N m), the ``residual_share`` of the state's move
-        d |dx| with its change of load dx over the path they span, for windows whose
-        ``means`` (n, 6) follow one another in time (module); the path starts from no load
-        (the first window's change is from none)."""
+        """(n, 6): each window's sigma (N, N m), the state's whole move with its change of
+        load dx, min(d |dx|, b), for windows whose ``means`` (n, 6) follow one another in
+        time (module); the first is taken as after a change to its load from none."""
         m = np.asarray(means, dtype=np.float64).reshape(-1, 6)
-        path = np.vstack([np.zeros((1, 6)), m])
-        return self.residual_share(path) * self.gain_deficit() * np.abs(np.diff(path, axis=0))
+        change = np.abs(np.diff(m, axis=0, prepend=np.zeros((1, 6))))
+        return np.minimum(self.gain_deficit() * change, edge(self.band))
