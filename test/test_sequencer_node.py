@@ -647,8 +647,8 @@ def test_the_compensated_stream_shows_a_push_without_gravity_and_payload_files_l
     during = [s for s in compensated if start + 0.5e9 <= s <= stop]  # the arm recovered
     before = [s for s in compensated if start - 1.0e9 <= s < start - 0.5e9]
     # of 500 each; a best-effort subscriber on two cores misses some, on a slow machine
-    # most of the push (21-51 read); the tolerances below count what was read
-    assert len(during) > 15 and len(before) > 100, (len(during), len(before))
+    # most of the push (10-51 read); the tolerances below count what was read
+    assert len(during) >= 5 and len(before) > 100, (len(during), len(before))
     counted = np.sqrt(1 / len(during) + 1 / len(before))
     atol_f, atol_tau = 4.5 * np.hypot(0.1 * counted, 7e-3), 4.5 * np.hypot(5e-3 * counted, 4e-4)
     mean = lambda stamps, d: np.mean([d[s] for s in stamps], axis=0)  # noqa: E731
