@@ -63,10 +63,7 @@ from com_core.estimation.runs.exploration import Exploration
 from com_core.estimation.runs.fit_setup import INFORMATION, KINEMATICS_MOUNT
 from com_core.estimation.runs.motion_solution import MotionResult, motion_calibration
 from com_core.estimation.runs.sensor_calibration import SensorCalibration
-from com_core.estimation.runs.settings import (
-    exploration_from,
-    use_sensor_calibration,
-)
+from com_core.estimation.runs.settings import exploration_from, use_sensor_calibration
 from com_core.planning.excitation import (
     DEFAULT_ACCELERATION,
     acceleration_bounds,

@@ -41,7 +41,7 @@ from com_core.sensing.wrench_model import (
     rotation_about,
 )
 
-__all__ = ["METHODS", "Prediction", "plan_observations", "predict"]
+__all__ = ["METHODS", "Prediction", "carried_hysteresis", "plan_observations", "predict"]
 
 METHODS: tuple[str, ...] = ("ml", "two_pose")
 """Estimators the planner predicts for (``com_core.estimation.fits.estimators``)."""
@@ -182,12 +182,22 @@ def _kinematic_cov(plan: Plan, fit_mount: bool) -> NDArray[np.float64]:
     """The CRLB (4, 4) of (m, p) of the kinematic fit for a run of ``plan``
     (``plan_observations``), its bias drifting at up to ``bias_drift_rate``: the fit's
     covariance at noise-free windows of the guesses is its CRLB."""
-    told = FitSetup(hysteresis=plan.hysteresis)  # what its gain leaves, as the fit weighs it
-    observations = told.with_hysteresis(plan_observations(plan))
+    observations, nuisance_cov = carried_hysteresis(plan, plan_observations(plan))
     rate = None if all(o.load for o in observations) else plan.bias_drift_rate
-    return kinematic_ml(observations, DEFAULT_GRAVITY, fit_mount, rate,
-                        calibration=plan.calibration,
-                        nuisance_cov=told.hysteresis_cov(observations)).estimate.cov  # fmt: skip
+    fit = kinematic_ml(observations, DEFAULT_GRAVITY, fit_mount, rate,
+                       calibration=plan.calibration, nuisance_cov=nuisance_cov)  # fmt: skip
+    return fit.estimate.cov
+
+
+def carried_hysteresis(
+    plan: Plan, observations: list[Observation]
+) -> tuple[list[Observation], NDArray[np.float64] | None]:
+    """``observations`` carrying what ``plan``'s stated hysteresis leaves, and its
+    covariance, as the fit weighs them (``FitSetup.with_hysteresis``, ``hysteresis_cov``);
+    as they are and None without one."""
+    told = FitSetup(hysteresis=plan.hysteresis)
+    carried = told.with_hysteresis(observations)
+    return carried, told.hysteresis_cov(carried)
 
 
 def _check_method(method: str) -> None:

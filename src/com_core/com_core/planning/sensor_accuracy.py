@@ -32,10 +32,9 @@ import numpy as np
 
 from com_core.estimation.fits.in_place import calibrate_in_place
 from com_core.estimation.fits.known_gravity import Reference
-from com_core.estimation.runs.fit_setup import FitSetup
 from com_core.estimation.runs.settings import REFERENCE_MASS_SHARE
 from com_core.planning.planner import Plan
-from com_core.planning.prediction import plan_observations, predict
+from com_core.planning.prediction import carried_hysteresis, plan_observations, predict
 from com_core.sensing.calibration import Calibration
 from com_core.sensing.sensor_profiles import PROFILES, SensorProfile
 from com_core.sensing.wrench_model import SensorModel
@@ -66,11 +65,11 @@ def predicted_calibration(plan: Plan, reference_mass: float) -> Calibration | No
     stated = plan.calibration
     if stated is None:
         return None
-    told = FitSetup(hysteresis=plan.hysteresis)  # what its gain leaves, as the fit weighs it
-    session = told.with_hysteresis(plan_observations(replace(plan, mass_guess=reference_mass)))
+    session, nuisance_cov = carried_hysteresis(
+        plan, plan_observations(replace(plan, mass_guess=reference_mass))
+    )
     reference = Reference(reference_mass, REFERENCE_MASS_SHARE * reference_mass)
-    result, _ = calibrate_in_place(session, reference, stated,
-                                   nuisance_cov=told.hysteresis_cov(session))  # fmt: skip
+    result, _ = calibrate_in_place(session, reference, stated, nuisance_cov=nuisance_cov)
     return replace(stated, residual_cov=result.calibration.residual_cov)
 
 

@@ -30,6 +30,7 @@ increments so far, a persistent nuisance).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -63,6 +64,14 @@ class Hysteresis:
 
     band: tuple[float, ...]
     full_scale: tuple[float, ...]
+
+    @classmethod
+    def stated(cls, band: Sequence[float], force: float, torque: float) -> Hysteresis | None:
+        """The hysteresis of a stated ``band`` (6,) over a sensor's full scales in
+        ``force`` (N, the three forces') and ``torque`` (N m); None for a band of zeros."""
+        if not any(band):
+            return None
+        return cls(tuple(band), (force,) * 3 + (torque,) * 3)
 
     def gain_deficit(self) -> NDArray[np.float64]:
         """(6,): d = b / (``SATURATION`` r) per axis, how much short of the load's change a

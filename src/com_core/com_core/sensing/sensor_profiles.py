@@ -205,9 +205,9 @@ class SensorProfile:
         """The hysteresis a user of this sensor states (its datasheet's band over its
         ranges; ``sensing.hysteresis``), None without a band or a stated accuracy (as
         ``datasheet``)."""
-        if self.calibration_accuracy <= 0 or not any(self.hysteresis):
+        if self.calibration_accuracy <= 0:
             return None
-        return Hysteresis(tuple(self.hysteresis), (self.limit_f,) * 3 + (self.limit_tau,) * 3)
+        return Hysteresis.stated(self.hysteresis, self.limit_f, self.limit_tau)
 
     def datasheet(self) -> dict[str, object]:
         """What a user tells the estimator of this sensor from its datasheet (its settings

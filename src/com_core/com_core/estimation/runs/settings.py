@@ -209,10 +209,7 @@ def exploration_from(settings: Mapping[str, Any], urdf: str = "") -> Exploration
 
 def hysteresis_of(settings: Mapping[str, Any]) -> Hysteresis | None:
     """The hysteresis ``settings`` state (``hysteresis`` over ``full_scale``), else None."""
-    if not any(settings["hysteresis"]):
-        return None
-    force, torque = settings["full_scale"]
-    return Hysteresis(tuple(settings["hysteresis"]), (force,) * 3 + (torque,) * 3)
+    return Hysteresis.stated(settings["hysteresis"], *settings["full_scale"])
 
 
 def reference_of(settings: Mapping[str, Any]) -> Reference | None:
