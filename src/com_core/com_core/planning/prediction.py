@@ -22,7 +22,7 @@ kinematic fit's tare and bias windows are observations of their own, not a term 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -50,6 +50,9 @@ _GRASP_TIME, _RELEASE_TIME = 4.0, 5.0
 """s from the end of a run's empty-hand window at home to its object pass (to the stand,
 the fingers, the lift, the grasp check), and from the pass to the window after it (home,
 the stand, the fingers, home): the sequencer's."""
+
+_UNKNOWN_WAY = np.full(6, np.inf)
+"""The travel (N, N m) of a load's way not known before the run: unbounded."""
 
 _TWO_POSE_EVAL_FACTOR = 1e-6
 """Variance factor at which ``two_pose`` is evaluated for a prediction, then scaled.
@@ -134,7 +137,11 @@ def plan_observations(plan: Plan) -> list[Observation]:
     pass (``tare_plan``, ``tare_dwell`` per pose; epoch 1) and fits its bias from the
     object's windows and two ``bias_dwell`` windows at home that bracket them (the
     sequencer's; epoch 0), each at its time in the run. With ``tare_dwell`` inf the hand
-    and the bias are known exactly: the object's windows alone."""
+    and the bias are known exactly: the object's windows alone. The grasp's and the
+    release's paths are not known before the run (the fingers press on the table, the lift
+    overshoots): the windows after them have an unbounded ``travel``, the most a sensor's
+    hysteresis moves on such a way (``Hysteresis.window_sigma``); the moves between poses
+    are taken as straight."""
     g_home = as_vector(plan.gravity_home, 3, "gravity_home")
     home = _home_rotation(g_home / np.linalg.norm(g_home))
     base_g = np.asarray(DEFAULT_GRAVITY)
@@ -165,6 +172,7 @@ def plan_observations(plan: Plan) -> list[Observation]:
         seen(name, r, plan.dwell, True, 0, at(k, plan.dwell))
         for k, (name, r) in enumerate(rotations)
     ]
+    observations[0] = replace(observations[0], travel=_UNKNOWN_WAY)  # after the grasp
     if not hand_known:
         observations += [
             seen(name, r, tare_dwell, False, 1, at(k, tare_dwell))
@@ -173,8 +181,9 @@ def plan_observations(plan: Plan) -> list[Observation]:
         if plan.bias_dwell > 0:
             before = -_GRASP_TIME - plan.bias_dwell / 2
             after = len(rotations) * (step + plan.dwell) + _RELEASE_TIME + plan.bias_dwell / 2
-            for time in (before, after):
-                observations.append(seen(HOME, home, plan.bias_dwell, False, 0, time))
+            observations.append(seen(HOME, home, plan.bias_dwell, False, 0, before))
+            released = seen(HOME, home, plan.bias_dwell, False, 0, after)
+            observations.append(replace(released, travel=_UNKNOWN_WAY))
     return observations
 
 

@@ -19,12 +19,16 @@ slope of h_a moves by d_a u / 2 over an excursion u = span / (SATURATION r_a), a
 state off the middle by h moves it by d_a h / b_a, h within +-d_a span / 2 once the loads
 have swung over their span; the share min(1, u / 2) of d_a weighs either, as a spread of
 each axis's own gain (``motion_solution.motion_calibration``,
-``Calibration.with_gain_spread``). At rest the path between two windows is the arm's
-move, whose transients turn the load on the way (an acceleration, the grasp's lift), and
-a turn moves the state from the middle by up to twice the first order's: each static
-window carries the state's whole move with its change of load (``Hysteresis.window_sigma``)
-about the gain's, a state that keeps what it moved (``FitSetup.with_hysteresis`` sums the
-increments so far, a persistent nuisance).
+``Calibration.with_gain_spread``). At rest the same share weighs the state's move along
+the path between two windows (``Hysteresis.window_sigma``): what the first order leaves
+moves by h_a |dx_a| / (SATURATION r_a) with every change dx_a, whichever way it goes (h_a
+the state's offset from the middle of its band, within the share of b_a), and by at most
+h_a, as a path that turns again and again pulls the state to the middle. So what counts
+is the path's whole travel, not its net change (``travel``): the grasp's fingers press on
+the table and the lift overshoots, the arm rings, a tilt from one side to the other
+passes upright, and a net change of zero can hide a travel of newtons. The state keeps
+what it moved (``FitSetup.with_hysteresis`` sums the increments so far, a persistent
+nuisance).
 """
 
 from __future__ import annotations
@@ -36,11 +40,18 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["SATURATION", "Hysteresis", "edge"]
+__all__ = ["SATURATION", "TRAVEL_BLOCK", "Hysteresis", "edge", "travel"]
 
 SATURATION = 0.5
 """The load change, as a fraction of the range, over which the hysteresis state moves
 1 - 1/e of its way to the band's edge."""
+
+
+TRAVEL_BLOCK = 10
+"""Samples averaged into one point of a path before its ``travel`` is taken."""
+
+TRAVEL_DEADBAND = 3.0
+"""The half-width of ``travel``'s deadband, in standard deviations of a block's mean."""
 
 
 def _loop_opening(saturation: float) -> float:
@@ -91,10 +102,47 @@ class Hysteresis:
         span = np.ptp(x, axis=0) if len(x) else np.zeros(6)
         return np.minimum(span / (2.0 * SATURATION * np.asarray(self.full_scale)), 1.0)
 
-    def window_sigma(self, means: ArrayLike) -> NDArray[np.float64]:
-        """(n, 6): each window's sigma (N, N m), the state's whole move with its change of
-        load dx, min(d |dx|, b), for windows whose ``means`` (n, 6) follow one another in
-        time (module); the first is taken as after a change to its load from none."""
+    def window_sigma(
+        self, means: ArrayLike, travels: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
+        """(n, 6): each window's sigma (N, N m) for windows whose ``means`` (n, 6) follow
+        one another in time: the ``residual_share`` of the state's whole move min(d V, b)
+        over the load's travel V since the window before (``travels`` (n, 6), from the
+        samples between them, at least the change of the means; NaN, or none given: a
+        straight path, the change of the means; inf: a path not known, the most it can
+        move), b the band's edge (module). The
+        share is of the loads the means span with no load; the first window's path is
+        from no load."""
         m = np.asarray(means, dtype=np.float64).reshape(-1, 6)
-        change = np.abs(np.diff(m, axis=0, prepend=np.zeros((1, 6))))
-        return np.minimum(self.gain_deficit() * change, edge(self.band))
+        path = np.vstack([np.zeros((1, 6)), m])
+        moved = np.abs(np.diff(path, axis=0))
+        if travels is not None:
+            t = np.asarray(travels, dtype=np.float64).reshape(-1, 6)
+            moved = np.where(np.isnan(t), moved, np.maximum(t, moved))
+        b = edge(self.band)
+        whole = np.where(np.isinf(moved), b, np.minimum(self.gain_deficit() * moved, b))
+        return self.residual_share(path) * whole
+
+
+def travel(loads: ArrayLike) -> NDArray[np.float64]:
+    """(6,): the total variation (N, N m) of a load's path sampled as ``loads`` (n, 6), in
+    time order, its noise left out: means of ``TRAVEL_BLOCK`` samples followed by a
+    deadband (a play operator) of ``TRAVEL_DEADBAND`` times their noise, learnt from the
+    path itself (the median of its second differences, which a smooth move leaves near
+    zero); NaN when the path is shorter than three blocks.
+    The hysteresis is rate-independent: the state moves with what the deadband follows,
+    the electrical noise added after it does not."""
+    x = np.asarray(loads, dtype=np.float64).reshape(-1, 6)
+    n = len(x) // TRAVEL_BLOCK
+    if n < 3:
+        return np.full(6, np.nan)
+    blocks = x[: n * TRAVEL_BLOCK].reshape(n, TRAVEL_BLOCK, 6).mean(axis=1)
+    bends = np.abs(np.diff(blocks, n=2, axis=0))
+    sigma = np.median(bends, axis=0) / (0.6745 * math.sqrt(6.0))  # |N(0, 6 s^2)|'s median
+    half = TRAVEL_DEADBAND * sigma
+    follower, total = blocks[0].copy(), np.zeros(6)
+    for point in blocks[1:]:
+        moved = np.clip(follower, point - half, point + half)
+        total += np.abs(moved - follower)
+        follower = moved
+    return total

@@ -91,7 +91,9 @@ class Observation:
     is the window's mean wrench per unit of k unknowns every window shares and no fit
     solves for (the load's inertia: ``robot.dynamics``' last six columns), of prior
     covariance ``kinematic_ml``'s ``nuisance_cov``: they are weighed as a common error of
-    the windows, correlated across them (marginalised)."""
+    the windows, correlated across them (marginalised). ``travel`` (6,; N, N m), when
+    known, is the load's total variation on the way from the window before it in its
+    epoch (``sensing.hysteresis.travel``; what the sensor's hysteresis moves with)."""
 
     window: Window
     rotation: NDArray[np.float64]
@@ -101,6 +103,7 @@ class Observation:
     group: int = 0
     design: NDArray[np.float64] | None = None
     nuisance: NDArray[np.float64] | None = None
+    travel: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True)

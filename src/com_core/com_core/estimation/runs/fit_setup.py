@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from itertools import pairwise
 
 import numpy as np
 from numpy.typing import NDArray
@@ -59,7 +60,7 @@ from com_core.estimation.runs.cutting import window_rotation, window_time
 from com_core.estimation.runs.inbox import Inbox
 from com_core.robot.model import KinematicsError, RobotModel
 from com_core.sensing.calibration import Calibration
-from com_core.sensing.hysteresis import Hysteresis
+from com_core.sensing.hysteresis import Hysteresis, travel
 from com_core.sensing.noise import NoiseModel
 from com_core.sensing.wrench_model import STANDARD_GRAVITY, SensorModel
 
@@ -281,7 +282,7 @@ class FitSetup:
         assert self.robot is not None
         robot = self.robot
         observations: list[Observation] = []
-        stamps = inbox.samples()[0]
+        stamps, wrenches = inbox.samples()
 
         def add(
             window: Window,
@@ -319,6 +320,8 @@ class FitSetup:
             loads = subtracted
         for window in loads:
             add(window, OBJECT_PREFIX + window.pose, True, 0)
+        if self.hysteresis is not None:
+            observations = _with_travel(observations, stamps, wrenches)
         return self.with_hysteresis(observations)
 
     def with_hysteresis(self, observations: list[Observation]) -> list[Observation]:
@@ -344,7 +347,10 @@ class FitSetup:
             return None
         variance = np.zeros((len(observations), 6))
         for order in _epoch_orders(observations):
-            sigma = self.hysteresis.window_sigma([observations[i].window.mean for i in order])
+            travels = [_travel_or_nan(observations[i].travel) for i in order]
+            sigma = self.hysteresis.window_sigma(
+                [observations[i].window.mean for i in order], travels
+            )
             variance[order] = sigma**2
         return np.diag(variance.ravel())
 
@@ -415,6 +421,30 @@ class FitSetup:
                 "fit absorbed it; re-tare"
             )
         return fit, observations
+
+
+def _with_travel(
+    observations: list[Observation], stamps: NDArray[np.int64], wrenches: NDArray[np.float64]
+) -> list[Observation]:
+    """``observations`` of this run (epoch 0) with the load's ``travel`` from the window
+    before each, in time order: the samples (``stamps`` ns, ``wrenches`` (n, 6)) from the
+    middle of one window to the middle of the next (``sensing.hysteresis.travel``)."""
+    out = list(observations)
+    order = np.argsort(stamps, kind="stable")
+    times = stamps * 1e-9
+    for epoch in _epoch_orders(out):
+        if out[epoch[0]].epoch != 0:
+            continue
+        for earlier, later in pairwise(epoch):
+            t = times[order]
+            between = order[(t >= out[earlier].time) & (t <= out[later].time)]
+            out[later] = replace(out[later], travel=travel(wrenches[between]))
+    return out
+
+
+def _travel_or_nan(value: NDArray[np.float64] | None) -> NDArray[np.float64]:
+    """A window's ``travel``, NaN (6,) when unknown (``Hysteresis.window_sigma``)."""
+    return np.full(6, np.nan) if value is None else value
 
 
 def _epoch_orders(observations: Sequence[Observation]) -> list[list[int]]:
