@@ -253,13 +253,13 @@ def test_an_excursion_after_a_turn_reads_short_by_the_gain_deficit_the_motion_fi
     swings = np.outer([0.0, 0.3, -0.1], full_scale)  # spans 0.4 of the range: u = 0.8
     weighed = motion_calibration(stated, hysteresis, swings).error_cov
     extra = np.diag(weighed - stated.error_cov).reshape(6, 6)
-    assert_allclose(np.diag(extra), (0.4 * deficit) ** 2, rtol=1e-12)  # u / 2 of it
+    assert_allclose(np.diag(extra), (0.4 * deficit) ** 2 / 3, rtol=1e-12)  # u / 2 of it, rms
     assert_allclose(extra - np.diag(np.diag(extra)), 0.0, atol=0)
     assert_allclose(motion_calibration(None, hysteresis, swings).error_cov,
                     weighed - stated.error_cov, atol=1e-18)  # fmt: skip
     assert motion_calibration(stated, None, swings) is stated
     wide = motion_calibration(None, hysteresis, 3 * swings).error_cov  # u / 2 > 1: all of d
-    assert_allclose(np.sqrt(np.diag(wide)[::7]), deficit, rtol=1e-12)
+    assert_allclose(np.sqrt(3 * np.diag(wide)[::7]), deficit, rtol=1e-12)
 
 
 def test_readings_are_corrected_by_the_hysteresis_gain_before_the_calibration_in_place():

@@ -17,13 +17,16 @@ every reading (``gain``; ``sensing.calibration.reading_correction``) and weighs 
 first order leaves. Along a motion, ``residual_share``: from the middle of the band the
 slope of h_a moves by d_a u / 2 over an excursion u = span / (SATURATION r_a), and a
 state off the middle by h moves it by d_a h / b_a, h within +-d_a span / 2 once the loads
-have swung over their span; the share min(1, u / 2) of d_a weighs either, as a spread of
-each axis's own gain (``motion_solution.motion_calibration``,
-``Calibration.with_gain_spread``). At rest the same share weighs the state's move along
-the path between two windows (``Hysteresis.window_sigma``): what the first order leaves
-moves by h_a |dx_a| / (SATURATION r_a) with every change dx_a, whichever way it goes (h_a
-the state's offset from the middle of its band, within the share of b_a), and by at most
-h_a, as a path that turns again and again pulls the state to the middle. So what counts
+have swung over their span; the share min(1, u / 2) of d_a bounds either. Along a loop
+the slope moves evenly between those bounds, so the fit in motion weighs the rms, the
+share over sqrt(3), as a spread of each axis's own gain
+(``motion_solution.motion_calibration``, ``Calibration.with_gain_spread``).
+
+At rest the share weighs the state's move along the path between two windows
+(``Hysteresis.window_sigma``): what the first order leaves moves by h_a |dx_a| /
+(SATURATION r_a) with every change dx_a, whichever way it goes (h_a the state's offset
+from the middle of its band, within the share of b_a), and by at most h_a, as a path that
+turns again and again pulls the state to the middle. So what counts
 is the path's whole travel, not its net change (``travel``): the grasp's fingers press on
 the table and the lift overshoots, the arm rings, a tilt from one side to the other
 passes upright, and a net change of zero can hide a travel of newtons. The state keeps

@@ -347,7 +347,9 @@ class FitSetup:
             return None
         variance = np.zeros((len(observations), 6))
         for order in _epoch_orders(observations):
-            travels = [_travel_or_nan(observations[i].travel) for i in order]
+            unknown = np.full(6, np.nan)  # a straight way (window_sigma)
+            travels = [observations[i].travel for i in order]
+            travels = [unknown if t is None else t for t in travels]
             sigma = self.hysteresis.window_sigma(
                 [observations[i].window.mean for i in order], travels
             )
@@ -431,20 +433,15 @@ def _with_travel(
     middle of one window to the middle of the next (``sensing.hysteresis.travel``)."""
     out = list(observations)
     order = np.argsort(stamps, kind="stable")
-    times = stamps * 1e-9
+    times, loads = stamps[order] * 1e-9, wrenches[order]
     for epoch in _epoch_orders(out):
         if out[epoch[0]].epoch != 0:
             continue
         for earlier, later in pairwise(epoch):
-            t = times[order]
-            between = order[(t >= out[earlier].time) & (t <= out[later].time)]
-            out[later] = replace(out[later], travel=travel(wrenches[between]))
+            start = np.searchsorted(times, out[earlier].time, side="left")
+            stop = np.searchsorted(times, out[later].time, side="right")
+            out[later] = replace(out[later], travel=travel(loads[start:stop]))
     return out
-
-
-def _travel_or_nan(value: NDArray[np.float64] | None) -> NDArray[np.float64]:
-    """A window's ``travel``, NaN (6,) when unknown (``Hysteresis.window_sigma``)."""
-    return np.full(6, np.nan) if value is None else value
 
 
 def _epoch_orders(observations: Sequence[Observation]) -> list[list[int]]:

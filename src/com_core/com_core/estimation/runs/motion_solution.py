@@ -364,14 +364,16 @@ def motion_calibration(
     """The sensor's error a fit in motion of ``wrenches`` (n, 6; N, N m) weighs: the
     ``calibration`` term with, for a sensor of stated ``hysteresis``, what is left of its
     gain deficit once taken off the readings as a further gain error per axis, zero-mean,
-    its spread the share of the deficit the motion's span leaves
-    (``Hysteresis.residual_share``)."""
+    its spread the rms of the gain along the motion's loops: the slope moves evenly
+    between the bounds the share of the deficit the motion's span leaves
+    (``Hysteresis.residual_share``) sets on either side, so its rms is that share over
+    sqrt(3)."""
     if hysteresis is None:
         return calibration
     if calibration is None:
         force, torque = hysteresis.full_scale[0], hysteresis.full_scale[3]
         calibration = Calibration(0.0, force, torque)
-    share = hysteresis.residual_share(wrenches)
+    share = hysteresis.residual_share(wrenches) / math.sqrt(3.0)
     return calibration.with_gain_spread(share * hysteresis.gain_deficit())
 
 
