@@ -26,12 +26,11 @@ At rest the share weighs the state's move along the path between two windows
 (``Hysteresis.window_sigma``): what the first order leaves moves by h_a |dx_a| /
 (SATURATION r_a) with every change dx_a, whichever way it goes (h_a the state's offset
 from the middle of its band, within the share of b_a), and by at most h_a, as a path that
-turns again and again pulls the state to the middle. So what counts
-is the path's whole travel, not its net change (``travel``): the grasp's fingers press on
-the table and the lift overshoots, the arm rings, a tilt from one side to the other
-passes upright, and a net change of zero can hide a travel of newtons. The state keeps
-what it moved (``FitSetup.with_hysteresis`` sums the increments so far, a persistent
-nuisance).
+turns again and again pulls the state to the middle. So what counts is the path's whole
+travel, not its net change (``travel``): the grasp's fingers press on the table and the
+lift overshoots, the arm rings, a tilt from one side to the other passes upright, and a
+net change of zero can hide a travel of newtons. The state keeps what it moved
+(``FitSetup.with_hysteresis`` sums the increments so far, a persistent nuisance).
 """
 
 from __future__ import annotations
@@ -43,7 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["SATURATION", "TRAVEL_BLOCK", "Hysteresis", "edge", "travel"]
+__all__ = ["SATURATION", "TRAVEL_BLOCK", "TRAVEL_DEADBAND", "Hysteresis", "edge", "travel"]
 
 SATURATION = 0.5
 """The load change, as a fraction of the range, over which the hysteresis state moves
@@ -113,9 +112,8 @@ class Hysteresis:
         over the load's travel V since the window before (``travels`` (n, 6), from the
         samples between them, at least the change of the means; NaN, or none given: a
         straight path, the change of the means; inf: a path not known, the most it can
-        move), b the band's edge (module). The
-        share is of the loads the means span with no load; the first window's path is
-        from no load."""
+        move), b the band's edge (module). The share is of the loads the means span with
+        no load; the first window's path is from no load."""
         m = np.asarray(means, dtype=np.float64).reshape(-1, 6)
         path = np.vstack([np.zeros((1, 6)), m])
         moved = np.abs(np.diff(path, axis=0))

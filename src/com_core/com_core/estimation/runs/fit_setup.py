@@ -347,12 +347,9 @@ class FitSetup:
             return None
         variance = np.zeros((len(observations), 6))
         for order in _epoch_orders(observations):
-            unknown = np.full(6, np.nan)  # a straight way (window_sigma)
-            travels = [observations[i].travel for i in order]
-            travels = [unknown if t is None else t for t in travels]
-            sigma = self.hysteresis.window_sigma(
-                [observations[i].window.mean for i in order], travels
-            )
+            picked = [observations[i] for i in order]  # no travel: a straight way, NaN
+            travels = [np.full(6, np.nan) if o.travel is None else o.travel for o in picked]
+            sigma = self.hysteresis.window_sigma([o.window.mean for o in picked], travels)
             variance[order] = sigma**2
         return np.diag(variance.ravel())
 
