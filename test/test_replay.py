@@ -407,3 +407,27 @@ def test_a_tare_recording_gives_the_object_alone_through_the_replay(tmp_path, ca
         replay.main([str(tmp_path / "held.csv"), "--tare-recording", "nowhere.csv"])
     assert refused.value.code == 2
     assert "--tare-recording" in capsys.readouterr().err
+
+
+def test_a_log_of_a_sensor_with_hysteresis_is_read_through_its_gain(capsys, tmp_path):
+    """A log of wrenches and orientations (``LOG.npz``, no ROS) read by a sensor whose
+    hysteresis reads every change of load with the gain 1 - d: told the band
+    (``--hysteresis``), the replay takes the gain off its readings as it does a bag's, and
+    the mass of a noiseless log is exact; untold, it reads light, by between the force
+    axes' d."""
+    from test_core_recording import LOAD, recorded
+
+    from com_core.sensing.hysteresis import Hysteresis
+
+    band, full_scale = (3.75, 3.75, 2.0, 0.04, 0.04, 0.04), (150.0, 4.0)
+    gain = Hysteresis(band, (full_scale[0],) * 3 + (full_scale[1],) * 3).gain()
+    rec, _ = recorded(5, noise=False)
+    log = tmp_path / "log.npz"
+    np.savez(log, time=rec.times, wrench=rec.wrenches * gain, rotation=rec.rotations)
+    scale = ["--full-scale", *map(str, full_scale), "--accuracy", "0"]
+    told = run_replay(capsys, log, *scale, "--hysteresis", *map(str, band))
+    untold = run_replay(capsys, log, *scale)
+    assert told["status"] == "OK", told["reason"]
+    assert told["mass"] == pytest.approx(LOAD.mass, rel=1e-6)
+    light = 1 - untold["mass"] / LOAD.mass  # ~3.2 %: the tilts load fx and fy too
+    assert 1 - gain[2] < light < 1 - gain[0], (light, 1 - gain)

@@ -24,6 +24,7 @@ it could not tell named, and a self-check (each half predicting the other). So i
 of wrenches and the sensor's orientations that never was ROS: ``replay LOG.csv`` or
 ``LOG.npz`` (columns: ``recording.CSV_COLUMNS``). ``--tare-recording`` (a bag or a log
 of the empty tool) gives the object alone; without it, the whole load beyond the sensor.
+A stated ``--hysteresis`` takes its gain off a log's readings as off a bag's.
 
 A bag without pose labels nor kinematics is cut into static windows by
 ``com_core.estimation.recordings.static_windows.find_static_windows`` (blocks of 50 ms
@@ -118,7 +119,6 @@ from com_core.planning.decisions import tare_cache_path
 from com_core.report.recording import write_recording_report
 from com_core.robot.config import BAG_ROBOT_FILE, RobotConfigError, read_robot_config
 from com_core.sensing.calibration import Calibration, reading_correction
-from com_core.sensing.hysteresis import Hysteresis
 
 ROBOT_FRAMES = ("sensor_frame", "base_frame")
 """The settings a run's robot configuration gives the replay."""
@@ -349,8 +349,8 @@ def replay(bag: Path, args: argparse.Namespace) -> tuple[int, Solution | None]:
             lambda: recording_from_inbox(exploration, robot, str(args.bag)),
             settings,
             {"messages": n_wrench, "bag": reading.as_dict()},
-            exploration.calibration,  # the samples read through it, and the gain
-            exploration.hysteresis,
+            exploration.calibration,
+            corrected=True,  # exploration.samples(): through the calibration and the gain
         )
     if n_label:
         source = f"pose labels from the bag ({n_label})"
@@ -414,14 +414,15 @@ def replay_recording(
     settings: dict,
     extra: dict,
     calibration: Calibration | None = None,
-    hysteresis: Hysteresis | None = None,
+    corrected: bool = False,
 ) -> tuple[int, RecordingFit | None]:
     """A recording without labels fitted (``recording.fit_recording``) and printed, with
     ``--tare-recording``; ``read()`` gives the ``Recording``, ``settings`` the estimator's
-    (the run's and the options'; the calibration, gravity and drift prior the fit takes).
-    ``calibration``: the sensor's calibration in place the recording was read through, in
-    place of the settings' stated accuracy, and ``hysteresis``, whose gain it was read with
-    (``sensing.calibration.reading_correction``; the tare recording is read so too).
+    (the run's and the options'; the calibration, gravity, hysteresis and drift prior the
+    fit takes). ``calibration``: the sensor's calibration in place, in place of the
+    settings' stated accuracy. Its readings and the tare recording's are read through it
+    and the gain of the settings' hysteresis (``sensing.calibration.reading_correction``),
+    the recording's own unless ``corrected`` (a bag's samples, read so already).
     (exit code, the fit or None when the recording or its tare cannot be read)."""
     settings = defaults() | settings
     exploration = exploration_from(settings)
@@ -432,9 +433,12 @@ def replay_recording(
     except (EstimationError, ValueError, OSError) as error:
         print(f"replay: {args.bag}: {error}", file=sys.stderr)
         return 2, None
-    correction = reading_correction(calibration, hysteresis)
-    if tare is not None and correction is not None:  # the same sensor's readings
-        tare = dataclasses.replace(tare, wrenches=tare.wrenches @ correction.T)
+    correction = reading_correction(calibration, exploration.hysteresis)
+    if correction is not None:  # the same sensor's readings
+        if not corrected:
+            recording = dataclasses.replace(recording, wrenches=recording.wrenches @ correction.T)
+        if tare is not None:
+            tare = dataclasses.replace(tare, wrenches=tare.wrenches @ correction.T)
     fit = fit_recording(
         recording,
         tare,
