@@ -2,10 +2,12 @@
 
     source ./env.sh && python bench/motion_check.py [--sensors 10] [--first 0]
         [--robots panda,xarm6,ur5e] [--masses 0.1,0.5,2.0] [--static]
-        [--calibration-accuracy 0.01] [--period 3] [--acceleration 8|limits]
+        [--profile realistic] [--calibration-accuracy 0.01] [--period 3]
+        [--acceleration 8|limits]
 
-In process, no ROS: per arm, mass and sensor serial (the realistic profile, a calibration
-drawn per serial; a box, cylinder or mug in turn, its COM drawn from the serial) the
+In process, no ROS: per arm, mass and sensor serial (the ``--profile``'s sensor, the
+estimator told its datasheet, a calibration drawn per serial at its accuracy or
+``--calibration-accuracy``; a box, cylinder or mug in turn, its COM drawn from the serial) the
 exploration the sequencer runs with ``excitation: motion`` (``wrench_sim.studies
 .explore_in_motion``), solved as the estimator and the replay solve it
 (``Exploration.solve``), its excitation of ``--period`` s within ``--acceleration`` rad/s^2
@@ -41,7 +43,13 @@ from wrench_sim.studies import explore_in_motion
 
 
 def one_sensor(
-    accuracy: float, serial: int, robot: str, mass: float, period: float, acceleration: str
+    profile: str,
+    accuracy: float,
+    serial: int,
+    robot: str,
+    mass: float,
+    period: float,
+    acceleration: str,
 ) -> dict:
     """The run in motion of sensor ``serial``: status, chi^2/dof and what is explained,
     the check's ratios and allowances, the largest |error / sigma|, whether the object's
@@ -49,7 +57,8 @@ def one_sensor(
     started = time.perf_counter()
     bounds = wrist_bounds(read_robot_config(robot), acceleration)
     run = explore_in_motion(accuracy, serial, robot=robot, mass=mass, shape=SHAPES[serial % 3],
-                            object_seed=serial, period=period, acceleration=bounds)  # fmt: skip
+                            object_seed=serial, period=period, acceleration=bounds,
+                            profile=profile)  # fmt: skip
     try:
         solution, result = run.solution, run.solution.motion
         (mass_, com), inertia = run.world.object_ground_truth(), run.world.inertia_ground_truth()
@@ -79,21 +88,25 @@ def main() -> None:
     parser.add_argument("--robots", default="panda,xarm6,ur5e")
     parser.add_argument("--masses", default="0.1,0.5,2.0")
     parser.add_argument("--static", action="store_true", help="the same objects at rest too")
+    parser.add_argument("--profile", default="realistic", choices=sorted(PROFILES))
     parser.add_argument("--calibration-accuracy", type=float,
-                        default=PROFILES["realistic"].calibration_accuracy)  # fmt: skip
+                        help="default: the profile's")  # fmt: skip
     parser.add_argument("--period", type=float, default=3.0)
     parser.add_argument("--acceleration", default=str(DEFAULT_ACCELERATION),
                         help="rad/s^2, or 'limits': the arm's own")  # fmt: skip
     args = parser.parse_args()
-    profile = PROFILES["realistic"].with_overrides(calibration_accuracy=args.calibration_accuracy)
+    stated = PROFILES[args.profile]
+    if args.calibration_accuracy is None:
+        args.calibration_accuracy = stated.calibration_accuracy
+    profile = stated.with_overrides(calibration_accuracy=args.calibration_accuracy)
     serials = range(args.first, args.first + args.sensors)
     cases = []
     for robot in args.robots.split(","):
         for mass in (float(m) for m in args.masses.split(",")):
             runs = []
             for serial in serials:
-                r = one_sensor(args.calibration_accuracy, serial, robot, mass, args.period,
-                               args.acceleration)  # fmt: skip
+                r = one_sensor(args.profile, args.calibration_accuracy, serial, robot, mass,
+                               args.period, args.acceleration)  # fmt: skip
                 runs.append(r)
                 print(f"{robot} {mass:g} kg sensor {serial:3d} {r['status']:4s} chi2/dof "
                       f"{r['chi2_dof']:.3f} ({r['chi2_dof'] / r['expected']:.2f} of explained)"
@@ -113,7 +126,8 @@ def main() -> None:
                         print(f"    at rest, sensor {k}: {s['status']} {s['reason'][:300]}")
             cases.append((robot, mass, runs, static))
     n = len(serials)
-    print(f"\n{n} sensors per case, calibration accuracy {args.calibration_accuracy:g}; "
+    print(f"\n{n} {args.profile} sensors per case, calibration accuracy "
+          f"{args.calibration_accuracy:g}; "
           f"alpha {DEFAULT_ALPHA:g} allows {n * DEFAULT_ALPHA:.3f} false alarms per test per "
           "case")  # fmt: skip
     print(f"{'arm':>6} {'kg':>4}  {'motion WARN':>11} {'chi2/dof / explained':>20} "

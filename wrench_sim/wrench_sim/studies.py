@@ -140,15 +140,14 @@ def explore_in_motion(
     empty hand at rest and along the D-optimal excitation of ``period`` s and
     ``acceleration`` bound (rad/s^2; ``cycles`` periods), the grasp, the object along it
     and along another design (one period); through the
-    sensor of ``profile`` (``PROFILES``) and serial ``seed`` with ``calibration_accuracy``,
+    sensor of ``profile`` (``PROFILES``; the estimator told its datasheet) and serial
+    ``seed`` with ``calibration_accuracy``,
     joint states every ``joint_every`` steps (10: 100 Hz); solved from its labels
     (``Exploration.solve``). The caller closes ``MotionRun.world``."""
     world = ArmWorld(SimConfig(robot=read_robot_config(robot), object_shape=shape,
                                object_mass=mass, seed=object_seed))  # fmt: skip
-    sensor = profile_sensor(
-        PROFILES[profile].with_overrides(calibration_accuracy=calibration_accuracy),
-        seed=seed, serial=seed, world=world,
-    )  # fmt: skip
+    stated = PROFILES[profile].with_overrides(calibration_accuracy=calibration_accuracy)
+    sensor = profile_sensor(stated, seed=seed, serial=seed, world=world)
     robot = world.config.robot
     model = RobotModel(world.urdf_text, robot.sensor_frame)
     wrist = robot.arm_joints[-3:]
@@ -157,8 +156,8 @@ def explore_in_motion(
     excitation = replace(excitation, cycles=cycles)
     other = design_excitation(model, robot.home_joints, wrist, period, acceleration,
                               iterations=40, seed=5)  # fmt: skip
-    settings = {"information": "kinematics", "accuracy": calibration_accuracy,
-                "sensor_frame": robot.sensor_frame}  # fmt: skip
+    settings = {"accuracy": calibration_accuracy} | stated.datasheet() | {
+        "information": "kinematics", "sensor_frame": robot.sensor_frame}  # fmt: skip
     exploration = exploration_from(settings, world.urdf_text)
     world.move_arm(robot.home_joints, 1.0)
     feed(exploration, world, "tare/home", hold_still(world, sensor, 2.0, joint_every))
