@@ -125,6 +125,9 @@ class MotionFit:
         over each ``BLOCK`` s from the motion's beginning (a joint ``MOVED`` from its
         first state), over the square root of its samples: unit variance for noise the
         model whitens, a misfit along the trajectory standing out (``common_misfit``).
+    misfit, misfit_squares : the chi^2 the calibration's error is expected to add, a sum
+        of squared normals sum(l_i z_i^2), as sum(l_i) and sum(l_i^2) (0: none): what its
+        spread over sensors is (``_calibration_share``).
     """
 
     pi: NDArray[np.float64]
@@ -142,6 +145,8 @@ class MotionFit:
     expected: float
     common: float
     residual_blocks: NDArray[np.float64]
+    misfit: float = 0.0
+    misfit_squares: float = 0.0
 
     @property
     def widening(self) -> float:
@@ -290,11 +295,12 @@ def fit_motion(
     blocks = _block_sums(target - fitted @ fit.least_squares, t - delay - began, noise)
     shared = 0.0 if hand is None else common_misfit(hand.residual_blocks, blocks)
     dof = A.shape[0] - 16
-    gain, misfit, explained = np.zeros((10, 36)), 0.0, 0.0
+    gain, misfit, squares, explained = np.zeros((10, 36)), 0.0, 0.0, 0.0
     if calibration is not None:
         hand_wrench = None if hand is None else Y @ hand_pi
-        gain, misfit, explained = _calibration_share(calibration, Y @ fit.pi, hand_wrench,
-                                                     noise, project, fit.cov, fitted)  # fmt: skip
+        gain, misfit, squares, explained = _calibration_share(
+            calibration, Y @ fit.pi, hand_wrench, noise, project, fit.cov, fitted
+        )
     calibration_cov = 0.0 if calibration is None else calibration.spread(gain)
     cov = fit.cov + calibration_cov
     expected = 1.0  # chi^2 / dof the noise model, the encoders' noise and E explain
@@ -311,7 +317,7 @@ def fit_motion(
         cov += (hand.cov / hand.widening - hand.calibration_cov) * own
     return MotionFit(fit.pi, fit.least_squares, cov, fit.cov, calibration_cov, gain, bias,
                      delay, fit.chi2, dof, fit.constrained, len(t), expected, common,
-                     blocks)  # fmt: skip
+                     blocks, misfit, squares)  # fmt: skip
 
 
 def common_misfit(hand: NDArray[np.float64], loaded: NDArray[np.float64]) -> float:
@@ -420,14 +426,16 @@ def _calibration_share(
     project,
     cov: NDArray[np.float64],
     fitted: NDArray[np.float64],
-) -> tuple[NDArray[np.float64], float, float]:
-    """(d pi / d vec(E) (10, 36), the chi^2 it adds, the part of it the hand's motion
-    shares): the calibration's common error E on the object's wrench (n, 6) through the
-    whitened least squares (``sensing.calibration``; its share of the covariance is
-    ``calibration.spread(gain)``), and the expected sum of squares of what of it no load
-    explains, tr(M P M^T) with M the whitened error less
+) -> tuple[NDArray[np.float64], float, float, float]:
+    """(d pi / d vec(E) (10, 36), the chi^2 it adds, the sum of its weights' squares, the
+    part of it the hand's motion shares): the calibration's common error E on the
+    object's wrench (n, 6) through the whitened least squares (``sensing.calibration``;
+    its share of the covariance is ``calibration.spread(gain)``), and the expected sum of
+    squares of what of it no load explains, tr(M P M^T) with M the whitened error less
     its fitted part: the misfit a heavier load's calibration error leaves, which is no
-    sign of a load that moved. The misfit is of the whole load's wrench, the
+    sign of a load that moved. For one sensor that misfit is sum(l_i z_i^2), l the
+    eigenvalues of (M P^1/2)^T (M P^1/2) and z standard normals: its mean sum(l), its
+    variance 2 sum(l^2). The misfit is of the whole load's wrench, the
     ``hand_wrench`` (n, 6; None: no hand taken off) with the object's: what of E on the
     hand's wrench its own fit could not explain is in this motion's residual too, where
     the hand's parameters took off only what it explained. That part is in the hand's
@@ -450,7 +458,8 @@ def _calibration_share(
         hand = whitened_error(hand_wrench)
         whitened = whitened + hand
         common = float(np.sum((left(hand) @ root) * (left(whitened) @ root)))
-    return gain, float(np.sum((left(whitened) @ root) ** 2)), common
+    weights = np.linalg.eigvalsh((left(whitened) @ root).T @ (left(whitened) @ root))
+    return gain, float(np.sum(weights)), float(np.sum(weights**2)), common
 
 
 def _encoder_share(
