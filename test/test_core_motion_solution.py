@@ -195,3 +195,29 @@ def test_the_compensated_wrench_in_motion_is_the_noise_along_a_motion_no_fit_use
     finally:
         if not shared:
             run.world.close()
+
+
+def test_the_rigid_load_test_allows_the_calibrations_misfit_at_its_quantile_over_sensors():
+    """``allowed_chi2_per_dof``: where the calibration's misfit rules, one sensor's is a
+    sum of few weighted squared normals, and over many sensors it passes the test at about
+    alpha's rate, where 1.5 times its mean would refuse one in tens; where the noise rules
+    (or no calibration), 1.5 times what is explained, as before."""
+    from com_core.estimation.fits.motion import MotionFit
+    from com_core.estimation.runs.motion_solution import MAX_CHI2_PER_DOF, allowed_chi2_per_dof
+
+    rng = np.random.default_rng(0)
+    dof, alpha = 20_000, 1e-3
+    weights = np.r_[[6000.0] * 4, [2000.0] * 4, [100.0] * 28]  # as a 3 % sensor at 2 kg: nu 7.6
+    zeros = np.zeros((10, 10))
+    fit = MotionFit(np.ones(10), np.ones(10), zeros, zeros, zeros, np.zeros((10, 36)),
+                    np.zeros(6), 0.0, 0.0, dof, False, dof, 1.0 + weights.sum() / dof, 0.0,
+                    np.ones((75, 6)), weights.sum(), np.sum(weights**2))  # fmt: skip
+    draws = 1.0 + (rng.standard_normal((200_000, 36)) ** 2 @ weights) / dof  # chi^2 / dof
+    allowed = allowed_chi2_per_dof(fit, alpha)
+    assert 0.3 * alpha < np.mean(draws > allowed) < 3 * alpha  # 1.7e-3
+    assert np.mean(draws > MAX_CHI2_PER_DOF * fit.expected) > 0.02  # 0.08: one in tens
+    quiet = replace(fit, expected=1.05, misfit=0.02 * dof, misfit_squares=0.02 * dof * 50.0)
+    assert allowed_chi2_per_dof(quiet, alpha) == MAX_CHI2_PER_DOF * 1.05
+    assert allowed_chi2_per_dof(replace(fit, misfit=0.0, misfit_squares=0.0), alpha) == (
+        MAX_CHI2_PER_DOF * fit.expected
+    )
