@@ -453,12 +453,10 @@ def _calibration_share(
     gain = cov @ fitted.T @ whitened
     values, vectors = np.linalg.eigh(calibration.error_cov)
     root = vectors * np.sqrt(np.clip(values, 0.0, None))
-    common = 0.0
-    if hand_wrench is not None:  # E's error is linear in the wrench
-        hand = whitened_error(hand_wrench)
-        whitened = whitened + hand
-        common = float(np.sum((left(hand) @ root) * (left(whitened) @ root)))
-    weights = np.linalg.eigvalsh((left(whitened) @ root).T @ (left(whitened) @ root))
+    hand = None if hand_wrench is None else whitened_error(hand_wrench)
+    misfit = left(whitened if hand is None else whitened + hand) @ root  # E's is linear
+    common = 0.0 if hand is None else float(np.sum((left(hand) @ root) * misfit))
+    weights = np.linalg.eigvalsh(misfit.T @ misfit)
     return gain, float(np.sum(weights)), float(np.sum(weights**2)), common
 
 
