@@ -4,12 +4,14 @@ RunError that names the action."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from action_msgs.msg import GoalStatus
 from rclpy.action import ActionClient
+from rclpy.task import Future
 
-from com_core.sequencing.errors import RunError, TimeoutRunError
+from com_core.sequencing.errors import CancelledRunError, RunError, TimeoutRunError
 from com_core.sequencing.ports import RunClock
 
 
@@ -21,10 +23,13 @@ def accepted_goal(
     what: str,
     timeout: float,
     instead: str,
+    interrupted: Callable[[Future], None] | None = None,
 ) -> Any:
     """Send ``goal`` to ``client``'s action ``name`` and return its handle once accepted;
     RunError naming the action when no server answers within ``timeout`` s (wall;
-    ``instead`` says what to do then) or the goal is rejected."""
+    ``instead`` says what to do then) or the goal is rejected. A wait for the answer cut
+    short by the run's cancel hands its future (the goal on its way, perhaps accepted
+    later) to ``interrupted`` before the error goes on."""
 
     def waited(done, doing: str) -> None:
         try:
@@ -37,7 +42,12 @@ def accepted_goal(
 
     waited(client.server_is_ready, "waiting for the server")
     sent = client.send_goal_async(goal)
-    waited(sent.done, "waiting for the answer")
+    try:
+        waited(sent.done, "waiting for the answer")
+    except CancelledRunError:
+        if interrupted is not None:
+            interrupted(sent)
+        raise
     handle = sent.result()
     if handle is None or not handle.accepted:
         raise RunError(f"the action {name} rejected the goal of {what} (its log says why)")

@@ -72,6 +72,7 @@ class ActionArm:
         self._client = ActionClient(node, FollowJointTrajectory, config.arm_action)
         self._sent = node.create_publisher(JointTrajectory, ARM_SENT_TOPIC, 10)
         self._running: tuple[Future, str] | None = None  # the last goal's result, its move
+        self._unanswered: Future | None = None  # a goal's answer a cancel stopped waiting for
 
     def send(self, path: JointPath, what: str) -> None:
         msg, config = trajectory_message(path), self._config
@@ -84,9 +85,12 @@ class ActionArm:
         ]  # fmt: skip
         handle = accepted_goal(
             self._clock, self._client, config.arm_action, goal, what, ANSWER_TIMEOUT,
-            "arm_interface 'topic' commands it by topic instead",
+            "arm_interface 'topic' commands it by topic instead", self._left_unanswered,
         )  # fmt: skip
         self._running = (handle.get_result_async(), what)
+
+    def _left_unanswered(self, answer: Future) -> None:
+        self._unanswered = answer
 
     def finished(self, wall_timeout: float) -> None:
         """RunError with the controller's error code and text unless the last goal
@@ -104,4 +108,22 @@ class ActionArm:
             )
 
     def forget(self) -> None:
+        """The last goal's result dropped. A goal whose answer a cancel stopped waiting
+        for is cancelled once the controller accepts it, and its end awaited: the arm is
+        held where it is before a move is planned from there (else the controller would
+        start it after the arm's position was read, and refuse the next move's jump)."""
         self._running = None
+        answer, self._unanswered = self._unanswered, None
+        if answer is None:
+            return
+        name = self._config.arm_action
+        try:
+            self._clock.wait(answer.done, f"the answer of {name} to a cancelled goal",
+                             ANSWER_TIMEOUT)  # fmt: skip
+            handle = answer.result()
+            if handle is not None and handle.accepted:
+                ended = handle.get_result_async()
+                handle.cancel_goal_async()
+                self._clock.wait(ended.done, f"{name} ending a cancelled goal", ANSWER_TIMEOUT)
+        except RunError:  # no answer: the way back starts from where the arm is
+            pass
