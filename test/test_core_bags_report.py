@@ -321,8 +321,11 @@ def test_the_fits_quality_is_its_p_value_at_rest_and_its_chi2_per_dof_in_motion(
 
     at_rest = {"chi2": "32.81", "dof": "41", "p_value": "0.815"}
     assert _fit_quality(at_rest) == "32.81 / 41,  p = 0.815"
-    in_motion = {"chi2": "21577.18", "dof": "19774", "p_value": "nan", "excitation": "motion"}
-    assert _fit_quality(in_motion) == "1.091 (one rigid load up to 1.5)"
+    in_motion = {"chi2": "21577.18", "dof": "19774", "p_value": "nan", "excitation": "motion",
+                 "chi2_expected_per_dof": "1.2", "chi2_allowed_per_dof": "2.041"}  # fmt: skip
+    assert _fit_quality(in_motion) == "1.091 (one rigid load up to 2.041)"
+    del in_motion["chi2_allowed_per_dof"]  # recorded before the run's allowance was kept
+    assert _fit_quality(in_motion) == "1.091 (one rigid load up to 1.800)"
     assert _fit_quality({"mass": "0.5"}) is None
 
 

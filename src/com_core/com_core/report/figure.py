@@ -599,13 +599,18 @@ def _summary_lines(run: RunData, rows: list[_Row]) -> list[str]:
 
 def _fit_quality(values: dict) -> str | None:
     """The fit's chi^2 over its degrees of freedom and its test, after "chi2/dof": at rest
-    the chi-square's p-value; in motion chi^2/dof against its limit (no p-value:
-    ``motion_solution.MAX_CHI2_PER_DOF``); None without them."""
+    the chi-square's p-value; in motion chi^2/dof against what the run's one-rigid-load
+    test allowed (no p-value: ``motion_solution.allowed_chi2_per_dof``; a run recorded
+    before the allowance was kept: ``MAX_CHI2_PER_DOF`` times what is explained); None
+    without them."""
     chi2, dof = _value(values, "chi2"), _value(values, "dof")
     if chi2 is None or not dof:
         return None
     if values.get("excitation") == MOTION:
-        return f"{chi2 / dof:.3f} (one rigid load up to {MAX_CHI2_PER_DOF:g})"
+        allowed = _value(values, "chi2_allowed_per_dof")
+        if allowed is None:
+            allowed = MAX_CHI2_PER_DOF * (_value(values, "chi2_expected_per_dof") or math.nan)
+        return f"{chi2 / dof:.3f} (one rigid load up to {allowed:.3f})"
     return f"{chi2:.2f} / {dof:.0f},  p = {_fmt(_value(values, 'p_value'), '.3g')}"
 
 

@@ -121,11 +121,14 @@ class MotionCheck:
 class MotionResult:
     """The fits of one exploration in motion: the empty ``hand``'s (its whole load) and
     the ``object``'s (the hand taken off), and the covariance ``load_cov`` (10, 10) of the
-    object's ``MotionFit.load_vector`` (mass, COM, the inertia's ``INERTIA_ELEMENTS``)."""
+    object's ``MotionFit.load_vector`` (mass, COM, the inertia's ``INERTIA_ELEMENTS``);
+    ``allowed`` the chi^2/dof the one-rigid-load test allowed the object's fit
+    (``allowed_chi2_per_dof``; NaN: not tested)."""
 
     hand: MotionFit
     object: MotionFit
     load_cov: NDArray[np.float64]
+    allowed: float = math.nan
 
     @property
     def inertia(self) -> NDArray[np.float64]:
@@ -166,6 +169,7 @@ class MotionResult:
             "hand_parameters": self.hand.pi.tolist(),
             "delay": self.object.delay,
             "chi2_expected_per_dof": self.object.expected,
+            "chi2_allowed_per_dof": self.allowed,
             "chi2_common_per_dof": self.object.common / self.object.dof,
             "motion_samples": self.object.samples,
         }
@@ -328,8 +332,8 @@ def solve_motion(
     fit = _fit(inbox, setup, MOTION_OBJECT, noise, until_ns, hand)
     mass, com, _ = fit.load()
     load_cov = fit.load_cov()
-    result = MotionResult(hand, fit, load_cov)
     per_dof, allowed = fit.chi2 / fit.dof, allowed_chi2_per_dof(fit, setup.alpha)
+    result = MotionResult(hand, fit, load_cov, allowed)
     consistent = per_dof <= allowed
     consistency = Consistency(
         consistent,
