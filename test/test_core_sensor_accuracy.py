@@ -61,10 +61,14 @@ def test_the_lightest_object_is_where_the_prediction_crosses_five_percent():
 
 
 def test_the_table_names_each_profile_and_what_it_leaves_out(capsys):
-    assert main(["--profiles", "realistic,xarm_ft,fr3_estimated", "--masses", "0.5"]) == 0
+    profiles = "realistic,bota_sensone,xarm_ft,fr3_estimated"
+    assert main(["--profiles", profiles, "--masses", "0.5"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert any(x.endswith("realistic: the lightest object weighed to 5% (2 sigma): 28 g, "
                           "calibrated 25 g") for x in lines)  # fmt: skip
+    # half the realistic sensor's noise and twice its calibration's error
+    assert any(x.endswith("bota_sensone: the lightest object weighed to 5% (2 sigma): 16 g, "
+                          "calibrated 13 g") for x in lines)  # fmt: skip
     (xarm,) = [x for x in lines if "xarm_ft: the lightest" in x]
     assert "not in these" not in xarm  # its hysteresis is, and it states no non-linearity
     assert any("fr3_estimated: the lightest" in x and "arm model's error is not in these" in x

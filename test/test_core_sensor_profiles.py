@@ -197,6 +197,20 @@ def test_the_ur_e_series_figures_follow_from_the_ur5e_datasheet():
     assert all(getattr(ur, name) == getattr(realistic, name) for name in same)
 
 
+def test_the_bota_sensone_figures_follow_from_botas_published_ones():
+    """Sensitivity 0.05 N, 0.002 N m as one sigma of a reading; accuracy 2 % of the
+    lateral force's 500 N and the lateral torque's 15 N m; no quantisation nor hysteresis
+    stated; the rest the realistic profile's."""
+    bota, realistic = PROFILES["bota_sensone"], PROFILES["realistic"]
+    assert (bota.sigma_f, bota.sigma_tau) == (0.05, 0.002)
+    assert (bota.limit_f, bota.limit_tau, bota.calibration_accuracy) == (500.0, 15.0, 0.02)
+    assert (bota.resolution_f, bota.resolution_tau, bota.hysteresis) == (0.0, 0.0, ())
+    assert bota.problems() == [] and bota.stated_hysteresis() is None
+    same = ("correlation_time", "warmup_f", "warmup_tau", "warmup_time", "random_walk_f",
+            "random_walk_tau", "vibration_hz", "vibration_damping", "vibration_gain")  # fmt: skip
+    assert all(getattr(bota, name) == getattr(realistic, name) for name in same)
+
+
 def test_the_realistic_counts_below_the_noise_leave_the_mean_unbiased():
     """A count below the noise is dithered by it: the mean reading of a wrench anywhere
     between two counts is the wrench, and the spread per sample is sigma^2 + q^2 / 12

@@ -47,6 +47,22 @@
   - the rest UFACTORY does not state (noise, low-pass, drift, non-linearity, the arm's
     modes) is the realistic profile's: noise 0.1 N and 5 mN m, at the resolution.
 
+- ``bota_sensone``: a Bota Systems SensONE-class sensor (a six-axis strain-gauge sensor
+  with its electronics inside, read over USB/RS422 or EtherCAT), from what Bota
+  publishes of the SensONE T5 (its news release "Bota Systems' new force torque sensor
+  triples sensitivity of small payload cobots", quoted in public robotics notes):
+  sensitivity 0.05 N and 0.002 N m, accuracy "exceeding 2.0 %", up to 2000 Hz, for
+  cobots of up to 5 kg payload. The range of its serial sensor as its datasheet is
+  quoted (BFT-ROKS-SER-M8: 500 N Fx, Fy, 1200 N Fz, 15 N m Mx, My, 12 N m Mz; accuracy
+  < 2.0 %; 800 Hz). From these:
+  - noise 0.05 N and 0.002 N m per published sample: the sensitivity taken as one sigma
+    (the smallest change it tells from its noise; not the kinder 95 % band);
+  - calibration accuracy 2 % of full scale (95 %), range 500 N and 15 N m (one force
+    range: the lateral axes');
+  - the rest Bota does not state (the 5 ms low-pass, the warming bias, its random walk,
+    hysteresis, non-linearity and the arm's modes) is the realistic profile's: no
+    hysteresis, no quantisation; published at the sim's 1 kHz.
+
 - ``fr3_estimated``: no wrist sensor: the external wrench a Franka Research 3 (or Panda)
   estimates from its seven link-side joint torque sensors and its dynamic model
   (libfranka's ``K_F_ext_hat_K`` at 1 kHz; ``wrench_sim.joint_torques``). Franka's
@@ -269,6 +285,16 @@ PROFILES["xarm_ft"] = replace(  # UFACTORY's figures (module); the rest the real
     limit_tau=4.0,
     calibration_accuracy=0.03,
     hysteresis=(0.025 * 150.0, 0.025 * 150.0, 0.01 * 200.0, 0.04, 0.04, 0.04),
+)
+PROFILES["bota_sensone"] = replace(  # Bota's figures (module); the rest the realistic sensor's
+    PROFILES["realistic"],
+    sigma_f=0.05,
+    sigma_tau=0.002,
+    resolution_f=0.0,
+    resolution_tau=0.0,
+    limit_f=500.0,
+    limit_tau=15.0,
+    calibration_accuracy=0.02,
 )
 PROFILES["fr3_estimated"] = replace(  # the module's figures; the rest the realistic sensor's
     PROFILES["realistic"],
