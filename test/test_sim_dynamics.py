@@ -296,10 +296,11 @@ def test_the_motion_fit_through_the_realistic_sensor_gives_the_object():
         # calibration share (common to both motions), widened or not. The quantisation is
         # noise, not a misfit along the motion: the two fits' residuals do not agree on it
         assert box_.common < 0.01 * box_.dof and box.common < 0.01 * box.dof
-        hand_widening = widening_factor(hand_.chi2 - box_.common, hand_.dof, hand_.expected)
+        hand_widening = widening_factor(hand_.chi2 - box_.common, hand_.dof, hand_.expected,
+                                        hand_.misfit)  # fmt: skip
         np.testing.assert_allclose(
             box_.cov,
-            box_.widening * (box_.bound + box_.calibration_cov) + hand_widening * hand_.bound,
+            box_.widening * box_.bound + box_.calibration_cov + hand_widening * hand_.bound,
         )
         assert 0.005 < hand.delay < 0.008 and 0.005 < box.delay < 0.008
         assert box.chi2 / box.dof < 1.3
