@@ -52,9 +52,10 @@
   publishes of the SensONE T5 (its news release "Bota Systems' new force torque sensor
   triples sensitivity of small payload cobots", quoted in public robotics notes):
   sensitivity 0.05 N and 0.002 N m, accuracy "exceeding 2.0 %", up to 2000 Hz, for
-  cobots of up to 5 kg payload. The range of its serial sensor as its datasheet is
-  quoted (BFT-ROKS-SER-M8: 500 N Fx, Fy, 1200 N Fz, 15 N m Mx, My, 12 N m Mz; accuracy
-  < 2.0 %; 800 Hz). From these:
+  cobots of up to 5 kg payload; no range is stated there. The range is that of Bota's
+  Rokubi serial sensor as its datasheet is quoted (BFT-ROKS-SER-M8: 500 N Fx, Fy,
+  1200 N Fz, 15 N m Mx, My, 12 N m Mz; accuracy < 2.0 %; 800 Hz), the same maker's
+  sensor of the same accuracy. From these:
   - noise 0.05 N and 0.002 N m per published sample: the sensitivity taken as one sigma
     (the smallest change it tells from its noise; not the kinder 95 % band);
   - calibration accuracy 2 % of full scale (95 %), range 500 N and 15 N m (one force
