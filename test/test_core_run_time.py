@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 from itertools import pairwise
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -32,6 +33,7 @@ from com_core.planning.run_time import (
     time_left,
 )
 from com_core.sensing.noise import ar1_noise
+from com_core.sequencing.progress import RunProgress
 
 PANDA = choreography("panda")
 HOME, PICK = list(PANDA_CONFIG.home_joints), list(PANDA_CONFIG.pick_joints)
@@ -201,3 +203,19 @@ def test_the_time_left_at_each_phase_start_is_within_a_tenth_of_what_a_recorded_
     for k, (phase, start) in enumerate(starts.items()):
         planned, actual = time_left(phases, k, 0.0, 1.0), end - start
         assert abs(planned / actual - 1) < 0.10, (phase, planned, actual)
+
+
+def test_a_run_started_before_the_sims_clock_is_heard_measures_its_rate_from_the_first_reading(
+    monkeypatch,
+):
+    """A run that reads the clock before the sim's first /clock (it reads 0) times itself
+    from the first reading that is not 0: the sim's rate is measured, not taken as 1."""
+    wall = [100.0]
+    monkeypatch.setattr("com_core.sequencing.progress.time.monotonic", lambda: wall[0])
+    clock = SimpleNamespace(ns=0)
+    progress = RunProgress(SimpleNamespace(now_ns=lambda: clock.ns), {})
+    progress.start()  # no /clock heard yet
+    clock.ns, wall[0] = 4_000_000_000, 101.0
+    assert progress.measured_rate() == 1.0  # the first reading: no rate yet
+    clock.ns, wall[0] = 10_000_000_000, 104.0  # 6 s (sim) in 3 s (wall)
+    assert progress.measured_rate() == pytest.approx(2.0)

@@ -38,10 +38,17 @@ class RunProgress:
         """The run's recording starts now, ``planned_s`` s (sim) before the run ends."""
         self._start_ns, self._planned_s = self._clock.now_ns(), planned_s
 
+    def _marked(self) -> tuple[float, int]:
+        """(wall s, sim ns) the run's time counts from: when it first read the clock, or
+        when the sim's clock was first heard if it was not yet then (it read 0)."""
+        if not self._mark[1] and (now := self._clock.now_ns()):
+            self._mark = (time.monotonic(), now)
+        return self._mark
+
     def elapsed(self, now_ns: int) -> float:
         """s (sim) of the run done at ``now_ns``, its planning included; 0 before its
         recording starts (no plan yet)."""
-        return (now_ns - self._mark[1]) * 1e-9 if self._start_ns else 0.0
+        return (now_ns - self._marked()[1]) * 1e-9 if self._start_ns else 0.0
 
     def left(self, now_ns: int) -> float:
         """s (sim) the run has left at ``now_ns``: ``time_left`` of its phases from the
@@ -60,9 +67,9 @@ class RunProgress:
         return time_left(phases, -1, 0.0, self.measured_rate())
 
     def measured_rate(self) -> float:
-        """sim s per wall s since the run first read the clock; 1 within its first 0.5 s
-        (wall) or when the sim's clock went back."""
-        wall, sim = self._mark
+        """sim s per wall s since the run's time counts (``_marked``); 1 within its first
+        0.5 s (wall) or when the sim's clock went back."""
+        wall, sim = self._marked()
         spent = time.monotonic() - wall
         rate = (self._clock.now_ns() - sim) * 1e-9 / spent if sim and spent >= 0.5 else 1.0
         return rate if rate > 0 else 1.0
