@@ -56,12 +56,21 @@ def windows(reading, bias, rotations, mass, com, rng, tag, sigma=SIGMA):
     return out
 
 
-def session(seed: int, reference_mass: float = REFERENCE.mass, sigma=SIGMA):
-    """(the sensor's true E (6, 6), its reading matrix, bias, the calibration windows:
-    the empty hand and the reference at 9 poses tilted 40 deg)."""
+def error_as_read(reading: np.ndarray, stated: Calibration = STATED) -> np.ndarray:
+    """E' (6, 6) of a sensor reading through C = ``reading``: I - S E' S^-1 = C^-1, the
+    error a calibration in place estimates (``com_core.sensing.calibration``)."""
+    return (np.eye(6) - np.linalg.inv(reading)) / stated.scale[:, None] * stated.scale[None, :]
+
+
+def session(
+    seed: int, reference_mass: float = REFERENCE.mass, sigma=SIGMA, stated: Calibration = STATED
+):
+    """(the sensor's error as read E' (6, 6), its reading matrix of ``stated``'s accuracy,
+    bias, the calibration windows: the empty hand and the reference at 9 poses tilted 40
+    deg)."""
     rng = np.random.default_rng(seed)
-    reading = calibration_matrix(STATED.accuracy, STATED.full_scale_f, STATED.full_scale_tau, rng)
-    error = (reading - np.eye(6)) / STATED.scale[:, None] * STATED.scale[None, :]
+    reading = calibration_matrix(stated.accuracy, stated.full_scale_f, stated.full_scale_tau, rng)
+    error = error_as_read(reading, stated)
     bias = rng.normal(0.0, [0.3] * 3 + [0.015] * 3)
     rotations = tilts(8, 40.0)
     obs = windows(reading, bias, rotations, 0.0, None, rng, "tare", sigma)
@@ -69,12 +78,12 @@ def session(seed: int, reference_mass: float = REFERENCE.mass, sigma=SIGMA):
     return error, reading, bias, obs, rng
 
 
-def weighed(calibration: Calibration, reading, bias, rng):
+def weighed(calibration: Calibration, reading, bias, rng, mass=OBJECT_MASS, sigma=SIGMA):
     """The object's estimate from a default static pass (5 poses, 30 deg), its readings
     corrected by ``calibration``."""
     rotations = tilts(4, 30.0)
-    obs = windows(reading, bias, rotations, 0.0, None, rng, "tare")
-    obs += windows(reading, bias, rotations, OBJECT_MASS, OBJECT_COM, rng, "object")
+    obs = windows(reading, bias, rotations, 0.0, None, rng, "tare", sigma)
+    obs += windows(reading, bias, rotations, mass, OBJECT_COM, rng, "object", sigma)
     obs = [replace(o, window=replace(o.window, mean=calibration.correct(o.window.mean)))
            for o in obs]  # fmt: skip
     fit = kinematic_ml(obs, calibration=calibration)
@@ -84,8 +93,7 @@ def weighed(calibration: Calibration, reading, bias, rng):
 def test_the_correction_undoes_a_known_error_exactly():
     rng = np.random.default_rng(1)
     reading = calibration_matrix(0.01, 290.0, 10.0, rng)
-    error = (reading - np.eye(6)) / STATED.scale[:, None] * STATED.scale[None, :]
-    known = replace(STATED, estimate=error, residual_cov=np.zeros((36, 36)))
+    known = replace(STATED, estimate=error_as_read(reading), residual_cov=np.zeros((36, 36)))
     wrenches = rng.normal(0.0, [5.0] * 3 + [0.3] * 3, (10, 6))
     np.testing.assert_allclose(known.correct(wrenches @ reading.T), wrenches, atol=1e-12)
     assert np.all(known.cov(wrenches) == 0)
@@ -129,6 +137,34 @@ def test_an_object_weighed_with_the_corrected_readings_is_closer_and_its_error_b
     assert com_p95[1] < 0.8 * com_p95[0], com_p95  # 1.15 mm -> 0.74 mm
     rms = np.sqrt(np.mean(in_place[:, 4:] ** 2, axis=0))
     assert np.all((rms > 0.7) & (rms < 1.35)), rms  # 40 draws: +-0.22 at 2 sigma
+
+
+def test_error_bars_hold_where_the_errors_square_outweighs_what_the_reference_identifies():
+    """A 2 % sensor of large range and low noise (the Bota SensONE-class profile's), a
+    2 kg reference and a 2 kg object: E is identified to some 7e-5 in the gains, less than
+    E's square (2e-4). The estimate is of the error as read, within its covariance; and
+    the object's error bars hold because the rest acts on the readings as read: at the
+    corrected ones instead, the force-from-torque rest times the torque-from-force error
+    (C - I's force-from-torque terms are 33 times E's for this sensor's full scales) would
+    be left out, and the mass's rms error / sigma would be 1.7 (3.0 correcting by
+    (I + S E^ S^-1)^-1)."""
+    stated = Calibration(0.02, 500.0, 15.0)
+    sigma = np.array([0.05] * 3 + [0.002] * 3) / np.sqrt(200)
+    reference = replace(REFERENCE, mass=2.0)
+    whitened, z = [], []
+    for seed in range(40):
+        error, reading, bias, obs, _ = session(seed, 2.0, sigma, stated)
+        calibrated, _ = calibrate_in_place(obs, reference, stated)
+        left = calibrated.calibration.error_cov
+        values, vectors = np.linalg.eigh(left)
+        whitened.append(vectors.T @ (error - calibrated.calibration.estimate).ravel()
+                        / np.sqrt(values))  # fmt: skip
+        rng = np.random.default_rng([seed, 1])
+        e = weighed(calibrated.calibration, reading, bias, rng, 2.0, sigma)
+        z.append(np.r_[e.mass - 2.0, e.com - OBJECT_COM] / np.sqrt(np.diag(e.cov)))
+    assert 0.9 < np.sqrt(np.mean(np.square(whitened))) < 1.1
+    rms = np.sqrt(np.mean(np.square(z), axis=0))
+    assert np.all((rms > 0.7) & (rms < 1.35)), rms  # measured 1.04, 1.19, 1.00, 1.11
 
 
 def test_a_reference_of_known_com_identifies_what_a_com_offset_would_explain():

@@ -277,7 +277,8 @@ def test_readings_are_corrected_by_the_hysteresis_gain_before_the_calibration_in
     estimate = 0.01 * np.random.default_rng(0).standard_normal((6, 6))
     calibrated = Calibration(0.03, 150.0, 4.0, estimate=estimate)
     load = np.array([5.0, -3.0, 20.0, 0.3, -0.2, 0.1])
-    c = np.eye(6) + calibrated.scale[:, None] * estimate / calibrated.scale[None, :]
+    # the estimate is of the error as read: C^-1 = I - S E^ S^-1 (com_core.sensing.calibration)
+    c = np.linalg.inv(np.eye(6) - calibrated.scale[:, None] * estimate / calibrated.scale[None, :])
     read = gain * (c @ load)  # corrected by the gain alone, it reads c load: c was so identified
     assert_allclose(reading_correction(calibrated, hysteresis) @ read, load, rtol=1e-12)
     assert_allclose(reading_correction(calibrated, None), calibrated.correction)

@@ -25,11 +25,19 @@ its share of the estimate's covariance is propagated through the estimator's Jac
 the window means (``propagated``), and the chi-square test widens each window by its own
 share (``widened``; the correlation across windows is left out of that test).
 
-A sensor calibrated in place (``estimation.fits.in_place``) has an estimate E^ of E and
-what is left of it, E - E^, of covariance ``residual_cov`` (36, 36) in place of
-sigma^2 I: its readings are corrected by C^-1 = (I + S E^ S^-1)^-1 (``correct``), and the
-common error above is that of the rest (first order: C^-1 C = I + S (E - E^) S^-1), each
-formula with ``error_cov`` for sigma^2 I.
+A sensor calibrated in place (``estimation.fits.in_place``) has an estimate of the error
+as its fit sees it: the common error taken at the readings y = C w, not at the wrenches,
+is exactly y - w = S E' S^-1 y with I - S E' S^-1 = C^-1, so E' = E - E^2 + E^3 - ...
+is what the fit identifies, not E (they differ by E's square: some 2e-4 per element for
+a 2 % sensor, three times what a 2 kg reference identifies E to). Its estimate E'^
+(``estimate``) and what is left of it, E' - E'^, of covariance ``residual_cov`` (36, 36)
+in place of sigma^2 I: its readings are corrected by I - S E'^ S^-1 (``correct``), which
+leaves S (E' - E'^) S^-1 y, the common error above for the rest, each formula with
+``error_cov`` for sigma^2 I. The rest acts on the reading as read, y, not on it as
+corrected (``as_read``): they differ by C - I, whose force-from-torque terms are
+S_f / S_tau (some 30) times E's, so that the torque-from-force error times what is
+left of the force-from-torque one moves a force's gain by as much as a heavy reference
+identifies it to.
 """
 
 from __future__ import annotations
@@ -53,7 +61,8 @@ class Calibration:
     """The sensor's stated ``accuracy`` (fraction of full scale, 95 %) and its full
     scales (N, N m), which weigh the cross-talk between forces and torques; for a sensor
     calibrated in place, the estimate E^ (6, 6) of its error (``estimate``) and the
-    covariance of the rest (``residual_cov``, (36, 36), row-major vec(E))."""
+    covariance of the rest (``residual_cov``, (36, 36), row-major vec(E)); the estimate
+    is of the error as read, E' (module)."""
 
     accuracy: float
     full_scale_f: float
@@ -101,12 +110,12 @@ class Calibration:
 
     @property
     def correction(self) -> NDArray[np.float64]:
-        """(6, 6) C^-1 with C = I + S E^ S^-1: what corrects a reading (I without an
-        estimate)."""
+        """(6, 6) I - S E'^ S^-1: what corrects a reading, C^-1 as far as the estimate of
+        the error as read goes (module; I without an estimate)."""
         if self.estimate is None:
             return np.eye(6)
         s = self.scale
-        return np.linalg.inv(np.eye(6) + s[:, None] * self.estimate / s[None, :])
+        return np.eye(6) - s[:, None] * self.estimate / s[None, :]
 
     def correct(self, wrenches: ArrayLike) -> NDArray[np.float64]:
         """Readings (..., 6; N, N m) corrected by the in-place estimate (``correction``);
@@ -114,19 +123,24 @@ class Calibration:
         w = np.asarray(wrenches, dtype=np.float64)
         return w if self.estimate is None else w @ self.correction.T
 
+    def as_read(self, wrenches: ArrayLike) -> NDArray[np.float64]:
+        """Readings (..., 6; N, N m) ``correct`` corrected, as the sensor read them: what
+        the rest of the error acts on (module); unchanged without an estimate."""
+        w = np.asarray(wrenches, dtype=np.float64)
+        return w if self.estimate is None else np.linalg.solve(self.correction, w.T).T
+
     def jacobian(self, wrench: ArrayLike) -> NDArray[np.float64]:
-        """(6, 36): d(C w) / d vec(E) at the wrench ``wrench`` (6,); row-major vec(E)."""
-        w = np.asarray(wrench, dtype=np.float64)
-        s = self.scale
-        out = np.zeros((6, 36))
-        for a in range(6):
-            out[a, 6 * a : 6 * a + 6] = s[a] * w / s
-        return out
+        """(6, 36): d(C w) / d vec(E) at the wrench ``wrench`` (6,), of a reading corrected
+        by the estimate: at it as read (``as_read``); row-major vec(E)."""
+        return self.stacked_jacobian(np.asarray(wrench).reshape(1, 6))
 
     def stacked_jacobian(self, wrenches: ArrayLike) -> NDArray[np.float64]:
         """(6 n, 36): ``jacobian`` of each of ``wrenches`` (n, 6), stacked."""
-        w = np.asarray(wrenches, dtype=np.float64).reshape(-1, 6)
-        return np.concatenate([self.jacobian(x) for x in w]) if len(w) else np.zeros((0, 36))
+        w = self.as_read(np.asarray(wrenches, dtype=np.float64).reshape(-1, 6))
+        s = self.scale
+        out = np.zeros((len(w), 6, 6, 6))  # window, read axis a, the block 6 a .. 6 a + 6
+        out[:, np.arange(6), np.arange(6), :] = s[None, :, None] * w[:, None, :] / s
+        return out.reshape(6 * len(w), 36)
 
     def cov(self, wrenches: ArrayLike) -> NDArray[np.float64]:
         """(6 n, 6 n): the covariance of the common error of windows with ``wrenches``
