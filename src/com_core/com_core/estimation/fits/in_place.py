@@ -7,7 +7,9 @@ mass, held through the poses of a static exploration with the empty hand at the 
 (its tare pass), is fitted by ``known_gravity.kinematic_ml`` with the reference as a
 prior on the object (``Reference``) and the sensor's stated accuracy as the prior of E;
 what the windows' misfit says of E is its best linear unbiased prediction
-(``KinematicFit.calibration_error``), with the covariance of what is left.
+(``KinematicFit.calibration_error``), with the covariance of what is left: taken at the
+readings, it is of the error as read, E' with C^-1 = I - S E' S^-1
+(``com_core.sensing.calibration``).
 
 What the poses can identify: under gravity alone a rigid load's wrench is
 (I + S E S^-1) [I; [p]_x] m g, so of E's 36 elements the windows see 18 combinations, less
