@@ -138,7 +138,7 @@ def in_motion(config, model, excitation, shape, mass, serial, profile, matrices,
     world, sensor = perfectly_calibrated(config, shape, mass, serial, profile, serial)
     try:
         empty = run_excitation(world, excitation, sensor, EVERY)
-        grasp(world)
+        grasp(world, sensor=sensor)
         loaded = run_excitation(world, excitation, sensor, EVERY)
         true_mass, true_com = world.object_ground_truth()
         inertia = world.inertia_ground_truth()[1]

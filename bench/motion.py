@@ -110,7 +110,7 @@ def one_object(
 
         empty = excite()
         hand = fit_motion(model, *empty, noise, calibration=weighed(empty))
-        grasp(world)
+        grasp(world, sensor=sensor)
         recorded = excite()
         start = time.perf_counter()
         fit = fit_motion(model, *recorded, noise, hand, weighed(recorded))
@@ -188,7 +188,7 @@ def record_static(world, sensor, every) -> tuple[list, float]:
 
     def window(label: str, joints, dwell: float) -> None:
         world.move_arm(joints, MOVE)
-        world.run(SETTLE)
+        hold_still(world, sensor, SETTLE, every)  # read through it (``SENSOR_CATCH_UP``)
         windows.append((label, hold_still(world, sensor, dwell, every)))
 
     for name, joints in poses:

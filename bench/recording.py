@@ -73,7 +73,7 @@ def one_recording(robot: str, index: int, seed: int, duration: float, bias_f: fl
             ]
         )
         sensor.model = replace(sensor.model, bias=bias)
-        grasp(world)
+        grasp(world, sensor=sensor)
         recorded = record_wandering(world, sensor, rng, duration)
         mh, ch = world.hand_ground_truth()
         mo, co = world.object_ground_truth()

@@ -46,9 +46,17 @@ __all__ = [
 ]
 
 
-def grasp(world: ArmWorld, seconds: float = 3.0) -> None:
+SENSOR_CATCH_UP = 0.3
+"""s (sim) a sensor not read through a stretch of the world is read at rest after it,
+before a recording: the sim node reads its sensor every step, so its low-pass (5 ms)
+follows every change of load, where one read again only after a lift starts from the
+load before it (16 N off for 20 ms after lifting 2 kg)."""
+
+
+def grasp(world: ArmWorld, seconds: float = 3.0, sensor: WrenchSensor | None = None) -> None:
     """Pick the object from its stand and lift it to the home pose, each move in
-    ``seconds``; RuntimeError when the gripper does not hold it."""
+    ``seconds``; then, with ``sensor``, read it ``SENSOR_CATCH_UP`` s at home. RuntimeError
+    when the gripper does not hold it."""
     robot = world.config.robot
     world.move_arm(robot.pick_joints, seconds)
     world.command_gripper(robot.gripper_closed)
@@ -56,6 +64,8 @@ def grasp(world: ArmWorld, seconds: float = 3.0) -> None:
     if not world.object_held:
         raise RuntimeError(f"the grasp failed: {world.events}")
     world.move_arm(robot.home_joints, seconds)
+    if sensor is not None:
+        hold_still(world, sensor, SENSOR_CATCH_UP)
 
 
 def run_excitation(
@@ -162,7 +172,7 @@ def explore_in_motion(
     world.move_arm(robot.home_joints, 1.0)
     feed(exploration, world, "tare/home", hold_still(world, sensor, 2.0, joint_every))
     feed(exploration, world, MOTION_TARE, run_excitation(world, excitation, sensor, joint_every))
-    grasp(world)
+    grasp(world, sensor=sensor)
     feed(exploration, world, MOTION_OBJECT, run_excitation(world, excitation, sensor, joint_every))
     feed(exploration, world, MOTION_VERIFY, run_excitation(world, other, sensor, joint_every))
     exploration.add_label(round(world.time * 1e9), DONE)
