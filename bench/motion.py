@@ -188,7 +188,7 @@ def record_static(world, sensor, every) -> tuple[list, float]:
 
     def window(label: str, joints, dwell: float) -> None:
         world.move_arm(joints, MOVE)
-        hold_still(world, sensor, SETTLE, every)  # read through it (``SENSOR_CATCH_UP``)
+        hold_still(world, sensor, SETTLE, every)  # read through it: studies.SENSOR_CATCH_UP
         windows.append((label, hold_still(world, sensor, dwell, every)))
 
     for name, joints in poses:
