@@ -454,7 +454,8 @@ def _calibration_share(
     whitened regressors with the bias ``project``ed out, (rows, 10)."""
 
     def whitened_error(wrench: NDArray[np.float64]) -> NDArray[np.float64]:
-        return project(_whiten(np.stack([calibration.jacobian(x) for x in wrench]), noise))
+        jacobians = calibration.stacked_jacobian(wrench).reshape(len(wrench), 6, 36)
+        return project(_whiten(jacobians, noise))
 
     def left(whitened: NDArray[np.float64]) -> NDArray[np.float64]:
         return whitened - fitted @ (cov @ fitted.T @ whitened)
