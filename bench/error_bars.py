@@ -60,6 +60,7 @@ from com_core.sensing.calibration import reading_correction
 from com_core.sensing.sensor_profiles import PROFILES
 from com_core.sensing.wrench_model import calibration_matrix
 from wrench_sim.config import SimConfig
+from wrench_sim.objects import reference_weight_mass
 from wrench_sim.physics import ArmWorld
 from wrench_sim.sensor import profile_calibration, profile_sensor
 from wrench_sim.studies import grasp, run_excitation
@@ -95,15 +96,17 @@ def perfectly_calibrated(config, shape, kg, serial, profile, noise_seed) -> tupl
 
 def in_place(config, kg, serial, profile, matrices) -> list[SensorCalibration | None]:
     """The sensor's calibration in place under each of ``matrices`` (None where refused):
-    a box of ``kg`` kg explored at rest as the reference weight (``bench/motion.py``'s
-    ``--calibrate``, its noise drawn apart from the object's), recorded once."""
-    world, sensor = perfectly_calibrated(config, "box", kg, serial, profile,
-                                         serial + REFERENCE_SEEDS)  # fmt: skip
+    a box stated as ``kg`` kg explored at rest as the reference weight (``bench/motion.py``'s
+    ``--calibrate``: its true mass off that within its class's tolerance, its noise drawn
+    apart from the object's), recorded once."""
+    noise_seed = serial + REFERENCE_SEEDS
+    true_mass = reference_weight_mass(kg, noise_seed)
+    world, sensor = perfectly_calibrated(config, "box", true_mass, serial, profile, noise_seed)
     try:
         windows, _ = record_static(world, sensor, EVERY)
         out = []
         for c in matrices:
-            exploration = static_exploration(world, windows, profile, reference=True, through=c)
+            exploration = static_exploration(world, windows, profile, kg, through=c)
             result = exploration.solve().calibration
             out.append(None if result is None else SensorCalibration(f"sim-{serial}", 0.0, result))
         return out

@@ -37,12 +37,14 @@ kinematics), with the ratios of the 95th percentiles (ours / theirs).
 
 ``--calibrate KG``: each object's sensor (its serial) is first calibrated in place as the
 sequencer runs it (``estimation.fits.in_place``): the same static exploration with a
-box of KG kg as a reference weight, the estimator told its mass (``reference_mass``),
-through a sensor of the same serial (its own noise); the object's readings are then
-corrected by that calibration and its fits weigh what is left of the error
-(``sensing.calibration``), in motion and at rest. Printed besides: the share of each block
-of the calibration error the reference's poses left, median. ``--fixture``: the reference's
-COM told to the estimator within 0.05 mm (``reference_com``: a weight on a fixture).
+box stated as KG kg as a reference weight (its true mass off that within OIML class
+M1's tolerance, ``wrench_sim.objects.reference_weight_mass``), the estimator told the
+stated mass (``reference_mass``), through a sensor of the same serial (its own noise);
+the object's readings are then corrected by that calibration and its fits weigh what is
+left of the error (``sensing.calibration``), in motion and at rest. Printed besides: the
+share of each block of the calibration error the reference's poses left, median.
+``--fixture``: the reference's COM told to the estimator within 0.05 mm
+(``reference_com``: a weight on a fixture).
 """
 
 from __future__ import annotations
@@ -78,6 +80,7 @@ from com_core.sensing.calibration import Calibration, reading_correction
 from com_core.sensing.sensor_profiles import PROFILES
 from com_core.sensing.wrench_model import STANDARD_GRAVITY, skew
 from wrench_sim.config import SimConfig
+from wrench_sim.objects import reference_weight_mass
 from wrench_sim.physics import ArmWorld
 from wrench_sim.sensor import profile_sensor
 from wrench_sim.studies import feed, grasp, hold_still, run_excitation
@@ -160,12 +163,14 @@ def static_object(
     calibrates the sensor (its noise drawn apart from the object's): its solution's
     calibration (None when not kept) under "calibrated"; ``fixture``: the estimator told
     the reference's COM to 0.05 mm (a weight on a fixture of known geometry)."""
-    world = ArmWorld(SimConfig(robot=config, object_shape=shape, object_mass=mass, seed=seed))
+    noise_seed = seed + REFERENCE_SEEDS if reference else seed
+    true_mass = reference_weight_mass(mass, noise_seed) if reference else mass
+    world = ArmWorld(SimConfig(robot=config, object_shape=shape, object_mass=true_mass, seed=seed))
     try:
-        noise_seed = seed + REFERENCE_SEEDS if reference else seed
         sensor = profile_sensor(profile, seed=noise_seed, serial=seed, world=world)
         windows, object_time = record_static(world, sensor, every)
-        exploration = static_exploration(world, windows, profile, reference, information)
+        reference_mass = mass if reference else 0.0
+        exploration = static_exploration(world, windows, profile, reference_mass, information)
         use_sensor_calibration(exploration, calibrated)
         if fixture:  # the reference's COM in the hand, as a fixture's drawing gives it
             com = tuple(world.object_ground_truth()[1])
@@ -201,16 +206,17 @@ def record_static(world, sensor, every) -> tuple[list, float]:
 
 
 def static_exploration(
-    world, windows, profile, reference=False, information=KINEMATICS_MOUNT, through=None
+    world, windows, profile, reference_mass=0.0, information=KINEMATICS_MOUNT, through=None
 ) -> Exploration:
     """The estimator's ``Exploration`` told ``profile``'s datasheet (as a user tells
-    theirs), fed ``record_static``'s ``windows``, each reading multiplied by ``through``
-    (6, 6) when given (another calibration matrix), and done."""
+    theirs) and, for a reference weight, its stated ``reference_mass`` (kg), fed
+    ``record_static``'s ``windows``, each reading multiplied by ``through`` (6, 6) when
+    given (another calibration matrix), and done."""
     config = world.config.robot
     settings = profile.datasheet() | {
         "accuracy": profile.calibration_accuracy,
         "sensor_frame": config.sensor_frame,
-        "reference_mass": world.config.object_mass if reference else 0.0,
+        "reference_mass": reference_mass,
         "information": information,
     }
     exploration = exploration_from(settings, world.urdf_text)

@@ -18,10 +18,11 @@ import pytest
 from conftest import shared_value
 from numpy.testing import assert_allclose
 
+from com_core.estimation.runs.settings import REFERENCE_MASS_SHARE, REFERENCE_MASS_TOLERANCE
 from com_core.robot.config import read_robot_config
 from com_core.sensing.wrench_model import STANDARD_GRAVITY, SensorModel, gravity_wrench
 from wrench_sim import studies
-from wrench_sim.objects import SHAPES, holdable_com_range, object_spec
+from wrench_sim.objects import SHAPES, holdable_com_range, object_spec, reference_weight_mass
 from wrench_sim.physics import TIME_STEP, ArmWorld, SimConfig
 from wrench_sim.sensor import WrenchSensor, random_streams
 
@@ -518,6 +519,16 @@ def test_every_seeded_com_offset_is_in_the_holdable_range(shape):
     for seed in range(51):
         offset = object_spec(shape, 0.1, None, random_streams(seed)["object"]).com_offset
         assert reach.contains(offset), (seed, offset, str(reach))
+
+
+def test_a_reference_weight_is_off_its_stated_mass_as_the_estimator_assumes():
+    """Within its class's tolerance, never exactly its nominal, spread as the estimator's
+    default sigma says (uniform: tolerance / sqrt(3)), the same for the same seed."""
+    errors = np.array([reference_weight_mass(2.0, seed) / 2.0 - 1.0 for seed in range(4000)])
+    assert np.all(np.abs(errors) <= REFERENCE_MASS_TOLERANCE) and np.all(errors != 0.0)
+    assert abs(errors.std() / REFERENCE_MASS_SHARE - 1.0) < 0.03  # its spread: 0.011 over 4000
+    assert abs(errors.mean()) < 4 * REFERENCE_MASS_SHARE / np.sqrt(errors.size)
+    assert reference_weight_mass(2.0, 7) == reference_weight_mass(2.0, 7)
 
 
 @pytest.mark.parametrize(

@@ -142,8 +142,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--calibrate",
         action="store_true",
-        help="the object is a reference weight of --mass: the run calibrates the sensor in "
-        "place (kept beside the tare cache; the next runs in --bag-dir read through it)",
+        help="the object is a reference weight of --mass (the sim's is off it within OIML "
+        "class M1's tolerance): the run calibrates the sensor in place (kept beside the tare "
+        "cache; the next runs in --bag-dir read through it)",
     )
     p.add_argument(
         "--excitation",
@@ -288,6 +289,7 @@ def node_parameters(
     sim_params = {
         "object": args.object,
         "object_mass": args.mass,
+        "reference_weight": args.calibrate,
         "seed": args.seed,
         "grasp_mode": args.grasp_mode,
         "slip_sigma": args.slip_sigma,

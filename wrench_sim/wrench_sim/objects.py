@@ -11,6 +11,9 @@ the fingers close on) is where it would be without an offset.
 The object stands on a stand, on its bottom face, from start-up until the fingers close on it,
 so it can be grasped only if it stays upright there: its COM must lie above that footprint.
 ``holdable_com_range`` gives the COM offsets the simulator accepts for each shape.
+
+A reference weight (a calibration in place) is an object whose mass the user states: its
+true mass is off that nominal within its class's tolerance (``reference_weight_mass``).
 """
 
 from __future__ import annotations
@@ -19,6 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from com_core.estimation.runs.settings import REFERENCE_MASS_TOLERANCE
+from wrench_sim.sensor import random_streams
 
 __all__ = [
     "SHAPES",
@@ -30,6 +36,7 @@ __all__ = [
     "holdable_com_range",
     "object_spec",
     "random_com_offset",
+    "reference_weight_mass",
 ]
 
 _MUG_RADIUS = 0.028
@@ -287,3 +294,12 @@ def _mug_shapes(client) -> tuple[int, int]:
         visualFramePositions=positions,
     )
     return collision, visual
+
+
+def reference_weight_mass(nominal: float, seed: int) -> float:
+    """The true mass (kg) of a reference weight stated as ``nominal`` kg: off it by an
+    error drawn uniformly within its class's tolerance (``REFERENCE_MASS_TOLERANCE`` of
+    it, OIML class M1; the estimator's default sigma is that rectangle's), from the
+    "reference" stream of ``seed``'s ``random_streams``. No real weight is its nominal."""
+    rng = random_streams(seed)["reference"]
+    return nominal * (1.0 + REFERENCE_MASS_TOLERANCE * rng.uniform(-1.0, 1.0))

@@ -55,6 +55,9 @@ PARAMETERS = table_of([
           "<= 0.02; cylinder hypot(x, y) <= 0.02; mug hypot(x, y) <= 0.0224; |z| <= half "
           f"height); unset: drawn from the seed; {_START}", kind="floats", unit="m",
           low=-0.1, high=0.1, lengths=(3,), keep=(None,), read_only=True),
+    Input("reference_weight", False, "the object is a reference weight stated as object_mass: "
+          "its true mass is off it within OIML class M1's tolerance, drawn from the seed "
+          f"(wrench_sim.objects.reference_weight_mass); {_START}", kind="bool", read_only=True),
     Input("seed", 0, f"seeds the COM draw, sensor noise and grasp shifts; {_START}",
           kind="int", low=0, high=2**31 - 1, read_only=True),
     Input("grasp_mode", "rigid", _START, kind="str", choices=GRASP_MODES, read_only=True),

@@ -43,15 +43,25 @@ __all__ = [
     "random_streams",
 ]
 
-_STREAMS = ("object", "sensor", "slip", "calibration", "drift", "gauges", "joint_torques")
+_STREAMS = (
+    "object",
+    "sensor",
+    "slip",
+    "calibration",
+    "drift",
+    "gauges",
+    "joint_torques",
+    "reference",
+)
 _BLOCK = 1000  # samples of unit normals drawn at once
 
 
 def random_streams(seed: int) -> dict[str, np.random.Generator]:
     """Independent generators for the object draw, the sensor noise, the grasp shifts, the
-    calibration error, the bias's drift, the gauges' errors (``wrench_sim.gauges``) and the
+    calibration error, the bias's drift, the gauges' errors (``wrench_sim.gauges``), the
     arm model's error of a wrench estimated from the joint torques
-    (``wrench_sim.joint_torques``).
+    (``wrench_sim.joint_torques``) and a reference weight's error of its stated mass
+    (``objects.reference_weight_mass``).
 
     Separate streams keep the noise sequence of a seed the same whether or not the COM offset
     is drawn, shifts are on or the sensor drifts (later names were appended: SeedSequence's

@@ -117,6 +117,7 @@ from wrench_sim.arm_action import ArmController
 from wrench_sim.gauges import profile_gauges
 from wrench_sim.gripper import GripperGoal, GripperOutcome
 from wrench_sim.joint_torques import profile_joint_torques, wrench_in
+from wrench_sim.objects import reference_weight_mass
 from wrench_sim.parameters import (
     SENSOR_PARAMETERS,
     check_parameter,
@@ -155,7 +156,7 @@ class SimNode(Node):
             SimConfig(
                 robot=robot,
                 object_shape=parameter("object").value,
-                object_mass=parameter("object_mass").value,
+                object_mass=self._object_mass(),
                 object_com_offset=tuple(offset) if offset is not None else None,
                 seed=parameter("seed").value,
                 grasp_mode=parameter("grasp_mode").value,
@@ -245,6 +246,13 @@ class SimNode(Node):
             f"{1.0 / (self._joint_state_every * TIME_STEP):.0f} Hz, real-time factor "
             f"{self._real_time_factor or 'max'}"
         )
+
+    def _object_mass(self) -> float:
+        """kg: ``object_mass``, or a reference weight's true mass off that nominal."""
+        nominal = self.get_parameter("object_mass").value
+        if not self.get_parameter("reference_weight").value:
+            return nominal
+        return reference_weight_mass(nominal, self.get_parameter("seed").value)
 
     def _profile(self, overrides: dict | None = None) -> SensorProfile:
         """The ``sensor_profile`` with every part its parameters set."""

@@ -41,6 +41,7 @@ from com_core.sensing.wrench_model import SensorModel
 
 __all__ = [
     "BAG_SETTINGS_FILE",
+    "REFERENCE_MASS_TOLERANCE",
     "SETTINGS",
     "defaults",
     "exploration_from",
@@ -63,9 +64,12 @@ CALIBRATION_ACCURACY = _REALISTIC.calibration_accuracy
 FULL_SCALE = (_REALISTIC.limit_f, _REALISTIC.limit_tau)
 """The estimator's defaults: the default sensor profile's datasheet figures."""
 
-REFERENCE_MASS_SHARE = 1e-4
-"""A reference weight's default 1-sigma, of its mass (an OIML class M1 weight of 1 kg is
-within 50 mg)."""
+REFERENCE_MASS_TOLERANCE = 5e-5
+"""A reference weight's maximum permissible error, of its mass: OIML R 111-1's class M1
+from 100 g to 50 kg (50 mg at 1 kg)."""
+REFERENCE_MASS_SHARE = REFERENCE_MASS_TOLERANCE / math.sqrt(3.0)
+"""A reference weight's default 1-sigma, of its mass: its error anywhere within the
+tolerance (a rectangular distribution, GUM 4.3.7)."""
 _NOISE = dict(low=0.0, high=1000.0)
 _TEXT = dict(kind="str")
 _DRIFT = dict(low=0.0, high=1000.0)
@@ -149,7 +153,8 @@ SETTINGS = table_of([
           "object", unit="kg", low=0.0, high=1000.0,
           check=lambda v: "" if v == 0 or v >= 1e-3 else "must be 0 or at least 0.001 kg"),
     Input("reference_mass_sigma", 0.0, "the reference's mass's 1-sigma (0: "
-          f"{REFERENCE_MASS_SHARE:g} of it, an OIML class M1 weight)", unit="kg", low=0.0,
+          f"{REFERENCE_MASS_SHARE:.2g} of it: an OIML class M1 weight, within "
+          f"{REFERENCE_MASS_TOLERANCE:g} of it)", unit="kg", low=0.0,
           high=1000.0,
           check=lambda v: "" if v == 0 or v >= 1e-6 else "must be 0 or at least 1e-06 kg"),
     Input("reference_com", [0.0, 0.0, 0.0], "the reference's COM in the sensor frame, when "
