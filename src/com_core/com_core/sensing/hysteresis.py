@@ -26,11 +26,14 @@ At rest the share weighs the state's move along the path between two windows
 (``Hysteresis.window_sigma``): what the first order leaves moves by h_a |dx_a| /
 (SATURATION r_a) with every change dx_a, whichever way it goes (h_a the state's offset
 from the middle of its band, within the share of b_a), and by at most h_a, as a path that
-turns again and again pulls the state to the middle. So what counts is the path's whole
-travel, not its net change (``travel``): the grasp's fingers press on the table and the
-lift overshoots, the arm rings, a tilt from one side to the other passes upright, and a
-net change of zero can hide a travel of newtons. The state keeps what it moved
-(``FitSetup.with_hysteresis`` sums the increments so far, a persistent nuisance).
+turns again and again pulls the state to the middle. The offset h_a is not known, only
+its bound: it is weighed anywhere within it, a rectangle's sigma (the bound over
+sqrt(3), GUM 4.3.7), as the fit in motion weighs the slope's rms along a loop. So what
+counts is the path's whole travel, not its net change (``travel``): the grasp's fingers
+press on the table and the lift overshoots, the arm rings, a tilt from one side to the
+other passes upright, and a net change of zero can hide a travel of newtons. The state
+keeps what it moved (``FitSetup.with_hysteresis`` sums the increments so far, a
+persistent nuisance).
 """
 
 from __future__ import annotations
@@ -112,7 +115,8 @@ class Hysteresis:
         over the load's travel V since the window before (``travels`` (n, 6), from the
         samples between them, at least the change of the means; NaN, or none given: a
         straight path, the change of the means; inf: a path not known, the most it can
-        move), b the band's edge (module). The share is of the loads the means span with
+        move), b the band's edge, over sqrt(3): the share bounds the state's offset, which
+        is anywhere within it (module). The share is of the loads the means span with
         no load; the first window's path is from no load."""
         m = np.asarray(means, dtype=np.float64).reshape(-1, 6)
         path = np.vstack([np.zeros((1, 6)), m])
@@ -122,7 +126,7 @@ class Hysteresis:
             moved = np.where(np.isnan(t), moved, np.maximum(t, moved))
         b = edge(self.band)
         whole = np.where(np.isinf(moved), b, np.minimum(self.gain_deficit() * moved, b))
-        return self.residual_share(path) * whole
+        return self.residual_share(path) * whole / math.sqrt(3.0)
 
 
 def travel(loads: ArrayLike) -> NDArray[np.float64]:
