@@ -40,9 +40,9 @@ import argparse
 
 import numpy as np
 from motion import (
-    REFERENCE_SEEDS,
     SHAPES,
     record_static,
+    reference_weight,
     static_exploration,
     static_outcome,
     wrist_bounds,
@@ -60,7 +60,6 @@ from com_core.sensing.calibration import reading_correction
 from com_core.sensing.sensor_profiles import PROFILES
 from com_core.sensing.wrench_model import calibration_matrix
 from wrench_sim.config import SimConfig
-from wrench_sim.objects import reference_weight_mass
 from wrench_sim.physics import ArmWorld
 from wrench_sim.sensor import profile_calibration, profile_sensor
 from wrench_sim.studies import grasp, run_excitation
@@ -99,8 +98,7 @@ def in_place(config, kg, serial, profile, matrices) -> list[SensorCalibration | 
     a box stated as ``kg`` kg explored at rest as the reference weight (``bench/motion.py``'s
     ``--calibrate``: its true mass off that within its class's tolerance, its noise drawn
     apart from the object's), recorded once."""
-    noise_seed = serial + REFERENCE_SEEDS
-    true_mass = reference_weight_mass(kg, noise_seed)
+    true_mass, noise_seed = reference_weight(kg, serial)
     world, sensor = perfectly_calibrated(config, "box", true_mass, serial, profile, noise_seed)
     try:
         windows, _ = record_static(world, sensor, EVERY)

@@ -145,6 +145,15 @@ REFERENCE_SEEDS = 100_000  # a reference session's noise seed: the object's seed
 TARE_DWELL, MOVE, SETTLE = 5.0, 1.0, 0.3  # s
 
 
+def reference_weight(kg: float, serial: int) -> tuple[float, int]:
+    """(the true mass, kg, of a reference weight stated as ``kg`` kg, the noise seed of its
+    session) for the sensor ``serial``: the seed apart from the object's
+    (``REFERENCE_SEEDS``), the mass drawn from it
+    (``wrench_sim.objects.reference_weight_mass``)."""
+    noise_seed = serial + REFERENCE_SEEDS
+    return reference_weight_mass(kg, noise_seed), noise_seed
+
+
 def static_object(
     config,
     shape,
@@ -163,8 +172,7 @@ def static_object(
     calibrates the sensor (its noise drawn apart from the object's): its solution's
     calibration (None when not kept) under "calibrated"; ``fixture``: the estimator told
     the reference's COM to 0.05 mm (a weight on a fixture of known geometry)."""
-    noise_seed = seed + REFERENCE_SEEDS if reference else seed
-    true_mass = reference_weight_mass(mass, noise_seed) if reference else mass
+    true_mass, noise_seed = reference_weight(mass, seed) if reference else (mass, seed)
     world = ArmWorld(SimConfig(robot=config, object_shape=shape, object_mass=true_mass, seed=seed))
     try:
         sensor = profile_sensor(profile, seed=noise_seed, serial=seed, world=world)
