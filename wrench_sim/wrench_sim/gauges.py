@@ -49,9 +49,16 @@ def _even(x: NDArray[np.float64]) -> NDArray[np.float64]:
 
 class GaugeErrors:
     """Hysteresis, non-linearity and the gain's temperature drift (module), one sample at
-    a time; ``rng`` draws this sensor's shapes and coefficients."""
+    a time; ``rng`` draws this sensor's shapes and coefficients, ``start`` where its
+    hysteresis state starts, anywhere within its band (the loads before the run left it
+    there; None: in the middle, a sensor never loaded)."""
 
-    def __init__(self, profile: SensorProfile, rng: np.random.Generator) -> None:
+    def __init__(
+        self,
+        profile: SensorProfile,
+        rng: np.random.Generator,
+        start: np.random.Generator | None = None,
+    ) -> None:
         p = profile
         limits = np.array([p.limit_f] * 3 + [p.limit_tau] * 3, dtype=np.float64)
         if np.any(limits <= 0) and (p.hysteresis or p.nonlinearity):
@@ -66,7 +73,8 @@ class GaugeErrors:
         self._mix /= peaks.max(axis=0)
         self.coefficient = rng.uniform(-1.0, 1.0, 6) * p.sensitivity_drift
         self.warmup_kelvin, self.warmup_time = p.warmup_kelvin, p.warmup_time
-        self.state = np.zeros(6)
+        # where the loads before left the hysteresis state; None: never loaded
+        self.state = np.zeros(6) if start is None else start.uniform(-1.0, 1.0, 6) * self.edge
         self._last: NDArray[np.float64] | None = None
 
     def shape(self, x: ArrayLike) -> NDArray[np.float64]:
@@ -95,10 +103,12 @@ class GaugeErrors:
         return x * gain + self.state + self.nonlinearity * self.shape(x / self.range)
 
 
-def profile_gauges(profile: SensorProfile, rng: np.random.Generator) -> GaugeErrors | None:
-    """``profile``'s gauge errors drawn from ``rng`` (the serial's stream); None when it
-    has none."""
+def profile_gauges(
+    profile: SensorProfile, rng: np.random.Generator, start: np.random.Generator
+) -> GaugeErrors | None:
+    """``profile``'s gauge errors drawn from ``rng`` (the serial's stream), the hysteresis
+    state's start from ``start`` (the run's); None when it has none."""
     p = profile
     if not (p.hysteresis or p.nonlinearity or (p.sensitivity_drift and p.warmup_kelvin)):
         return None
-    return GaugeErrors(p, rng)
+    return GaugeErrors(p, rng, start)

@@ -52,6 +52,7 @@ _STREAMS = (
     "gauges",
     "joint_torques",
     "reference",
+    "hysteresis",
 )
 _BLOCK = 1000  # samples of unit normals drawn at once
 
@@ -60,8 +61,8 @@ def random_streams(seed: int) -> dict[str, np.random.Generator]:
     """Independent generators for the object draw, the sensor noise, the grasp shifts, the
     calibration error, the bias's drift, the gauges' errors (``wrench_sim.gauges``), the
     arm model's error of a wrench estimated from the joint torques
-    (``wrench_sim.joint_torques``) and a reference weight's error of its stated mass
-    (``objects.reference_weight_mass``).
+    (``wrench_sim.joint_torques``), a reference weight's error of its stated mass
+    (``objects.reference_weight_mass``) and where the gauges' hysteresis state starts.
 
     Separate streams keep the noise sequence of a seed the same whether or not the COM offset
     is drawn, shifts are on or the sensor drifts (later names were appended: SeedSequence's
@@ -223,10 +224,10 @@ def profile_sensor(
     world: ArmWorld | None = None,
 ) -> WrenchSensor:
     """A sensor of every part of ``profile`` (``com_core.sensing.sensor_profiles``),
-    publishing at ``rate_hz``: its drift and noise drawn from ``seed``'s streams, its
-    calibration (and, of a wrench estimated from the joint torques, ``world``'s arm
-    model's error) from ``serial``'s, as the simulator draws them (for offline studies and
-    tests; the node builds its model from its parameters)."""
+    publishing at ``rate_hz``: its drift, noise and hysteresis's start drawn from
+    ``seed``'s streams, its calibration, gauges (and, of a wrench estimated from the joint
+    torques, ``world``'s arm model's error) from ``serial``'s, as the simulator draws them
+    (for offline studies and tests; the node builds its model from its parameters)."""
     p, streams = profile, random_streams(seed)
     model = SensorModel.from_scalars(
         p.sigma_f, p.sigma_tau, resolution_f=p.resolution_f, resolution_tau=p.resolution_tau,
@@ -235,6 +236,6 @@ def profile_sensor(
     )  # fmt: skip
     drift = profile_drift(p, streams["drift"])
     own = random_streams(serial)
-    gauges = profile_gauges(p, own["gauges"])
+    gauges = profile_gauges(p, own["gauges"], streams["hysteresis"])
     arm = None if world is None else profile_joint_torques(p, world, own["joint_torques"])
     return WrenchSensor(model, streams["sensor"], drift, gauges, arm)

@@ -176,7 +176,7 @@ class SimNode(Node):
         self._mount_identity = bool(np.array_equal(self._mount, np.eye(3)))
         drift = profile_drift(p, streams["drift"])
         own = random_streams(parameter("sensor_serial").value)
-        gauges = profile_gauges(p, own["gauges"])
+        gauges = profile_gauges(p, own["gauges"], streams["hysteresis"])
         arm = profile_joint_torques(p, self.world, own["joint_torques"])
         self.sensor = WrenchSensor(self._sensor_model(), streams["sensor"], drift, gauges, arm)
         self._drift = np.array(parameter("bias_drift").value, dtype=np.float64)  # per s

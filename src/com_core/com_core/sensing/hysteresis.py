@@ -34,6 +34,13 @@ press on the table and the lift overshoots, the arm rings, a tilt from one side 
 other passes upright, and a net change of zero can hide a travel of newtons. The state
 keeps what it moved (``FitSetup.with_hysteresis`` sums the increments so far, a
 persistent nuisance).
+
+Where a run starts, the state is wherever the loads before it left it, anywhere within
++-b_a (``Hysteresis.start_variance``); not in the middle of its band, which only a sensor
+never loaded is. The model is linear in the state for a given path, so two states the same
+path moves close in by exp(-T_a / (SATURATION r_a)) over a travel T_a: the offset at the
+first window is a nuisance common to all of them, each carrying that share of it
+(``start_memory``). Not weighed, it reads as the object moving in the grasp.
 """
 
 from __future__ import annotations
@@ -118,15 +125,43 @@ class Hysteresis:
         move), b the band's edge, over sqrt(3): the share bounds the state's offset, which
         is anywhere within it (module). The share is of the loads the means span with
         no load; the first window's path is from no load."""
-        m = np.asarray(means, dtype=np.float64).reshape(-1, 6)
-        path = np.vstack([np.zeros((1, 6)), m])
-        moved = np.abs(np.diff(path, axis=0))
-        if travels is not None:
-            t = np.asarray(travels, dtype=np.float64).reshape(-1, 6)
-            moved = np.where(np.isnan(t), moved, np.maximum(t, moved))
+        path, moved = _moves(means, travels)
         b = edge(self.band)
         whole = np.where(np.isinf(moved), b, np.minimum(self.gain_deficit() * moved, b))
         return self.residual_share(path) * whole / math.sqrt(3.0)
+
+    def start_variance(self) -> NDArray[np.float64]:
+        """(6,): the variance (N^2, N^2 m^2) of the state's offset from the middle of
+        its band at the first window: anywhere within +-b, a rectangle's (module)."""
+        return edge(self.band) ** 2 / 3.0
+
+    def start_memory(
+        self, means: ArrayLike, travels: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
+        """(n, 6): for windows as ``window_sigma`` takes them, the share each still
+        carries of the state's offset at the first, exp(-T / (``SATURATION`` r)) after
+        the load's travel T since (two states the same path moves close in so: the
+        model is linear in the state; module); none after a way not known (inf), as
+        ``window_sigma`` takes it, the most it can move."""
+        _, moved = _moves(means, travels)
+        scale = SATURATION * np.asarray(self.full_scale, dtype=np.float64)
+        decay = np.exp(-moved / scale)
+        decay[0] = 1.0
+        return np.cumprod(decay, axis=0)
+
+
+def _moves(
+    means: ArrayLike, travels: ArrayLike | None
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(path (n + 1, 6): no load, then the ``means``; moved (n, 6): each window's travel
+    since the one before, at least the change of the means; ``Hysteresis.window_sigma``)."""
+    m = np.asarray(means, dtype=np.float64).reshape(-1, 6)
+    path = np.vstack([np.zeros((1, 6)), m])
+    moved = np.abs(np.diff(path, axis=0))
+    if travels is not None:
+        t = np.asarray(travels, dtype=np.float64).reshape(-1, 6)
+        moved = np.where(np.isnan(t), moved, np.maximum(t, moved))
+    return path, moved
 
 
 def travel(loads: ArrayLike) -> NDArray[np.float64]:

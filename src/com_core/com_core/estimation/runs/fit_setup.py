@@ -327,31 +327,53 @@ class FitSetup:
     def with_hysteresis(self, observations: list[Observation]) -> list[Observation]:
         """``observations`` with the sensor's hysteresis as a nuisance each window carries
         (``Observation.nuisance``): the state's increment at every change of load up to
-        it in its epoch (each epoch's windows in time order), which persists, of the
-        covariance ``hysteresis_cov`` (``com_core.sensing.hysteresis``)."""
+        it in its epoch (each epoch's windows in time order), which persists, and the
+        share it still carries of the state's offset at the epoch's first window
+        (``Hysteresis.start_memory``), of the covariance ``hysteresis_cov``
+        (``com_core.sensing.hysteresis``)."""
         if self.hysteresis is None:
             return observations
-        out, k = list(observations), 6 * len(observations)
-        for order in _epoch_orders(out):
+        out, ways = list(observations), self._hysteresis_ways(observations)
+        n = len(out)
+        k = 6 * (n + len(ways))
+        for epoch, (order, _, memory) in enumerate(ways):
+            start = 6 * (n + epoch)
             for rank, i in enumerate(order):
                 design = np.zeros((6, k))
                 for j in order[: rank + 1]:
                     design[:, 6 * j : 6 * j + 6] = np.eye(6)
+                design[:, start : start + 6] = np.diag(memory[rank])
                 out[i] = replace(out[i], nuisance=design)
         return out
 
     def hysteresis_cov(self, observations: Sequence[Observation]) -> NDArray[np.float64] | None:
-        """(6n, 6n): the covariance of the hysteresis increments ``with_hysteresis``
-        gives ``observations``; None without a hysteresis."""
+        """The covariance of the nuisance ``with_hysteresis`` gives ``observations`` (the
+        increments, then each epoch's offset at its start: anywhere within the band,
+        ``Hysteresis.start_variance``); None without a hysteresis."""
         if self.hysteresis is None:
             return None
         variance = np.zeros((len(observations), 6))
+        ways = self._hysteresis_ways(observations)
+        for order, sigma, _ in ways:
+            variance[order] = sigma**2
+        starts = [self.hysteresis.start_variance()] * len(ways)
+        return np.diag(np.concatenate([variance.ravel(), *starts]))
+
+    def _hysteresis_ways(
+        self, observations: Sequence[Observation]
+    ) -> list[tuple[list[int], NDArray[np.float64], NDArray[np.float64]]]:
+        """Per epoch: its windows' indices in time order, the sigma of the state's move to
+        each (``Hysteresis.window_sigma``) and the share of the epoch's first offset it
+        carries (``Hysteresis.start_memory``)."""
+        h = self.hysteresis
+        assert h is not None
+        out = []
         for order in _epoch_orders(observations):
             picked = [observations[i] for i in order]  # no travel: a straight way, NaN
+            means = [o.window.mean for o in picked]
             travels = [np.full(6, np.nan) if o.travel is None else o.travel for o in picked]
-            sigma = self.hysteresis.window_sigma([o.window.mean for o in picked], travels)
-            variance[order] = sigma**2
-        return np.diag(variance.ravel())
+            out.append((order, h.window_sigma(means, travels), h.start_memory(means, travels)))
+        return out
 
     def calibrate(
         self,
