@@ -453,7 +453,8 @@ def sequencer_node() -> list[str]:
                    "naming the controller's error"),
         gripper_action("action client", "open and close (`gripper_interface` `action`, the "
                        "default): the goal's result within `gripper_timeout` s or the run "
-                       "fails naming the action; a closing on the object must end stalled, "
+                       "fails naming the action (the goal cancelled, as on the run's "
+                       "cancel); a closing on the object must end stalled, "
                        "not at its goal, with the finger joint states short of closed, and "
                        "then weigh at least `min_load`"),
         interface(c.ESTIMATOR_RESET_SERVICE, "client", "at the start of each run", TRIGGER),
