@@ -62,8 +62,11 @@ SATURATION = 0.5
 TRAVEL_BLOCK = 10
 """Samples averaged into one point of a path before its ``travel`` is taken."""
 
-TRAVEL_DEADBAND = 3.0
-"""The half-width of ``travel``'s deadband, in standard deviations of a block's mean."""
+TRAVEL_DEADBAND = 5.0
+"""The half-width of ``travel``'s deadband, in standard deviations of a block's mean: at
+three, a quantised sensor's coloured noise (the xArm's: 0.1 N steps at 0.1 N, 5 ms) read
+as 0.3-1 N of travel over a 5 s window at rest, as its blocks' means sit on one step for
+several blocks and the noise learnt from their second differences is short a quarter."""
 
 
 def _loop_opening(saturation: float) -> float:
@@ -169,7 +172,9 @@ def travel(loads: ArrayLike) -> NDArray[np.float64]:
     time order, its noise left out: means of ``TRAVEL_BLOCK`` samples followed by a
     deadband (a play operator) of ``TRAVEL_DEADBAND`` times their noise, learnt from the
     path itself (the median of its second differences, which a smooth move leaves near
-    zero); NaN when the path is shorter than three blocks.
+    zero), with what the deadband cuts off put back: the follower trails each leg of
+    the path by the deadband's half-width, so it travels one half-width short over its
+    first leg and two more at every turn; NaN when the path is shorter than three blocks.
     The hysteresis is rate-independent: the state moves with what the deadband follows,
     the electrical noise added after it does not."""
     x = np.asarray(loads, dtype=np.float64).reshape(-1, 6)
@@ -181,8 +186,12 @@ def travel(loads: ArrayLike) -> NDArray[np.float64]:
     sigma = np.median(bends, axis=0) / (0.6745 * math.sqrt(6.0))  # |N(0, 6 s^2)|'s median
     half = TRAVEL_DEADBAND * sigma
     follower, total = blocks[0].copy(), np.zeros(6)
+    heading, legs = np.zeros(6), np.zeros(6)
     for point in blocks[1:]:
         moved = np.clip(follower, point - half, point + half)
+        way = np.sign(moved - follower)
+        legs += (way != 0) & (way != heading)
+        heading = np.where(way != 0, way, heading)
         total += np.abs(moved - follower)
         follower = moved
-    return total
+    return total + np.maximum(2.0 * legs - 1.0, 0.0) * half
