@@ -7,23 +7,10 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import pytest
+from fake_action import Client, Future
 
 from com_core.sequencing.errors import CancelledRunError, TimeoutRunError
 from exploration_sequencer.ros_arm import ActionArm
-
-
-class Future:
-    def __init__(self, value: object = None, done: bool = False) -> None:
-        self.value, self._done = value, done
-
-    def done(self) -> bool:
-        return self._done
-
-    def result(self) -> object:
-        return self.value
-
-    def set(self, value: object) -> None:
-        self.value, self._done = value, True
 
 
 class Handle:
@@ -41,17 +28,6 @@ class Handle:
         self.cancelled = True
         self.ended.set("canceled")
         return Future(done=True)
-
-
-class Client:
-    def __init__(self, answer: Future) -> None:
-        self.answer = answer
-
-    def server_is_ready(self) -> bool:
-        return True
-
-    def send_goal_async(self, goal: object) -> Future:
-        return self.answer
 
 
 class Clock:

@@ -10,32 +10,12 @@ from types import SimpleNamespace
 
 import pytest
 from action_msgs.msg import GoalStatus
+from fake_action import Client, Future
 
 from com_core.sequencing.errors import CancelledRunError, RunError, TimeoutRunError
 from exploration_sequencer.ros_gripper import ActionGripper
 
 NAME = "/gripper_controller/gripper_cmd"
-
-
-class Future:
-    def __init__(self) -> None:
-        self.value, self._done, self._callbacks = None, False, []
-
-    def done(self) -> bool:
-        return self._done
-
-    def result(self) -> object:
-        return self.value
-
-    def set(self, value: object) -> None:
-        self.value, self._done = value, True
-        for callback in self._callbacks:
-            callback(self)
-
-    def add_done_callback(self, callback: Callable[[Future], None]) -> None:
-        self._callbacks.append(callback)
-        if self._done:
-            callback(self)
 
 
 class Handle:
@@ -48,17 +28,6 @@ class Handle:
     def cancel_goal_async(self) -> Future:
         self.cancels += 1
         return Future()
-
-
-class Client:
-    def __init__(self, answer: Future) -> None:
-        self.answer = answer
-
-    def server_is_ready(self) -> bool:
-        return True
-
-    def send_goal_async(self, goal: object) -> Future:
-        return self.answer
 
 
 class Clock:
