@@ -65,8 +65,8 @@ TRAVEL_BLOCK = 10
 TRAVEL_DEADBAND = 5.0
 """The half-width of ``travel``'s deadband, in standard deviations of a block's mean: at
 three, a quantised sensor's coloured noise (the xArm's: 0.1 N steps at 0.1 N, 5 ms) read
-as 0.3-1 N of travel over a 5 s window at rest, as its blocks' means sit on one step for
-several blocks and the noise learnt from their second differences is short a quarter."""
+as 0.3-1 N of travel over a 5 s window at rest, as the noise learnt from its blocks'
+second differences is short a quarter of their spread."""
 
 
 def _loop_opening(saturation: float) -> float:
@@ -172,9 +172,10 @@ def travel(loads: ArrayLike) -> NDArray[np.float64]:
     time order, its noise left out: means of ``TRAVEL_BLOCK`` samples followed by a
     deadband (a play operator) of ``TRAVEL_DEADBAND`` times their noise, learnt from the
     path itself (the median of its second differences, which a smooth move leaves near
-    zero), with what the deadband cuts off put back: the follower trails each leg of
-    the path by the deadband's half-width, so it travels one half-width short over its
-    first leg and two more at every turn; NaN when the path is shorter than three blocks.
+    zero), with what the deadband cuts at the turns put back: the follower trails each
+    leg of the path by the deadband's half-width, so it travels two half-widths short at
+    every turn (and one over its first leg, left short: a lone excursion of the noise
+    past the deadband makes such a leg); NaN when the path is shorter than three blocks.
     The hysteresis is rate-independent: the state moves with what the deadband follows,
     the electrical noise added after it does not."""
     x = np.asarray(loads, dtype=np.float64).reshape(-1, 6)
@@ -194,4 +195,4 @@ def travel(loads: ArrayLike) -> NDArray[np.float64]:
         heading = np.where(way != 0, way, heading)
         total += np.abs(moved - follower)
         follower = moved
-    return total + np.maximum(2.0 * legs - 1.0, 0.0) * half
+    return total + np.maximum(2.0 * legs - 2.0, 0.0) * half
