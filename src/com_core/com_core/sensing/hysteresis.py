@@ -31,7 +31,9 @@ its bound: it is weighed anywhere within it, a rectangle's sigma (the bound over
 sqrt(3), GUM 4.3.7), as the fit in motion weighs the slope's rms along a loop. So what
 counts is the path's whole travel, not its net change (``travel``): the grasp's fingers
 press on the table and the lift overshoots, the arm rings, a tilt from one side to the
-other passes upright, and a net change of zero can hide a travel of newtons. The state
+other passes upright, and a net change of zero can hide a travel of newtons. The share
+is of every load the path reached, the presses and overshoots between the windows
+included (``reach``): the state's offset is set by them as by the windows. The state
 keeps what it moved (``FitSetup.with_hysteresis`` sums the increments so far, a
 persistent nuisance).
 
@@ -40,7 +42,10 @@ Where a run starts, the state is wherever the loads before it left it, anywhere 
 never loaded is. The model is linear in the state for a given path, so two states the same
 path moves close in by exp(-T_a / (SATURATION r_a)) over a travel T_a: the offset at the
 first window is a nuisance common to all of them, each carrying that share of it
-(``start_memory``). Not weighed, it reads as the object moving in the grasp.
+(``start_memory``). Not weighed, it reads as the object moving in the grasp. A window no
+fit used (a verification's) carries the increments and the offset the fit's windows
+share, as the fit left them, and its own way's increment (``FitSetup.carried``): not
+weighed, the sensor's offset reads there as the estimate's error.
 """
 
 from __future__ import annotations
@@ -52,7 +57,15 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["SATURATION", "TRAVEL_BLOCK", "TRAVEL_DEADBAND", "Hysteresis", "edge", "travel"]
+__all__ = [
+    "SATURATION",
+    "TRAVEL_BLOCK",
+    "TRAVEL_DEADBAND",
+    "Hysteresis",
+    "edge",
+    "reach",
+    "travel",
+]
 
 SATURATION = 0.5
 """The load change, as a fraction of the range, over which the hysteresis state moves
@@ -118,7 +131,10 @@ class Hysteresis:
         return np.minimum(span / (2.0 * SATURATION * np.asarray(self.full_scale)), 1.0)
 
     def window_sigma(
-        self, means: ArrayLike, travels: ArrayLike | None = None
+        self,
+        means: ArrayLike,
+        travels: ArrayLike | None = None,
+        reaches: ArrayLike | None = None,
     ) -> NDArray[np.float64]:
         """(n, 6): each window's sigma (N, N m) for windows whose ``means`` (n, 6) follow
         one another in time: the ``residual_share`` of the state's whole move min(d V, b)
@@ -127,8 +143,13 @@ class Hysteresis:
         straight path, the change of the means; inf: a path not known, the most it can
         move), b the band's edge, over sqrt(3): the share bounds the state's offset, which
         is anywhere within it (module). The share is of the loads the means span with
-        no load; the first window's path is from no load."""
+        no load and the ways between them reach (``reaches`` (n, 2, 6), from the samples
+        between them, ``reach``; NaN, or none given: the means); the first window's path
+        is from no load."""
         path, moved = _moves(means, travels)
+        if reaches is not None:
+            ends = np.asarray(reaches, dtype=np.float64).reshape(-1, 6)
+            path = np.vstack([path, ends[np.isfinite(ends).all(axis=1)]])
         b = edge(self.band)
         whole = np.where(np.isinf(moved), b, np.minimum(self.gain_deficit() * moved, b))
         return self.residual_share(path) * whole / math.sqrt(3.0)
@@ -178,21 +199,43 @@ def travel(loads: ArrayLike) -> NDArray[np.float64]:
     past the deadband makes such a leg); NaN when the path is shorter than three blocks.
     The hysteresis is rate-independent: the state moves with what the deadband follows,
     the electrical noise added after it does not."""
+    follower, half = _follow(loads)
+    if not len(follower):
+        return half
+    steps = np.diff(follower, axis=0)
+    way = np.sign(steps)
+    heading, legs = np.zeros(6), np.zeros(6)
+    for w in way:
+        legs += (w != 0) & (w != heading)
+        heading = np.where(w != 0, w, heading)
+    return np.abs(steps).sum(axis=0) + np.maximum(2.0 * legs - 2.0, 0.0) * half
+
+
+def reach(loads: ArrayLike) -> NDArray[np.float64]:
+    """(2, 6): the lowest and the highest (N, N m) of a load's path sampled as ``loads``
+    (n, 6), in time order, as ``travel``'s deadband follows it (a press or an overshoot
+    between two windows, beyond what the windows read; its noise left out); NaN when the
+    path is shorter than three blocks."""
+    follower, half = _follow(loads)
+    if not len(follower):
+        return np.stack([half, half])
+    return np.stack([follower.min(axis=0), follower.max(axis=0)])
+
+
+def _follow(loads: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(the path of ``travel``'s deadband follower (n, 6) over the means of
+    ``TRAVEL_BLOCK`` samples of ``loads`` (n, 6); the deadband's half-width (6,)); no
+    points and NaN when there are fewer than three blocks."""
     x = np.asarray(loads, dtype=np.float64).reshape(-1, 6)
     n = len(x) // TRAVEL_BLOCK
     if n < 3:
-        return np.full(6, np.nan)
+        return np.empty((0, 6)), np.full(6, np.nan)
     blocks = x[: n * TRAVEL_BLOCK].reshape(n, TRAVEL_BLOCK, 6).mean(axis=1)
     bends = np.abs(np.diff(blocks, n=2, axis=0))
     sigma = np.median(bends, axis=0) / (0.6745 * math.sqrt(6.0))  # |N(0, 6 s^2)|'s median
     half = TRAVEL_DEADBAND * sigma
-    follower, total = blocks[0].copy(), np.zeros(6)
-    heading, legs = np.zeros(6), np.zeros(6)
-    for point in blocks[1:]:
-        moved = np.clip(follower, point - half, point + half)
-        way = np.sign(moved - follower)
-        legs += (way != 0) & (way != heading)
-        heading = np.where(way != 0, way, heading)
-        total += np.abs(moved - follower)
-        follower = moved
-    return total + np.maximum(2.0 * legs - 2.0, 0.0) * half
+    follower = np.empty_like(blocks)
+    follower[0] = blocks[0]
+    for i in range(1, n):
+        follower[i] = np.clip(follower[i - 1], blocks[i] - half, blocks[i] + half)
+    return follower, half

@@ -93,7 +93,9 @@ class Observation:
     covariance ``kinematic_ml``'s ``nuisance_cov``: they are weighed as a common error of
     the windows, correlated across them (marginalised). ``travel`` (6,; N, N m), when
     known, is the load's total variation on the way from the window before it in its
-    epoch (``sensing.hysteresis.travel``; what the sensor's hysteresis moves with)."""
+    epoch (``sensing.hysteresis.travel``; what the sensor's hysteresis moves with), and
+    ``reach`` (2, 6; N, N m) the lowest and highest load on that way (``hysteresis.reach``:
+    a press or an overshoot beyond what the windows read)."""
 
     window: Window
     rotation: NDArray[np.float64]
@@ -104,6 +106,7 @@ class Observation:
     design: NDArray[np.float64] | None = None
     nuisance: NDArray[np.float64] | None = None
     travel: NDArray[np.float64] | None = None
+    reach: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True)
@@ -215,6 +218,20 @@ class KinematicFit:
     def observations(self) -> tuple[Observation, ...]:
         """The windows fitted, in the order given."""
         return tuple(self._model.obs)
+
+    def nuisance_posterior(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+        """The windows' shared nuisance (``Observation.nuisance``) given their wrenches:
+        its mean (k,) and covariance (k, k), the prior ``nuisance_cov`` conditioned on the
+        windows' residuals at the estimate (Sigma N^T C^-1 r and Sigma - Sigma N^T C^-1 N
+        Sigma, C the windows' whole covariance; the estimate taken as known); None
+        without one."""
+        model = self._model
+        nuisance = model._nuisance()
+        if nuisance is None:
+            return None
+        rows = 6 * len(model.obs)
+        gain = model.nuisance_cov @ nuisance.T @ model.whiten.T  # Sigma N^T W^T
+        return gain @ model.residuals(self._x)[:rows], model.nuisance_cov - gain @ gain.T
 
     def latest_bias(self) -> NDArray[np.float64]:
         """This run's bias (6,; N, N m) at its latest window (``bias_at``: what a

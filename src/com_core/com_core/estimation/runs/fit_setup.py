@@ -60,7 +60,7 @@ from com_core.estimation.runs.cutting import window_rotation, window_time
 from com_core.estimation.runs.inbox import Inbox
 from com_core.robot.model import KinematicsError, RobotModel
 from com_core.sensing.calibration import Calibration
-from com_core.sensing.hysteresis import Hysteresis, travel
+from com_core.sensing.hysteresis import Hysteresis, reach, travel
 from com_core.sensing.noise import NoiseModel
 from com_core.sensing.wrench_model import STANDARD_GRAVITY, SensorModel
 
@@ -359,6 +359,33 @@ class FitSetup:
         starts = [self.hysteresis.start_variance()] * len(ways)
         return np.diag(np.concatenate([variance.ravel(), *starts]))
 
+    def carried(
+        self,
+        fit: KinematicFit,
+        observation: Observation,
+        stamps: NDArray[np.int64],
+        wrenches: NDArray[np.float64],
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+        """What the sensor's hysteresis adds to a window of this run the ``fit`` did not
+        use (a verification's ``observation``): its mean (6,; N, N m) and covariance
+        (6, 6), the increments and the start's offset it shares with the fit's windows
+        as the fit left them (``KinematicFit.nuisance_posterior``) and its own increment
+        since the window before it as ``hysteresis_cov`` weighs it, the ways from the
+        samples (``stamps`` ns, ``wrenches`` (n, 6)); None without a hysteresis."""
+        posterior = fit.nuisance_posterior()
+        if self.hysteresis is None or posterior is None:
+            return None
+        used = list(fit.observations)
+        n = 6 * len(used)
+        extended = self.with_hysteresis(_with_travel([*used, observation], stamps, wrenches))
+        design = extended[-1].nuisance
+        own_cov = self.hysteresis_cov(extended)
+        assert design is not None and own_cov is not None
+        shared = np.hstack([design[:, :n], design[:, n + 6 :]])  # the fit's unknowns
+        own = design[:, n : n + 6] @ own_cov[n : n + 6, n : n + 6] @ design[:, n : n + 6].T
+        mean, cov = posterior
+        return shared @ mean, shared @ cov @ shared.T + own
+
     def _hysteresis_ways(
         self, observations: Sequence[Observation]
     ) -> list[tuple[list[int], NDArray[np.float64], NDArray[np.float64]]]:
@@ -372,7 +399,9 @@ class FitSetup:
             picked = [observations[i] for i in order]  # no travel: a straight way, NaN
             means = [o.window.mean for o in picked]
             travels = [np.full(6, np.nan) if o.travel is None else o.travel for o in picked]
-            out.append((order, h.window_sigma(means, travels), h.start_memory(means, travels)))
+            reaches = [np.full((2, 6), np.nan) if o.reach is None else o.reach for o in picked]
+            sigma = h.window_sigma(means, travels, reaches)
+            out.append((order, sigma, h.start_memory(means, travels)))
         return out
 
     def calibrate(
@@ -449,7 +478,8 @@ def _with_travel(
 ) -> list[Observation]:
     """``observations`` of this run (epoch 0) with the load's ``travel`` from the window
     before each, in time order: the samples (``stamps`` ns, ``wrenches`` (n, 6)) from the
-    middle of one window to the middle of the next (``sensing.hysteresis.travel``)."""
+    middle of one window to the middle of the next (``sensing.hysteresis.travel``), and
+    the lowest and highest load on it (``reach``)."""
     out = list(observations)
     order = np.argsort(stamps, kind="stable")
     times, loads = stamps[order] * 1e-9, wrenches[order]
@@ -459,7 +489,8 @@ def _with_travel(
         for earlier, later in pairwise(epoch):
             start = np.searchsorted(times, out[earlier].time, side="left")
             stop = np.searchsorted(times, out[later].time, side="right")
-            out[later] = replace(out[later], travel=travel(loads[start:stop]))
+            way = loads[start:stop]
+            out[later] = replace(out[later], travel=travel(way), reach=reach(way))
     return out
 
 

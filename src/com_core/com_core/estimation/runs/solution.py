@@ -32,7 +32,7 @@ from com_core.contract import ERROR, OBJECT_PREFIX, OK, TARE_PREFIX, VERIFY_PREF
 from com_core.estimation.fits.errors import EstimationError, MissingTareError, WindowError
 from com_core.estimation.fits.estimators import Consistency, Estimate, check_consistency
 from com_core.estimation.fits.in_place import InPlaceCalibration
-from com_core.estimation.fits.known_gravity import KinematicFit, mount_rpy
+from com_core.estimation.fits.known_gravity import KinematicFit, Observation, mount_rpy
 from com_core.estimation.fits.stats import chi2_isf
 from com_core.estimation.fits.windows import Window, subtract_tare
 from com_core.estimation.runs.cutting import (
@@ -450,7 +450,8 @@ def _verifications(
     notes: list[str],
 ) -> tuple[tuple[Verification, ...], str]:
     """The ``Verification`` of every verify window by the kinematic ``fit`` (at the
-    window's orientation and time), and why the windows are not checked when they
+    window's orientation and time, with what the sensor's hysteresis carries there,
+    ``FitSetup.carried``), and why the windows are not checked when they
     cannot be (the wrenches alone: no orientation at a pose no window saw, no bias
     nor hand model); a window without its orientation is noted (a WARN)."""
     if not windows:
@@ -463,7 +464,7 @@ def _verifications(
     robot = setup.robot
     assert robot is not None
     out = []
-    stamps = inbox.samples()[0]
+    stamps, wrenches = inbox.samples()
     for window in windows:
         label = VERIFY_PREFIX + window.pose
         try:
@@ -473,6 +474,10 @@ def _verifications(
             continue
         time = window_time(inbox, label, stamps, until_ns)
         predicted, cov = fit.predict(rotation, time, measured=window.mean)
+        observation = Observation(window, rotation, True, 0, time)
+        carried = setup.carried(fit, observation, stamps, wrenches)
+        if carried is not None:  # the sensor's hysteresis there, as the fit left it
+            predicted, cov = predicted + carried[0], cov + carried[1]
         out.append(verify(window, predicted, cov, setup.alpha))
     return tuple(out), ""
 
