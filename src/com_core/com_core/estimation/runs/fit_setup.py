@@ -391,7 +391,13 @@ class FitSetup:
     ) -> list[tuple[list[int], NDArray[np.float64], NDArray[np.float64]]]:
         """Per epoch: its windows' indices in time order, the sigma of the state's move to
         each (``Hysteresis.window_sigma``) and the share of the epoch's first offset it
-        carries (``Hysteresis.start_memory``)."""
+        carries (``Hysteresis.start_memory``). A way through contact, where the object
+        was grasped or released (the fingers, the table or the stand), moves the state
+        more than its samples show (their chatter within the noise: read at every step,
+        4-21 deadband half-widths beyond ``travel`` over the grasp of a 0.5 kg box on the
+        Panda through the xArm sensor, against at most 6 between two poses): its move is
+        weighed at the most it can be, as the planner weighs it; the share the start's
+        offset keeps is from the travel measured (within 7 % of the truth's there)."""
         h = self.hysteresis
         assert h is not None
         out = []
@@ -400,7 +406,9 @@ class FitSetup:
             means = [o.window.mean for o in picked]
             travels = [np.full(6, np.nan) if o.travel is None else o.travel for o in picked]
             reaches = [np.full((2, 6), np.nan) if o.reach is None else o.reach for o in picked]
-            sigma = h.window_sigma(means, travels, reaches)
+            contact = [i > 0 and o.load != picked[i - 1].load for i, o in enumerate(picked)]
+            moves = np.where(np.array(contact)[:, None], np.inf, np.array(travels, dtype=float))
+            sigma = h.window_sigma(means, moves, reaches)
             out.append((order, sigma, h.start_memory(means, travels)))
         return out
 
