@@ -63,6 +63,7 @@ __all__ = [
     "TRAVEL_DEADBAND",
     "Hysteresis",
     "edge",
+    "follow",
     "reach",
     "travel",
 ]
@@ -160,18 +161,20 @@ class Hysteresis:
         return edge(self.band) ** 2 / 3.0
 
     def start_memory(
-        self, means: ArrayLike, travels: ArrayLike | None = None
+        self, means: ArrayLike, travels: ArrayLike | None = None, start: int = 0
     ) -> NDArray[np.float64]:
         """(n, 6): for windows as ``window_sigma`` takes them, the share each still
-        carries of the state's offset at the first, exp(-T / (``SATURATION`` r)) after
-        the load's travel T since (two states the same path moves close in so: the
+        carries of the state's offset at window ``start``, exp(-T / (``SATURATION`` r))
+        after the load's travel T since (two states the same path moves close in so: the
         model is linear in the state; module); none after a way not known (inf), as
-        ``window_sigma`` takes it, the most it can move."""
+        ``window_sigma`` takes it, the most it can move, and none before ``start``."""
         _, moved = _moves(means, travels)
         scale = SATURATION * np.asarray(self.full_scale, dtype=np.float64)
         decay = np.exp(-moved / scale)
-        decay[0] = 1.0
-        return np.cumprod(decay, axis=0)
+        decay[: start + 1] = 1.0
+        memory = np.cumprod(decay, axis=0)
+        memory[:start] = 0.0
+        return memory
 
 
 def _moves(
@@ -199,7 +202,7 @@ def travel(loads: ArrayLike) -> NDArray[np.float64]:
     past the deadband makes such a leg); NaN when the path is shorter than three blocks.
     The hysteresis is rate-independent: the state moves with what the deadband follows,
     the electrical noise added after it does not."""
-    follower, half = _follow(loads)
+    follower, half = follow(loads)
     if not len(follower):
         return half
     steps = np.diff(follower, axis=0)
@@ -216,16 +219,18 @@ def reach(loads: ArrayLike) -> NDArray[np.float64]:
     (n, 6), in time order, as ``travel``'s deadband follows it (a press or an overshoot
     between two windows, beyond what the windows read; its noise left out); NaN when the
     path is shorter than three blocks."""
-    follower, half = _follow(loads)
+    follower, half = follow(loads)
     if not len(follower):
         return np.stack([half, half])
     return np.stack([follower.min(axis=0), follower.max(axis=0)])
 
 
-def _follow(loads: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(the path of ``travel``'s deadband follower (n, 6) over the means of
-    ``TRAVEL_BLOCK`` samples of ``loads`` (n, 6); the deadband's half-width (6,)); no
-    points and NaN when there are fewer than three blocks."""
+def follow(loads: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(the path (N, N m) of ``travel``'s deadband follower (k, 6) over the means of
+    ``TRAVEL_BLOCK`` samples of a load's path sampled as ``loads`` (n, 6); the deadband's
+    half-width (6,): ``TRAVEL_DEADBAND`` sigmas of a block's noise, learnt from the median
+    of the blocks' second differences); no points and NaN when there are fewer than
+    three blocks."""
     x = np.asarray(loads, dtype=np.float64).reshape(-1, 6)
     n = len(x) // TRAVEL_BLOCK
     if n < 3:

@@ -328,27 +328,32 @@ class FitSetup:
         """``observations`` with the sensor's hysteresis as a nuisance each window carries
         (``Observation.nuisance``): the state's increment at every change of load up to
         it in its epoch (each epoch's windows in time order), which persists, and the
-        share it still carries of the state's offset at the epoch's first window
-        (``Hysteresis.start_memory``), of the covariance ``hysteresis_cov``
-        (``com_core.sensing.hysteresis``)."""
+        share it still carries of the state's offset at the epoch's first window and at
+        the first after each way through contact (``Hysteresis.start_memory``), of the
+        covariance ``hysteresis_cov`` (``com_core.sensing.hysteresis``)."""
         if self.hysteresis is None:
             return observations
         out, ways = list(observations), self._hysteresis_ways(observations)
         n = len(out)
-        k = 6 * (n + len(ways))
-        for epoch, (order, _, memory) in enumerate(ways):
-            start = 6 * (n + epoch)
+        offsets = [memory for _, _, memories in ways for memory in memories]
+        k = 6 * (n + len(offsets))
+        column = 6 * n
+        for order, _, memories in ways:
+            designs = {i: np.zeros((6, k)) for i in order}
             for rank, i in enumerate(order):
-                design = np.zeros((6, k))
                 for j in order[: rank + 1]:
-                    design[:, 6 * j : 6 * j + 6] = np.eye(6)
-                design[:, start : start + 6] = np.diag(memory[rank])
-                out[i] = replace(out[i], nuisance=design)
+                    designs[i][:, 6 * j : 6 * j + 6] = np.eye(6)
+            for memory in memories:
+                for rank, i in enumerate(order):
+                    designs[i][:, column : column + 6] = np.diag(memory[rank])
+                column += 6
+            for i in order:
+                out[i] = replace(out[i], nuisance=designs[i])
         return out
 
     def hysteresis_cov(self, observations: Sequence[Observation]) -> NDArray[np.float64] | None:
         """The covariance of the nuisance ``with_hysteresis`` gives ``observations`` (the
-        increments, then each epoch's offset at its start: anywhere within the band,
+        increments, then each offset: anywhere within the band,
         ``Hysteresis.start_variance``); None without a hysteresis."""
         if self.hysteresis is None:
             return None
@@ -356,7 +361,7 @@ class FitSetup:
         ways = self._hysteresis_ways(observations)
         for order, sigma, _ in ways:
             variance[order] = sigma**2
-        starts = [self.hysteresis.start_variance()] * len(ways)
+        starts = [self.hysteresis.start_variance()] * sum(len(m) for _, _, m in ways)
         return np.diag(np.concatenate([variance.ravel(), *starts]))
 
     def carried(
@@ -381,6 +386,7 @@ class FitSetup:
         design = extended[-1].nuisance
         own_cov = self.hysteresis_cov(extended)
         assert design is not None and own_cov is not None
+        assert design.shape[1] == len(posterior[0]) + 6, "the window changed the ways' contacts"
         shared = np.hstack([design[:, :n], design[:, n + 6 :]])  # the fit's unknowns
         own = design[:, n : n + 6] @ own_cov[n : n + 6, n : n + 6] @ design[:, n : n + 6].T
         mean, cov = posterior
@@ -388,16 +394,15 @@ class FitSetup:
 
     def _hysteresis_ways(
         self, observations: Sequence[Observation]
-    ) -> list[tuple[list[int], NDArray[np.float64], NDArray[np.float64]]]:
+    ) -> list[tuple[list[int], NDArray[np.float64], list[NDArray[np.float64]]]]:
         """Per epoch: its windows' indices in time order, the sigma of the state's move to
-        each (``Hysteresis.window_sigma``) and the share of the epoch's first offset it
-        carries (``Hysteresis.start_memory``). A way through contact, where the object
-        was grasped or released (the fingers, the table or the stand), moves the state
-        more than its samples show (their chatter within the noise: read at every step,
-        4-21 deadband half-widths beyond ``travel`` over the grasp of a 0.5 kg box on the
-        Panda through the xArm sensor, against at most 6 between two poses): its move is
-        weighed at the most it can be, as the planner weighs it; the share the start's
-        offset keeps is from the travel measured (within 7 % of the truth's there)."""
+        each (``Hysteresis.window_sigma``) and the share each carries of the state's
+        offset (``Hysteresis.start_memory``) at the epoch's first window and at the first
+        after each way through contact, where the object was grasped or released (the
+        fingers, the table or the stand). Such a way moves the state more than its
+        samples show, the contact chattering within their noise, and leaves it anywhere
+        in its band (``bench/hysteresis_ways.py``): its move is weighed at the most it can
+        be, as the planner weighs it, and its offset after it as a run's start's."""
         h = self.hysteresis
         assert h is not None
         out = []
@@ -406,10 +411,12 @@ class FitSetup:
             means = [o.window.mean for o in picked]
             travels = [np.full(6, np.nan) if o.travel is None else o.travel for o in picked]
             reaches = [np.full((2, 6), np.nan) if o.reach is None else o.reach for o in picked]
-            contact = [i > 0 and o.load != picked[i - 1].load for i, o in enumerate(picked)]
-            moves = np.where(np.array(contact)[:, None], np.inf, np.array(travels, dtype=float))
+            contact = [i for i in range(1, len(picked)) if picked[i].load != picked[i - 1].load]
+            moves = np.array(travels, dtype=np.float64)
+            moves[contact] = np.inf
             sigma = h.window_sigma(means, moves, reaches)
-            out.append((order, sigma, h.start_memory(means, travels)))
+            starts = [0, *contact]
+            out.append((order, sigma, [h.start_memory(means, travels, j) for j in starts]))
         return out
 
     def calibrate(
