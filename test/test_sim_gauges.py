@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from com_core.sensing.hysteresis import SATURATION
+from com_core.sensing.hysteresis import SATURATION, edge
 from com_core.sensing.sensor_profiles import PROFILES, SensorProfile
 from wrench_sim.gauges import GaugeErrors, profile_gauges
 from wrench_sim.sensor import profile_sensor, random_streams
@@ -273,6 +273,57 @@ def test_the_travel_of_a_noisy_path_is_the_loads_not_its_noises():
     )
     assert_allclose(travel(ramp)[[0, 2, 3]], (amplitude - half)[[0, 2, 3]], rtol=0.02)
     assert np.all(np.isnan(travel(path[:29])))
+
+
+def test_a_way_reaches_its_press_and_a_contact_starts_a_fresh_offset():
+    """``hysteresis.reach``: a way that presses 6 N beyond its ends reaches the press,
+    less the deadband's half-width, its noise left out; the press widens the share
+    ``window_sigma`` weighs. A way through contact (the load held, then not) is weighed
+    at the most it can move the state, and the windows from it on carry a fresh offset,
+    its share 1 there and decaying after (``FitSetup.with_hysteresis``)."""
+    from com_core.estimation.fits.known_gravity import Observation
+    from com_core.estimation.fits.windows import Window
+    from com_core.estimation.runs.fit_setup import FitSetup
+    from com_core.sensing.hysteresis import Hysteresis, reach
+
+    rng = np.random.default_rng(1)
+    noise = np.array([0.1] * 3 + [0.005] * 3)
+    press = np.interp(np.arange(3000), [0, 1000, 1500, 2000, 3000], [0, 0, 1, 0, 0])
+    way = np.outer(press, -PUSH) + noise * rng.standard_normal((3000, 6))
+    half = 5.0 * noise / np.sqrt(10)
+    low, high = reach(way)
+    assert_allclose(np.where(PUSH > 0, low, high)[[0, 2]], (-PUSH + np.sign(PUSH) * half)[[0, 2]],
+                    rtol=0.05)  # fmt: skip
+    hysteresis = Hysteresis(XARM.hysteresis, (150.0,) * 3 + (4.0,) * 3)
+    means = np.zeros((2, 6))
+    pressed = hysteresis.window_sigma(
+        means, np.full((2, 6), 12.0), [np.full((2, 6), np.nan), np.stack([low, high])]
+    )
+    assert np.all(pressed[1, :3] > hysteresis.window_sigma(means, np.full((2, 6), 12.0))[1, :3])
+
+    tilt = np.array([3.0, 0.0, -8.0, 0.0, 0.3, 0.0])
+    held = [False, False, True, True]
+    obs = [Observation(Window(f"w{k}", tilt * (k % 2) + 5.0 * loaded, np.eye(6), 100),
+                       np.eye(3), loaded, 0, float(k), travel=np.full(6, 10.0))
+           for k, loaded in enumerate(held)]  # fmt: skip
+    told = FitSetup(hysteresis=hysteresis)
+    cov = told.hysteresis_cov(obs)
+    designs = [o.nuisance for o in told.with_hysteresis(obs)]
+    assert cov.shape == (6 * 6, 6 * 6) and all(d.shape == (6, 36) for d in designs)
+    b = edge(XARM.hysteresis)
+    assert_allclose(
+        np.diag(cov)[12:18],
+        (
+            hysteresis.residual_share(np.vstack([np.zeros(6), [o.window.mean for o in obs]]))
+            * b
+            / np.sqrt(3)
+        )
+        ** 2,
+    )
+    fresh = [np.diag(d[:, 30:]) for d in designs]  # the offset after the contact
+    assert np.all(fresh[0] == 0) and np.all(fresh[1] == 0) and np.all(fresh[2] == 1)
+    assert np.all((fresh[3] > 0) & (fresh[3] < 1))
+    assert_allclose(np.diag(cov)[30:], b**2 / 3)
 
 
 def test_an_excursion_after_a_turn_reads_short_by_the_gain_deficit_the_motion_fit_weighs():

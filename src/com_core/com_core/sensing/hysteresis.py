@@ -42,10 +42,13 @@ Where a run starts, the state is wherever the loads before it left it, anywhere 
 never loaded is. The model is linear in the state for a given path, so two states the same
 path moves close in by exp(-T_a / (SATURATION r_a)) over a travel T_a: the offset at the
 first window is a nuisance common to all of them, each carrying that share of it
-(``start_memory``). Not weighed, it reads as the object moving in the grasp. A window no
-fit used (a verification's) carries the increments and the offset the fit's windows
-share, as the fit left them, and its own way's increment (``FitSetup.carried``): not
-weighed, the sensor's offset reads there as the estimate's error.
+(``start_memory``). Not weighed, it reads as the object moving in the grasp. A way
+through contact (the grasp, the release) chatters within the noise far beyond what
+``travel`` sees and leaves the state anywhere in its band again: the windows after it
+carry a fresh offset so (``FitSetup.with_hysteresis``). A window no fit used (a
+verification's) carries the increments and the offsets the fit's windows share, as the
+fit left them, and its own way's increment (``FitSetup.carried``): not weighed, the
+sensor's offset reads there as the estimate's error.
 """
 
 from __future__ import annotations

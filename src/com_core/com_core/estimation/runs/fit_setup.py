@@ -373,8 +373,8 @@ class FitSetup:
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
         """What the sensor's hysteresis adds to a window of this run the ``fit`` did not
         use (a verification's ``observation``): its mean (6,; N, N m) and covariance
-        (6, 6), the increments and the start's offset it shares with the fit's windows
-        as the fit left them (``KinematicFit.nuisance_posterior``) and its own increment
+        (6, 6), the increments and the offsets it shares with the fit's windows as the
+        fit left them (``KinematicFit.nuisance_posterior``) and its own increment
         since the window before it as ``hysteresis_cov`` weighs it, the ways from the
         samples (``stamps`` ns, ``wrenches`` (n, 6)); None without a hysteresis."""
         posterior = fit.nuisance_posterior()
