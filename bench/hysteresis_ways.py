@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import copy
-from itertools import pairwise
 
 import numpy as np
 from motion import SETTLE, STATIC_PLAN, TARE_DWELL
@@ -102,13 +101,16 @@ def ways(steps: dict, hysteresis: Hysteresis) -> dict:
     index = [np.flatnonzero(steps["in"] == label) for label in labels]
     middles = [i[len(i) // 2] for i in index]
     readings = steps["reading"] / gain
-    observations = []
+    observations, hidden = [], []
     for k, (label, i) in enumerate(zip(labels, index, strict=True)):
-        mean = readings[i].mean(axis=0)
-        window = Window(label, mean, np.eye(6), len(i))
+        window = Window(label, readings[i].mean(axis=0), np.eye(6), len(i))
         loaded = label.startswith(OBJECT_PREFIX)
-        way = readings[middles[k - 1] : middles[k] + 1] if k else None
-        known = {} if way is None else {"travel": travel(way), "reach": reach(way)}
+        known = {}
+        if k:
+            a, b = middles[k - 1], middles[k] + 1
+            known = {"travel": travel(readings[a:b]), "reach": reach(readings[a:b])}
+            own = np.abs(np.diff(steps["load"][a:b], axis=0)).sum(axis=0)
+            hidden.append((own - known["travel"]) / follow(readings[a:b])[1])
         observations.append(Observation(window, np.eye(3), loaded, 0, float(k), **known))
     told = FitSetup(hysteresis=hysteresis)
     n = len(observations)
@@ -122,14 +124,9 @@ def ways(steps: dict, hysteresis: Hysteresis) -> dict:
     d = hysteresis.gain_deficit()
     residual = np.array([(steps["twin"][i] + d * steps["load"][i]).mean(axis=0) for i in index])
     offset = np.array([(steps["state"][i] - steps["twin"][i]).mean(axis=0) for i in index])
-    hidden = []
-    for a, b in pairwise(middles):
-        load, way = steps["load"][a : b + 1], readings[a : b + 1]
-        own = np.abs(np.diff(load, axis=0)).sum(axis=0)
-        hidden.append((own - travel(way)) / follow(way)[1])
     return {
         "label": labels[1:],
-        "contact": [held[k] != held[k - 1] for k in range(1, n)],
+        "contact": [k in starts for k in range(1, n)],
         "hidden": np.array(hidden),
         "z": (np.diff(residual, axis=0) / sigma[1:]),
         "kept": kept[1:],
