@@ -29,6 +29,7 @@ from com_core.planning.decisions import (
     free_room,
     grasp_holds,
     held_mass,
+    hysteresis_hides,
     may_hold_object,
     newest_hand_model,
     plan_for_target,
@@ -42,6 +43,7 @@ from com_core.planning.decisions import (
     tare_reuse,
 )
 from com_core.planning.prediction import predict
+from com_core.sensing.hysteresis import Hysteresis, edge
 from com_core.sensing.noise import ar1_noise
 from com_core.sensing.wrench_model import STANDARD_GRAVITY
 
@@ -327,6 +329,25 @@ def test_the_grasp_holds_from_min_load():
     assert not grasp_holds(0.0049, 0.005)
     assert not grasp_holds(-0.01, 0.0)
     assert not grasp_holds(float("nan"), 0.005)
+
+
+def test_the_grasp_check_allows_what_the_sensors_hysteresis_can_hide():
+    """The xArm sensor's band (3.75 N in fz) bounds its state at b = 1.362 N: at the tare
+    and again after the grasp's contact, so the lift's reading moves by up to 2 b along
+    gravity (278 g), and across gravity by none; a tilted hand sums the axes it spans."""
+    xarm = Hysteresis.stated((3.75, 3.75, 2.0, 0.04, 0.04, 0.04), 150.0, 4.0)
+    b = edge(xarm.band)
+    down = hysteresis_hides(xarm, (0.0, 0.0, -7.0))
+    assert down == pytest.approx(2 * b[2] / STANDARD_GRAVITY, rel=1e-12)
+    assert down == pytest.approx(0.2778, abs=1e-4)
+    tilted = hysteresis_hides(xarm, (0.0, 3.0, -4.0))  # u = (0, 0.6, -0.8)
+    assert tilted == pytest.approx(2 * (0.6 * b[1] + 0.8 * b[2]) / STANDARD_GRAVITY)
+    assert hysteresis_hides(None, (0.0, 0.0, -7.0)) == 0.0
+    assert hysteresis_hides(xarm, np.zeros(3)) == 0.0
+    # the 0.1 kg box read -11.6 g after a contact that moved fz by a newton: held; an
+    # empty hand read farther below than the band reaches: not
+    assert grasp_holds(-0.0116, 0.005, down) and not grasp_holds(-0.0116, 0.005)
+    assert not grasp_holds(0.005 - down - 1e-6, 0.005, down)
 
 
 def test_fingers_closed_beyond_a_fortieth_of_their_stroke_may_hold_an_object():

@@ -9,7 +9,8 @@ one (``planning_noise``). A cached tare pass serves the run when the estimator r
 same cache and the entry is young enough and complete (``tare_decision``), and then only
 when a fresh empty-hand window at home confirms it (``tare_reuse``; docs/design.md, "The
 tare cache"). After the lift the hand must hold ``min_load`` beyond the tare along
-gravity (``held_mass``, ``grasp_holds``).
+gravity, less what the sensor's hysteresis can hide (``held_mass``, ``grasp_holds``,
+``hysteresis_hides``).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from com_core.estimation.fits.errors import EstimationError
 from com_core.estimation.fits.windows import Window
@@ -39,7 +40,7 @@ from com_core.planning.prediction import Prediction, predict
 from com_core.planning.search import within_max_tilt
 from com_core.robot.choreography import Choreography, PoseUnreachable
 from com_core.sensing.calibration import Calibration
-from com_core.sensing.hysteresis import Hysteresis
+from com_core.sensing.hysteresis import Hysteresis, edge
 from com_core.sensing.noise import NoiseModel, ar1_noise
 from com_core.sensing.wrench_model import STANDARD_GRAVITY, SensorModel
 
@@ -66,6 +67,7 @@ __all__ = [
     "free_room",
     "grasp_holds",
     "held_mass",
+    "hysteresis_hides",
     "may_hold_object",
     "newest_hand_model",
     "plan_for_target",
@@ -526,10 +528,24 @@ def closing_problem(
     return ""
 
 
-def grasp_holds(mass: float, min_load: float) -> bool:
-    """The grasp holds the object: ``mass`` (kg, ``held_mass``) is not below
-    ``min_load`` kg."""
-    return mass >= min_load  # NaN: not held
+def hysteresis_hides(hysteresis: Hysteresis | None, tare_force: ArrayLike) -> float:
+    """kg by which the sensor's hysteresis can move ``held_mass`` at most: each force
+    axis's state is anywhere within +-b at the tare, and anywhere within it again after
+    the grasp's contact (``com_core.sensing.hysteresis``), so the two differ by up to 2 b
+    per axis; summed along gravity u (the tare force's direction, sensor frame) as
+    2 sum_i b_i |u_i|, over g. 0 without hysteresis, or for a tare that weighs nothing."""
+    tare = np.asarray(tare_force, dtype=np.float64)[:3]
+    if hysteresis is None or not np.linalg.norm(tare) > 0:
+        return 0.0
+    b = edge(hysteresis.band)[:3]
+    return float(2.0 * b @ np.abs(tare / np.linalg.norm(tare))) / STANDARD_GRAVITY
+
+
+def grasp_holds(mass: float, min_load: float, hidden: float = 0.0) -> bool:
+    """The grasp is not shown empty: ``mass`` (kg, ``held_mass``) is not below
+    ``min_load`` kg by more than the ``hidden`` kg the sensor can move it by
+    (``hysteresis_hides``)."""
+    return mass >= min_load - hidden  # NaN: not held
 
 
 BAG_BYTES_PER_S = 250_000

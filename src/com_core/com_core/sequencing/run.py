@@ -102,6 +102,7 @@ from com_core.planning.decisions import (
     free_room,
     grasp_holds,
     held_mass,
+    hysteresis_hides,
     may_hold_object,
     newest_hand_model,
     plan_within_reach,
@@ -430,7 +431,7 @@ class ExplorationRun:
         self.arm.move(home, "home")
         self.arm.move(pick, "the object")
         self._close_on_object(home)
-        self._check_grasp(home, tare_home, pick)
+        self._check_grasp(home, tare_home, pick, values)
         self._enter(OBJECT_PASS, "phase 3/4: object pass")
         start = self.clock.now_ns()
         self._pass(OBJECT_PREFIX, poses, plan.dwell)
@@ -652,7 +653,7 @@ class ExplorationRun:
         self._enter(GRASP, "phase 2/4: grasp and lift")
         self.arm.move(pick, "the object")
         self._close_on_object(home)
-        self._check_grasp(home, tare_home, pick)
+        self._check_grasp(home, tare_home, pick, settings)
         self._enter(OBJECT_MOTION, "phase 3/4: the object along the excitation")
         end = self._excite(MOTION_OBJECT, excitation)
         self._enter(VERIFICATION, "verification: the object along a motion no fit uses")
@@ -892,9 +893,13 @@ class ExplorationRun:
                 "and where the object stands"
             )
 
-    def _check_grasp(self, home: list[float], tare_home: Window, pick: list[float]) -> None:
+    def _check_grasp(
+        self, home: list[float], tare_home: Window, pick: list[float], settings: dict[str, object]
+    ) -> None:
         """Lift and weigh: the wrench at home beyond the tare must hold ``min_load`` kg
-        along gravity, else the object was not picked up (RunError, hand emptied)."""
+        along gravity, less what the sensor's hysteresis can move it by (``settings``:
+        the estimator's), else the object was not picked up (RunError, hand emptied); a
+        weight the hysteresis hides is a warning, the gripper's word taken."""
         dwell = round(self.p("grasp_check_dwell") * 1e9)
 
         def lift_and_weigh() -> int:
@@ -910,14 +915,24 @@ class ExplorationRun:
                 "the grasp cannot be weighed: no wrenches arrived, or the empty hand's tare "
                 "weighs nothing (a force resolution coarser than the hand's weight?)"
             )
-        if not grasp_holds(mass, self.p("min_load")):
+        min_load = self.p("min_load")
+        hidden = hysteresis_hides(hysteresis_of(settings), tare_home.force)
+        held = f"after lifting the hand holds {mass * 1e3:.1f} g beyond the tare"
+        if not grasp_holds(mass, min_load, hidden):
             self.arm.put_back(home, pick)
+            within = f" - {hidden * 1e3:.0f} g the sensor's hysteresis can hide" if hidden else ""
             raise RunError(
-                f"grasp failed: after lifting the hand holds {mass * 1e3:.1f} g beyond the "
-                f"tare (< min_load {self.p('min_load') * 1e3:g} g): the object was not "
-                "picked up; check pick_joints and where the object stands"
+                f"grasp failed: {held} (< min_load {min_load * 1e3:g} g{within}): the object "
+                "was not picked up; check pick_joints and where the object stands"
             )
-        self.log.info(f"grasp holds {mass * 1e3:.1f} g")
+        if mass < min_load:
+            self.log.warning(
+                f"the grasp check cannot weigh the object: {held}, within the "
+                f"{hidden * 1e3:.0f} g the sensor's hysteresis can move it by since the "
+                "tare; going on as the gripper closed on it"
+            )
+        else:
+            self.log.info(f"grasp holds {mass * 1e3:.1f} g")
 
     def _captured_tares(
         self, poses: list[tuple[str, list[float]]], dwell: float
