@@ -6,18 +6,18 @@ step as the sim node reads it, against what the fit at rest weighs.
 
 In process, no ROS: the sequencer's default static pass (``motion.record_static``'s: a
 tare pass, the grasp, the object pass) with the sensor read at every step of every move,
-the grasp and the settles too, as the nodes read it, where ``bench/motion.py`` reads it
-in the windows and the settles only. The sim knows the load and the gauges' state at
-every step; the fit (``FitSetup``, told the sensor's band) knows the readings. Per way
-between two windows and axis: the load's own total variation beyond what ``travel``
-measures from the readings, in half-widths of its deadband (what rings within the noise);
-the true increment of the state's first-order residual (from a state started in the
-middle of its band along the same loads) over the sigma the fit weighs for it
-(``hysteresis_cov``); and the share each window keeps of the state's offset where the
-run starts, or after the contact, the fit's (``start_memory`` of the travel measured)
-against the truth's. A way through contact (the grasp) is weighed at the most it can
-move the state and leaves it anywhere in its band: the twin starts from the middle
-again after it, as the fit's offset does.
+the grasp and the settles too, as the nodes read it, where ``bench/motion.py`` keeps the
+readings of the windows and the settles only (its gauges follow every step). The sim
+knows the load and the gauges' state at every step; the fit (``FitSetup``, told the
+sensor's band) knows the readings. Per way between two windows and axis: the load's own
+total variation beyond what ``travel`` measures from the readings, in half-widths of its
+deadband (what rings within the noise); the true increment of the state's first-order
+residual (from a state started in the middle of its band along the same loads) over the
+sigma the fit weighs for it (``hysteresis_cov``); and the share each window keeps of the
+state's offset where the run starts, or after the contact, the fit's (``start_memory``
+of the travel measured) against the truth's. A way through contact (the grasp) is
+weighed at the most it can move the state and leaves it anywhere in its band: the twin
+starts from the middle again after it, as the fit's offset does.
 """
 
 from __future__ import annotations

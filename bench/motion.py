@@ -5,22 +5,24 @@
         [--joint-rate 100] [--seed 0] [--profile realistic] [--calibration-accuracy 0.01]
         [--static] [--information kinematics+mount] [--calibrate 1.0]
 
-In process, no ROS: for each arm, mass and object (box, cylinder, mug in turn, COM offset
-drawn from the object's seed) a simulator holds the empty hand, runs the arm's D-optimal
-wrist excitation (``planning.excitation``, designed once per arm, its accelerations within
-``--acceleration`` rad/s^2, or ``limits``: the arm's own), grasps the object and
-runs it again; both read through the realistic sensor (``profile_sensor``: coloured noise,
-quantisation, drifting bias, a 1 % calibration drawn per object; ``--profile`` another named
-one, the estimator told its datasheet), the joint states taken
-at ``--joint-rate``. ``estimation.fits.motion.fit_motion`` fits the hand, then the object with
-the hand taken off, the delay estimated and the noise model the profile's. Per case: the
-95th percentile of the mass, COM and principal moments' errors, the rms of error / sigma
+In process, no ROS: for each arm, mass and object (box, cylinder, mug in turn, COM
+offset drawn from the object's seed) a simulator holds the empty hand, runs the arm's
+D-optimal wrist excitation (``planning.excitation``, designed once per arm, its
+accelerations within ``--acceleration`` rad/s^2, or ``limits``: the arm's own), grasps
+the object and runs it again; both read through the realistic sensor
+(``profile_sensor``: coloured noise, quantisation, drifting bias, a 1 % calibration
+drawn per object; ``--profile`` another named one, the estimator told its datasheet; a
+strain gauge's hysteresis following the load at every step, the moves and the grasp too,
+as the sim node's sensor does), the joint states taken at ``--joint-rate``.
+``estimation.fits.motion.fit_motion`` fits the hand, then the object with the hand taken
+off, the delay estimated and the noise model the profile's. Per case: the 95th
+percentile of the mass, COM and principal moments' errors, the rms of error / sigma
 (mass, COM, inertia), the median sigmas the noise alone allows (the bound), the median
 fit time, and how many of the objects' inertias the estimator would publish (every
 principal moment beyond its sigma, ``MotionResult.inertia_identified``) with the rms of
 their error / sigma (what a user is shown; the rms z over all is of every fit, the
-unpublished ones pressed against the consistency constraint besides). Goal, for
-0.5 kg and more and at most 3 s of motion: COM <= 1 mm and mass <= 0.5 % at the 95th
+unpublished ones pressed against the consistency constraint besides). Goal, for 0.5 kg
+and more and at most 3 s of motion: COM <= 1 mm and mass <= 0.5 % at the 95th
 percentile, principal moments within 10 %, rms(error / sigma) near 1 (the figures and
 what they say: bench/README.md).
 
@@ -83,7 +85,7 @@ from wrench_sim.config import SimConfig
 from wrench_sim.objects import reference_weight_mass
 from wrench_sim.physics import ArmWorld
 from wrench_sim.sensor import profile_sensor
-from wrench_sim.studies import feed, grasp, hold_still, run_excitation
+from wrench_sim.studies import feed, grasp, hold_still, move_arm, run_excitation
 
 SHAPES = ("box", "cylinder", "mug")
 DIAGONAL = [4 + INERTIA_ELEMENTS.index(name) for name in ("ixx", "iyy", "izz")]  # in load_vector
@@ -200,13 +202,13 @@ def record_static(world, sensor, every) -> tuple[list, float]:
     windows = []
 
     def window(label: str, joints, dwell: float) -> None:
-        world.move_arm(joints, MOVE)
+        move_arm(world, joints, MOVE, sensor)  # its gauges follow the way
         hold_still(world, sensor, SETTLE, every)  # read through it: studies.SENSOR_CATCH_UP
         windows.append((label, hold_still(world, sensor, dwell, every)))
 
     for name, joints in poses:
         window(TARE_PREFIX + name, joints, TARE_DWELL)
-    grasp(world)
+    grasp(world, sensor=sensor, catch_up=0.0)  # read in the first pose's settle
     start = world.time
     for name, joints in poses:
         window(OBJECT_PREFIX + name, joints, STATIC_PLAN.dwell)

@@ -28,7 +28,7 @@ from com_core.planning.excitation import DEFAULT_ACCELERATION, Excitation, desig
 from com_core.robot.config import read_robot_config
 from com_core.robot.model import RobotModel
 from com_core.sensing.sensor_profiles import PROFILES
-from wrench_sim.config import SimConfig
+from wrench_sim.config import TIME_STEP, SimConfig
 from wrench_sim.joint_torques import wrench_in
 from wrench_sim.physics import ArmWorld
 from wrench_sim.sensor import WrenchSensor, profile_sensor
@@ -39,8 +39,10 @@ __all__ = [
     "feed",
     "grasp",
     "hold_still",
+    "move_arm",
     "record_until",
     "record_wandering",
+    "run",
     "run_excitation",
     "write_recording_bag",
 ]
@@ -53,19 +55,48 @@ follows every change of load, where one read again only after a lift starts from
 load before it (16 N off for 20 ms after lifting 2 kg)."""
 
 
-def grasp(world: ArmWorld, seconds: float = 3.0, sensor: WrenchSensor | None = None) -> None:
+def grasp(
+    world: ArmWorld,
+    seconds: float = 3.0,
+    sensor: WrenchSensor | None = None,
+    catch_up: float = SENSOR_CATCH_UP,
+) -> None:
     """Pick the object from its stand and lift it to the home pose, each move in
-    ``seconds``; then, with ``sensor``, read it ``SENSOR_CATCH_UP`` s at home. RuntimeError
-    when the gripper does not hold it."""
+    ``seconds``; with ``sensor``, its gauges follow the load throughout (``run``)
+    and it is read ``catch_up`` s at home. RuntimeError when the gripper does not hold
+    it."""
     robot = world.config.robot
-    world.move_arm(robot.pick_joints, seconds)
+    move_arm(world, robot.pick_joints, seconds, sensor)
     world.command_gripper(robot.gripper_closed)
-    world.run(0.5)
+    run(world, 0.5, sensor)
     if not world.object_held:
         raise RuntimeError(f"the grasp failed: {world.events}")
-    world.move_arm(robot.home_joints, seconds)
-    if sensor is not None:
-        hold_still(world, sensor, SENSOR_CATCH_UP)
+    move_arm(world, robot.home_joints, seconds, sensor)
+    if sensor is not None and catch_up > 0.0:
+        hold_still(world, sensor, catch_up)
+
+
+def move_arm(
+    world: ArmWorld, joints: Sequence[float], seconds: float, sensor: WrenchSensor | None = None
+) -> None:
+    """``ArmWorld.move_arm``, the same steps, with ``sensor``'s gauges following the load
+    (``run``)."""
+    world.command_move(joints, seconds)
+    run(world, seconds, sensor)
+    while not world.arm_settled:
+        run(world, TIME_STEP, sensor)
+
+
+def run(world: ArmWorld, seconds: float, sensor: WrenchSensor | None = None) -> None:
+    """``ArmWorld.run``, the same steps; with ``sensor``, its gauges follow the load at
+    every step (``WrenchSensor.follow``), as the sim node's sensor, read at every step,
+    does: a strain gauge's hysteresis remembers the way between the readings a study
+    keeps, the grasp's contact too."""
+    follows = sensor is not None and sensor.gauges is not None
+    for _ in range(round(seconds / TIME_STEP)):
+        world.step()
+        if follows:
+            sensor.follow(wrench_in(world, sensor.joint_torques), world.time)
 
 
 def run_excitation(
@@ -169,7 +200,7 @@ def explore_in_motion(
     settings = {"accuracy": calibration_accuracy} | stated.datasheet() | {
         "information": "kinematics", "sensor_frame": robot.sensor_frame}  # fmt: skip
     exploration = exploration_from(settings, world.urdf_text)
-    world.move_arm(robot.home_joints, 1.0)
+    move_arm(world, robot.home_joints, 1.0, sensor)
     feed(exploration, world, "tare/home", hold_still(world, sensor, 2.0, joint_every))
     feed(exploration, world, MOTION_TARE, run_excitation(world, excitation, sensor, joint_every))
     grasp(world, sensor=sensor)
