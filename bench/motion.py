@@ -85,7 +85,7 @@ from wrench_sim.config import SimConfig
 from wrench_sim.objects import reference_weight_mass
 from wrench_sim.physics import ArmWorld
 from wrench_sim.sensor import profile_sensor
-from wrench_sim.studies import feed, grasp, hold_still, move_arm, run_excitation
+from wrench_sim.studies import feed, grasp, hold_still, joined, move_arm, run_excitation
 
 SHAPES = ("box", "cylinder", "mug")
 DIAGONAL = [4 + INERTIA_ELEMENTS.index(name) for name in ("ixx", "iyy", "izz")]  # in load_vector
@@ -194,21 +194,24 @@ def static_object(
 
 
 def record_static(world, sensor, every) -> tuple[list, float]:
-    """([(label, what ``hold_still`` recorded)] of the sequencer's default static pass
-    (see module) with ``world``'s object, read through ``sensor``; the object pass's time,
-    s)."""
+    """([(label, what ``hold_still`` recorded, the way there)] of the sequencer's default
+    static pass (see module) with ``world``'s object, read through ``sensor``; the object
+    pass's time, s). The way (``studies.Way``): the move's readings where the sensor's
+    gauges remember it, the grasp's before the first object window, and the settle's, as
+    the node's estimator gets them."""
     config = world.config.robot
     poses = Choreography.of(config, world.urdf_text).pose_joints(STATIC_PLAN)
-    windows = []
+    windows, ways = [], []
 
     def window(label: str, joints, dwell: float) -> None:
-        move_arm(world, joints, MOVE, sensor)  # its gauges follow the way
-        hold_still(world, sensor, SETTLE, every)  # read through it: studies.SENSOR_CATCH_UP
-        windows.append((label, hold_still(world, sensor, dwell, every)))
+        ways.append(move_arm(world, joints, MOVE, sensor))
+        ways.append(hold_still(world, sensor, SETTLE, every)[2:])  # studies.SENSOR_CATCH_UP
+        windows.append((label, hold_still(world, sensor, dwell, every), joined(ways)))
+        ways.clear()
 
     for name, joints in poses:
         window(TARE_PREFIX + name, joints, TARE_DWELL)
-    grasp(world, sensor=sensor, catch_up=0.0)  # read in the first pose's settle
+    ways.append(grasp(world, sensor=sensor, catch_up=0.0))  # read in the first settle
     start = world.time
     for name, joints in poses:
         window(OBJECT_PREFIX + name, joints, STATIC_PLAN.dwell)
@@ -230,9 +233,10 @@ def static_exploration(
         "information": information,
     }
     exploration = exploration_from(settings, world.urdf_text)
-    for label, (joint_times, q, stamps, readings) in windows:
-        readings = readings if through is None else readings @ through.T
-        feed(exploration, world, label, (joint_times, q, stamps, readings))
+    for label, (joint_times, q, stamps, readings), (way_stamps, way) in windows:
+        if through is not None:
+            readings, way = readings @ through.T, way @ through.T
+        feed(exploration, world, label, (joint_times, q, stamps, readings), (way_stamps, way))
     exploration.add_label(round(windows[-1][1][2][-1] * 1e9), DONE)  # the last sample's
     return exploration
 

@@ -396,3 +396,45 @@ def test_readings_are_corrected_by_the_hysteresis_gain_before_the_calibration_in
     read = gain * (c @ load)  # corrected by the gain alone, it reads c load: c was so identified
     assert_allclose(reading_correction(calibrated, hysteresis) @ read, load, rtol=1e-12)
     assert_allclose(reading_correction(calibrated, None), calibrated.correction)
+
+
+def test_a_study_reads_a_sensor_whose_gauges_remember_the_way_and_steps_as_the_world_does():
+    """``studies.grasp`` steps as ``ArmWorld.move_arm`` and ``run`` do, step for step. A
+    sensor of the xArm profile is read at every step of it, as the sim node reads it: its
+    way is every step's reading and the hysteresis's state ends where the grasp's contact
+    left it; the realistic sensor (no gauges) is not read, so its next readings are what
+    they were before studies read ways."""
+    from com_core.robot.config import read_robot_config
+    from wrench_sim.config import TIME_STEP, SimConfig
+    from wrench_sim.physics import ArmWorld
+    from wrench_sim.studies import grasp
+
+    config = read_robot_config("panda")
+    worlds = [ArmWorld(SimConfig(robot=config, object_mass=0.5, seed=1)) for _ in range(3)]
+    try:
+        plain, xarm_world, realistic_world = worlds
+        plain.move_arm(config.pick_joints, 3.0)
+        plain.command_gripper(config.gripper_closed)
+        plain.run(0.5)
+        plain.move_arm(config.home_joints, 3.0)
+        xarm = profile_sensor(XARM, seed=1, serial=1, world=xarm_world)
+        start = xarm.gauges.state.copy()
+        stamps, readings = grasp(xarm_world, sensor=xarm, catch_up=0.0)
+        realistic = profile_sensor(PROFILES["realistic"], seed=1, serial=1)
+        unread = grasp(realistic_world, sensor=realistic, catch_up=0.0)
+        for world in (xarm_world, realistic_world):
+            assert world.time == plain.time
+            assert_allclose(world.joint_state()[1], plain.joint_state()[1], rtol=0, atol=0)
+        assert_allclose(np.diff(stamps), TIME_STEP, atol=1e-9)
+        assert len(stamps) == round(plain.time / TIME_STEP) and readings.shape == (len(stamps), 6)
+        assert stamps[-1] == plain.time
+        held = np.mean(readings[-100:, 2]) - np.mean(readings[:100, 2])
+        assert abs(held) == pytest.approx(0.5 * 9.81, abs=0.3 * 9.81)  # the box, lifted
+        assert np.abs(xarm.gauges.state - start)[:3].max() > 0.05  # moved by the way
+        assert unread[0].shape == (0,) and unread[1].shape == (0, 6)
+        fresh = profile_sensor(PROFILES["realistic"], seed=1, serial=1)
+        wrench = np.arange(6.0)
+        assert_allclose(realistic.read(wrench, 1.0), fresh.read(wrench, 1.0), rtol=0, atol=0)
+    finally:
+        for world in worlds:
+            world.close()

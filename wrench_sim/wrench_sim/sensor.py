@@ -198,14 +198,6 @@ class WrenchSensor:
             self.saturated = bool(model.saturated(reading).any())
         return reading
 
-    def follow(self, true_wrench: ArrayLike, t: float = 0.0) -> None:
-        """Let the gauges follow the true wrench (6,) at sim time ``t`` (s) without a
-        reading (no noise drawn): the load's way between the readings a study keeps,
-        which the sim node's sensor, read at every step, follows (``wrench_sim.studies``).
-        Nothing for a sensor without gauges."""
-        if self.gauges is not None:
-            self.gauges.apply(np.asarray(true_wrench, dtype=np.float64), t)
-
 
 def profile_calibration(profile: SensorProfile, serial: int) -> NDArray[np.float64] | None:
     """The calibration (6, 6) of the sensor ``serial`` with ``profile``'s accuracy, drawn

@@ -35,10 +35,12 @@ from wrench_sim.sensor import WrenchSensor, profile_sensor
 
 __all__ = [
     "MotionRun",
+    "Way",
     "explore_in_motion",
     "feed",
     "grasp",
     "hold_still",
+    "joined",
     "move_arm",
     "record_until",
     "record_wandering",
@@ -55,48 +57,61 @@ follows every change of load, where one read again only after a lift starts from
 load before it (16 N off for 20 ms after lifting 2 kg)."""
 
 
+Way = tuple[NDArray[np.float64], NDArray[np.float64]]
+"""What a sensor read on a way between the readings a study keeps: (stamps s (n,),
+readings N and N m (n, 6) in ``ft_sensor``); n = 0 where it was not read (``run``)."""
+
+
 def grasp(
     world: ArmWorld,
     seconds: float = 3.0,
     sensor: WrenchSensor | None = None,
     catch_up: float = SENSOR_CATCH_UP,
-) -> None:
+) -> Way:
     """Pick the object from its stand and lift it to the home pose, each move in
-    ``seconds``; with ``sensor``, its gauges follow the load throughout (``run``)
-    and it is read ``catch_up`` s at home. RuntimeError when the gripper does not hold
-    it."""
+    ``seconds``; then, with ``sensor``, read it ``catch_up`` s at home. The ``Way`` there
+    (``run``). RuntimeError when the gripper does not hold it."""
     robot = world.config.robot
-    move_arm(world, robot.pick_joints, seconds, sensor)
+    ways = [move_arm(world, robot.pick_joints, seconds, sensor)]
     world.command_gripper(robot.gripper_closed)
-    run(world, 0.5, sensor)
+    ways.append(run(world, 0.5, sensor))
     if not world.object_held:
         raise RuntimeError(f"the grasp failed: {world.events}")
-    move_arm(world, robot.home_joints, seconds, sensor)
+    ways.append(move_arm(world, robot.home_joints, seconds, sensor))
     if sensor is not None and catch_up > 0.0:
-        hold_still(world, sensor, catch_up)
+        ways.append(hold_still(world, sensor, catch_up)[2:])
+    return joined(ways)
 
 
 def move_arm(
     world: ArmWorld, joints: Sequence[float], seconds: float, sensor: WrenchSensor | None = None
-) -> None:
-    """``ArmWorld.move_arm``, the same steps, with ``sensor``'s gauges following the load
-    (``run``)."""
+) -> Way:
+    """``ArmWorld.move_arm``, the same steps: the ``Way`` (``run``)."""
     world.command_move(joints, seconds)
-    run(world, seconds, sensor)
+    ways = [run(world, seconds, sensor)]
     while not world.arm_settled:
-        run(world, TIME_STEP, sensor)
+        ways.append(run(world, TIME_STEP, sensor))
+    return joined(ways)
 
 
-def run(world: ArmWorld, seconds: float, sensor: WrenchSensor | None = None) -> None:
-    """``ArmWorld.run``, the same steps; with ``sensor``, its gauges follow the load at
-    every step (``WrenchSensor.follow``), as the sim node's sensor, read at every step,
-    does: a strain gauge's hysteresis remembers the way between the readings a study
-    keeps, the grasp's contact too."""
-    follows = sensor is not None and sensor.gauges is not None
+def run(world: ArmWorld, seconds: float, sensor: WrenchSensor | None = None) -> Way:
+    """``ArmWorld.run``, the same steps. A ``sensor`` whose gauges remember the load's
+    way (a strain gauge's hysteresis) is read at every step, as the sim node reads it,
+    and the ``Way`` is those readings; another is not read (none given: neither), which
+    leaves its next readings as they were."""
+    stamps, readings = [], []
+    reads = sensor is not None and sensor.gauges is not None
     for _ in range(round(seconds / TIME_STEP)):
         world.step()
-        if follows:
-            sensor.follow(wrench_in(world, sensor.joint_torques), world.time)
+        if reads:
+            stamps.append(world.time)
+            readings.append(sensor.read(wrench_in(world, sensor.joint_torques), world.time))
+    return np.array(stamps), np.array(readings).reshape(-1, 6)
+
+
+def joined(ways: Sequence[Way]) -> Way:
+    """One ``Way`` of ``ways`` in turn."""
+    return np.concatenate([w[0] for w in ways]), np.vstack([w[1] for w in ways])
 
 
 def run_excitation(
@@ -136,11 +151,18 @@ def record_until(
 
 
 def feed(
-    inbox: Inbox, world: ArmWorld, label: str, recorded: tuple[NDArray[np.float64], ...]
+    inbox: Inbox,
+    world: ArmWorld,
+    label: str,
+    recorded: tuple[NDArray[np.float64], ...],
+    way: Way | None = None,
 ) -> None:
     """Give ``inbox`` (an exploration's) what ``hold_still`` or ``run_excitation`` just
     ``recorded``, labelled ``label`` from its first sample and ``moving`` after its last,
-    stamped in ns as the nodes stamp them."""
+    stamped in ns as the nodes stamp them; the ``way`` there first, moving."""
+    if way is not None and len(way[0]):
+        ns = np.rint(np.asarray(way[0]) * 1e9).astype(np.int64)
+        inbox.add_samples(ns, way[1], ["ft_sensor"] * len(ns))
     joint_times, positions, times, readings = recorded
     ns = np.rint(np.asarray(times) * 1e9).astype(np.int64)
     inbox.add_label(int(ns[0]) - 1, label)
