@@ -110,8 +110,9 @@ PARAMETERS = table_of([
     Input("release", True, "put the object back on its stand after the run (false: the run "
           "ends holding it at home, for the compensated wrench; no empty-hand window after "
           "it)", kind="bool"),
-    Input("min_load", 0.005, "the grasp must hold at least this before the object pass",
-          unit="kg", low=0.0, high=100.0),
+    Input("min_load", 0.005, "the grasp must hold at least this before the object pass, "
+          "less what the estimator's stated hysteresis can move the reading by since the "
+          "tare (then a warning)", unit="kg", low=0.0, high=100.0),
     Input("grasp_check_dwell", 0.2, "samples at home after lifting that check the grasp",
           unit="s", low=0.05, high=300.0),
     Input("arm_interface", "action", "how the arm is commanded: 'action' (the "
