@@ -74,6 +74,7 @@ from com_core.planning.excitation import (
     design_excitation,
 )
 from com_core.planning.planner import Plan
+from com_core.planning.sensor_accuracy import FIXTURE_COM_SIGMA
 from com_core.robot.choreography import Choreography
 from com_core.robot.config import RobotConfig, read_robot_config
 from com_core.robot.dynamics import INERTIA_ELEMENTS, inertial_parameters
@@ -184,7 +185,9 @@ def static_object(
         use_sensor_calibration(exploration, calibrated)
         if fixture:  # the reference's COM in the hand, as a fixture's drawing gives it
             com = tuple(world.object_ground_truth()[1])
-            exploration.reference = replace(exploration.reference, com=com, com_sigma=5e-5)
+            exploration.reference = replace(
+                exploration.reference, com=com, com_sigma=FIXTURE_COM_SIGMA
+            )
         solution = exploration.solve()
         if reference:
             return {"calibrated": solution.calibration, "reason": solution.reason}

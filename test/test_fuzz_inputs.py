@@ -317,3 +317,17 @@ def test_the_demo_names_the_simulated_sensor_by_its_profile_serial_and_set_parts
     ideal = sensor_ids("--sensor-profile", "ideal", "--sigma-f", "1e-6", "--sigma-tau", "1e-7")
     assert ideal == {"sim-ideal-0-sigma_f=1e-06-sigma_tau=1e-07"}
     assert sensor_ids("--sigma-f", "0.2") == {"sim-realistic-0-sigma_f=0.2"}
+
+
+def test_the_demos_reference_com_is_the_estimators_in_metres_on_a_fixture(tmp_path):
+    flags = ["--calibrate", "--mass", "1.0", "--bag-dir", str(tmp_path)]
+    args = demo.build_parser().parse_args([*flags, "--reference-com", "11,-4.5,106"])
+    estimator = demo.node_parameters(args)[1]
+    np.testing.assert_allclose(estimator["reference_com"], [0.011, -0.0045, 0.106])
+    assert estimator["reference_com_sigma"] == 5e-5
+    assert "reference_com" not in demo.node_parameters(demo.build_parser().parse_args(flags))[1]
+    for bad in ("1,2", "a,b,c", "1,2,nan"):
+        with pytest.raises(SystemExit):
+            demo.build_parser().parse_args([*flags, "--reference-com", bad])
+    with pytest.raises(SystemExit):  # a reference's, not an object's
+        demo.main(["--reference-com", "1,2,3", "--bag-dir", str(tmp_path)])

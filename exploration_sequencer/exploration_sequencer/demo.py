@@ -56,6 +56,7 @@ from com_core.estimation.runs.solution import (
 )
 from com_core.inputs import Input, InputError
 from com_core.payload.files import PAYLOAD_FILE
+from com_core.planning.sensor_accuracy import FIXTURE_COM_SIGMA
 from com_core.robot.config import ROBOTS, RobotConfigError, read_robot_config, robot_config_path
 from com_core.robot.dynamics import INERTIA_ELEMENTS, inertia_matrix
 from com_core.runtime.lifeline import Lifeline
@@ -147,6 +148,16 @@ def build_parser() -> argparse.ArgumentParser:
         "cache; the next runs in --bag-dir read through it)",
     )
     p.add_argument(
+        "--reference-com",
+        type=millimetres,
+        default=None,
+        metavar="X,Y,Z",
+        help="with --calibrate: the reference's COM in the sensor frame, mm, as a fixture's "
+        "drawing gives it (to 0.05 mm; the estimator's reference_com): the calibration then "
+        "also takes off the torque's error a COM offset explains. In the sim: the truth line "
+        "of a run of the same reference and --seed, which grasps it alike",
+    )
+    p.add_argument(
         "--excitation",
         choices=EXCITATIONS,
         default=None,
@@ -192,6 +203,17 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def millimetres(text: str) -> tuple[float, float, float]:
+    """m (3,) of 'x,y,z' in mm (argparse's type: its error names the value)."""
+    try:
+        values = tuple(float(v) * 1e-3 for v in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"{text!r} is not three numbers x,y,z in mm")
+    return values  # type: ignore[return-value]
+
+
 def interrupt(signum: int, _frame: object) -> None:
     """Raise KeyboardInterrupt, as Ctrl-C does, naming the signal ``signum``."""
     raise KeyboardInterrupt(signal.Signals(signum).name)
@@ -203,7 +225,10 @@ def interrupted_by(error: KeyboardInterrupt) -> signal.Signals:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.reference_com is not None and not args.calibrate:
+        parser.error("--reference-com is the reference weight's: give --calibrate too")
     try:
         import wrench_sim  # noqa: F401  # the simulator: an optional dependency (package.xml)
     except ModuleNotFoundError as error:
@@ -306,6 +331,9 @@ def node_parameters(
     } | ({"information": args.information} if args.information else {})
     profile = PROFILES.get(str(sim_params["sensor_profile"]))  # else refused by its name
     estimator_params |= profile.datasheet() if profile else {}  # as a user tells theirs
+    if args.reference_com is not None:  # a reference on a fixture
+        estimator_params |= {"reference_com": list(args.reference_com),
+                             "reference_com_sigma": FIXTURE_COM_SIGMA}  # fmt: skip
     sequencer_params = {
         "use_sim_time": True,
         "tilt_axes": args.axes.split(","),

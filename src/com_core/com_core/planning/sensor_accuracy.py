@@ -3,7 +3,7 @@ static pass reaches with it, its calibration as stated or calibrated in place, a
 lightest object it weighs to 5 %.
 
     python -m com_core.planning.sensor_accuracy [--profiles realistic,ur_e_series,...]
-        [--masses 0.1,0.5,2.0] [--reference 1.0]
+        [--masses 0.1,0.5,2.0] [--reference 1.0] [--fixture]
 
 For each profile (``sensing.sensor_profiles``: its noise, through its low-pass, and its
 stated calibration accuracy) and object mass, the planner's prediction of the kinematic
@@ -13,7 +13,10 @@ noise plus the calibration's share, which no dwell lowers) of the default pass
 100 mm out along the hand's axis, where a parallel gripper holds it). Calibrated in
 place: the calibration a reference of ``--reference`` kg through the same poses leaves
 (``predicted_calibration``), found from the poses alone (what is left of the error
-depends on the design, not on the readings).
+depends on the design, not on the readings). ``--fixture``: the reference's COM known to
+``FIXTURE_COM_SIGMA`` (a weight on a fixture of known geometry: the estimator's
+``reference_com`` and ``reference_com_sigma``), which identifies the part of the torque
+error a COM offset explains and a gripped reference leaves.
 
 The prediction holds what a profile's stated hysteresis leaves once its gain is taken
 off (``sensing.hysteresis``), as the fits weigh it. It is linear: a profile's
@@ -39,12 +42,14 @@ from com_core.sensing.calibration import Calibration
 from com_core.sensing.sensor_profiles import PROFILES, SensorProfile
 from com_core.sensing.wrench_model import SensorModel
 
-__all__ = ["SensorAccuracy", "default_pass", "lightest_mass", "predicted_calibration",
-           "sensor_accuracy"]  # fmt: skip
+__all__ = ["FIXTURE_COM_SIGMA", "SensorAccuracy", "default_pass", "lightest_mass",
+           "predicted_calibration", "sensor_accuracy"]  # fmt: skip
 
 INFORMATION = "kinematics+mount"
 """The estimator's default information model, the one predicted."""
 TARGET = 0.05
+FIXTURE_COM_SIGMA = 5e-5
+"""m: the 1-sigma per axis of a reference's COM on a fixture, from its drawing."""
 """The share of the mass ``lightest_mass`` weighs to, at 95 % (2 sigma)."""
 
 
@@ -58,10 +63,13 @@ def default_pass(profile: SensorProfile, mass: float) -> Plan:
                 hysteresis=profile.stated_hysteresis())  # fmt: skip
 
 
-def predicted_calibration(plan: Plan, reference_mass: float) -> Calibration | None:
+def predicted_calibration(
+    plan: Plan, reference_mass: float, com_sigma: float = 0.0
+) -> Calibration | None:
     """What a calibration in place with a reference of ``reference_mass`` kg held through
     ``plan``'s poses leaves of the stated calibration's error (no estimate: the covariance
-    only); None when the plan states no calibration."""
+    only), its COM at the plan's guess known to ``com_sigma`` m (0: unknown); None when
+    the plan states no calibration."""
     stated = plan.calibration
     if stated is None:
         return None
@@ -69,6 +77,8 @@ def predicted_calibration(plan: Plan, reference_mass: float) -> Calibration | No
         plan, plan_observations(replace(plan, mass_guess=reference_mass))
     )
     reference = Reference(reference_mass, REFERENCE_MASS_SHARE * reference_mass)
+    if com_sigma > 0:
+        reference = replace(reference, com=plan.com_guess, com_sigma=com_sigma)
     result, _ = calibrate_in_place(session, reference, stated, nuisance_cov=nuisance_cov)
     return replace(stated, residual_cov=result.calibration.residual_cov)
 
@@ -86,13 +96,14 @@ class SensorAccuracy:
 
 
 def sensor_accuracy(
-    profile: SensorProfile, mass: float, reference_mass: float = 1.0
+    profile: SensorProfile, mass: float, reference_mass: float = 1.0, com_sigma: float = 0.0
 ) -> SensorAccuracy:
     """The default pass's predicted accuracy for an object of ``mass`` kg with
-    ``profile``, stated and calibrated in place with a ``reference_mass`` kg reference."""
+    ``profile``, stated and calibrated in place with a ``reference_mass`` kg reference,
+    its COM known to ``com_sigma`` m (0: unknown)."""
     plan = default_pass(profile, mass)
     stated = predict(plan, "ml", INFORMATION)
-    calibration = predicted_calibration(plan, reference_mass)
+    calibration = predicted_calibration(plan, reference_mass, com_sigma)
     calibrated = predict(replace(plan, calibration=calibration), "ml", INFORMATION)
     return SensorAccuracy(mass, stated.sigma_mass, stated.sigma_com, calibrated.sigma_mass,
                           calibrated.sigma_com)  # fmt: skip
@@ -125,23 +136,30 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--profiles", default=",".join(p for p in PROFILES if p != "ideal"))
     parser.add_argument("--masses", default="0.1,0.5,2.0")
     parser.add_argument("--reference", type=float, default=1.0, metavar="KG")
+    parser.add_argument(
+        "--fixture",
+        action="store_true",
+        help="the reference's COM known to 0.05 mm (on a fixture)",
+    )
     args = parser.parse_args(argv)
     masses = [float(m) for m in args.masses.split(",")]
+    com_sigma = FIXTURE_COM_SIGMA if args.fixture else 0.0
+    fixture = f", its COM known to {1e3 * com_sigma:g} mm" if args.fixture else ""
     print(f"the default static pass, predicted (1 sigma); calibrated in place with a "
-          f"{args.reference:g} kg reference")  # fmt: skip
+          f"{args.reference:g} kg reference{fixture}")  # fmt: skip
     print(f"{'profile':>13} {'kg':>5}  {'mass %':>7} {'COM mm (worst axis)':>20}  "
           f"{'calibrated: mass %':>18} {'COM mm':>7}")  # fmt: skip
     for name in args.profiles.split(","):
         profile = PROFILES[name]
         for mass in masses:
-            a = sensor_accuracy(profile, mass, args.reference)
+            a = sensor_accuracy(profile, mass, args.reference, com_sigma)
             print(f"{name:>13} {mass:5.2f}  {100 * a.sigma_mass / mass:7.3f} "
                   f"{1e3 * a.sigma_com.max():20.3f}  "
                   f"{100 * a.calibrated_sigma_mass / mass:18.3f} "
                   f"{1e3 * a.calibrated_sigma_com.max():7.3f}")  # fmt: skip
         plan = default_pass(profile, args.reference)
         lightest = lightest_mass(profile, profile.calibration())
-        calibrated = lightest_mass(profile, predicted_calibration(plan, args.reference))
+        calibrated = lightest_mass(profile, predicted_calibration(plan, args.reference, com_sigma))
         left_out = " (its non-linearity is not in these)" if profile.nonlinearity else ""
         if profile.joint_torque_estimate:
             left_out = (" (its arm model's error is not in these: the default fit refuses it "
