@@ -48,9 +48,9 @@ __all__ = ["FIXTURE_COM_SIGMA", "SensorAccuracy", "default_pass", "lightest_mass
 INFORMATION = "kinematics+mount"
 """The estimator's default information model, the one predicted."""
 TARGET = 0.05
+"""The share of the mass ``lightest_mass`` weighs to, at 95 % (2 sigma)."""
 FIXTURE_COM_SIGMA = 5e-5
 """m: the 1-sigma per axis of a reference's COM on a fixture, from its drawing."""
-"""The share of the mass ``lightest_mass`` weighs to, at 95 % (2 sigma)."""
 
 
 def default_pass(profile: SensorProfile, mass: float) -> Plan:
