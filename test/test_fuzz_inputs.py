@@ -319,15 +319,19 @@ def test_the_demo_names_the_simulated_sensor_by_its_profile_serial_and_set_parts
     assert sensor_ids("--sigma-f", "0.2") == {"sim-realistic-0-sigma_f=0.2"}
 
 
-def test_the_demos_reference_com_is_the_estimators_in_metres_on_a_fixture(tmp_path):
+def test_the_demos_reference_com_is_the_estimators_on_a_fixture_and_checked_as_it(tmp_path):
     flags = ["--calibrate", "--mass", "1.0", "--bag-dir", str(tmp_path)]
-    args = demo.build_parser().parse_args([*flags, "--reference-com", "11,-4.5,106"])
-    estimator = demo.node_parameters(args)[1]
+    args = demo.build_parser().parse_args([*flags, "--reference-com", "0.011", "-0.0045", "0.106"])
+    sim, estimator, sequencer = demo.node_parameters(args)
     np.testing.assert_allclose(estimator["reference_com"], [0.011, -0.0045, 0.106])
     assert estimator["reference_com_sigma"] == 5e-5
+    assert demo.flag_refusals(args, sim, estimator, sequencer) == []
     assert "reference_com" not in demo.node_parameters(demo.build_parser().parse_args(flags))[1]
-    for bad in ("1,2", "a,b,c", "1,2,nan"):
-        with pytest.raises(SystemExit):
-            demo.build_parser().parse_args([*flags, "--reference-com", bad])
+    for bad in (["0", "0", "nan"], ["0", "20", "0.1"]):
+        args = demo.build_parser().parse_args([*flags, "--reference-com", *bad])
+        refused = demo.flag_refusals(args, *demo.node_parameters(args))
+        assert len(refused) == 1 and refused[0].startswith("--reference-com="), refused
+    with pytest.raises(SystemExit):  # three numbers
+        demo.build_parser().parse_args([*flags, "--reference-com", "0.01", "0.02"])
     with pytest.raises(SystemExit):  # a reference's, not an object's
-        demo.main(["--reference-com", "1,2,3", "--bag-dir", str(tmp_path)])
+        demo.main(["--reference-com", "0", "0", "0.1", "--bag-dir", str(tmp_path)])

@@ -149,10 +149,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--reference-com",
-        type=millimetres,
+        type=float,
+        nargs=3,
         default=None,
-        metavar="X,Y,Z",
-        help="with --calibrate: the reference's COM in the sensor frame, mm, as a fixture's "
+        metavar=("X", "Y", "Z"),
+        help="m; with --calibrate: the reference's COM in the sensor frame, as a fixture's "
         "drawing gives it (to 0.05 mm; the estimator's reference_com): the calibration then "
         "also takes off the torque's error a COM offset explains. In the sim: the truth line "
         "of a run of the same reference and --seed, which grasps it alike",
@@ -201,17 +202,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--bag-dir", type=Path, default=Path("bags"))
     p.add_argument("--timeout", type=float, default=300.0, help="s for the whole exploration")
     return p
-
-
-def millimetres(text: str) -> tuple[float, float, float]:
-    """m (3,) of 'x,y,z' in mm (argparse's type: its error names the value)."""
-    try:
-        values = tuple(float(v) * 1e-3 for v in text.split(","))
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(math.isfinite(v) for v in values):
-        raise argparse.ArgumentTypeError(f"{text!r} is not three numbers x,y,z in mm")
-    return values  # type: ignore[return-value]
 
 
 def interrupt(signum: int, _frame: object) -> None:
@@ -381,6 +371,7 @@ FLAGS = {
     "target_inertia": "--target-inertia",
     "tilt_axes": "--axes",
     "bag_dir": "--bag-dir",
+    "reference_com": "--reference-com",
 }
 """The demo's flag for each node parameter it sets from one (the others are its own)."""
 TIMEOUT = Input("timeout", 300.0, "for the whole exploration", unit="s", low=0.0,
