@@ -62,7 +62,7 @@ from com_core.sensing.wrench_model import calibration_matrix
 from wrench_sim.config import SimConfig
 from wrench_sim.physics import ArmWorld
 from wrench_sim.sensor import profile_calibration, profile_sensor
-from wrench_sim.studies import grasp, run_excitation
+from wrench_sim.studies import grasp, run_excitation, without_rest
 
 DRAWS_SEED = 7_000  # the extra calibrations' stream: (DRAWS_SEED, serial)
 EVERY = 10  # joint states at 100 Hz, as bench/motion.py's default
@@ -138,9 +138,9 @@ def in_motion(config, model, excitation, shape, mass, serial, profile, matrices,
     the readings corrected by the calibration in place under it (``calibrated``)."""
     world, sensor = perfectly_calibrated(config, shape, mass, serial, profile, serial)
     try:
-        empty = run_excitation(world, excitation, sensor, EVERY)
+        empty = without_rest(run_excitation(world, excitation, sensor, EVERY))
         grasp(world, sensor=sensor)
-        loaded = run_excitation(world, excitation, sensor, EVERY)
+        loaded = without_rest(run_excitation(world, excitation, sensor, EVERY))
         true_mass, true_com = world.object_ground_truth()
         inertia = world.inertia_ground_truth()[1]
         truth = load_vector(inertial_parameters(true_mass, true_com, inertia))

@@ -3,13 +3,14 @@
     source ./env.sh && python bench/motion.py [--objects 50] [--robots panda,xarm6]
         [--masses 0.05,0.2,0.5,2.0] [--period 3.0] [--acceleration 8|limits]
         [--joint-rate 100] [--seed 0] [--profile realistic] [--calibration-accuracy 0.01]
-        [--static] [--information kinematics+mount] [--calibrate 1.0]
+        [--static] [--information kinematics+mount] [--calibrate 1.0] [--hand-cycles 4]
 
 In process, no ROS: for each arm, mass and object (box, cylinder, mug in turn, COM
 offset drawn from the object's seed) a simulator holds the empty hand, runs the arm's
 D-optimal wrist excitation (``planning.excitation``, designed once per arm, its
-accelerations within ``--acceleration`` rad/s^2, or ``limits``: the arm's own), grasps
-the object and runs it again; both read through the realistic sensor
+accelerations within ``--acceleration`` rad/s^2, or ``limits``: the arm's own;
+``--hand-cycles`` periods of it, as the sequencer's ``hand_motion_cycles``), grasps
+the object and runs it once; both read through the realistic sensor
 (``profile_sensor``: coloured noise, quantisation, drifting bias, a 1 % calibration
 drawn per object; ``--profile`` another named one, the estimator told its datasheet; a
 strain gauge's hysteresis following the load at every step, the moves and the grasp too,
@@ -73,6 +74,7 @@ from com_core.planning.excitation import (
     acceleration_bounds,
     design_excitation,
 )
+from com_core.planning.motion_accuracy import HAND_CYCLES
 from com_core.planning.planner import Plan
 from com_core.planning.sensor_accuracy import FIXTURE_COM_SIGMA
 from com_core.robot.choreography import Choreography
@@ -86,17 +88,35 @@ from wrench_sim.config import SimConfig
 from wrench_sim.objects import reference_weight_mass
 from wrench_sim.physics import ArmWorld
 from wrench_sim.sensor import profile_sensor
-from wrench_sim.studies import feed, grasp, hold_still, joined, move_arm, run_excitation
+from wrench_sim.studies import (
+    feed,
+    grasp,
+    hold_still,
+    joined,
+    move_arm,
+    run_excitation,
+    without_rest,
+)
 
 SHAPES = ("box", "cylinder", "mug")
 DIAGONAL = [4 + INERTIA_ELEMENTS.index(name) for name in ("ixx", "iyy", "izz")]  # in load_vector
 
 
 def one_object(
-    config, model, excitation, shape, mass, seed, every, profile, calibrated=None
+    config,
+    model,
+    excitation,
+    shape,
+    mass,
+    seed,
+    every,
+    profile,
+    calibrated=None,
+    hand_cycles=HAND_CYCLES,
 ) -> dict:
-    """Hand, grasp, object: the object's errors, its error / sigma and its bound; with
-    ``calibrated`` (the sensor's calibration in place) the readings corrected by it."""
+    """Hand (along ``hand_cycles`` periods), grasp, object: the object's errors, its error
+    / sigma and its bound; with ``calibrated`` (the sensor's calibration in place) the
+    readings corrected by it."""
     world = ArmWorld(SimConfig(robot=config, object_shape=shape, object_mass=mass, seed=seed))
     try:
         sensor = profile_sensor(profile, seed=seed, serial=seed, world=world)
@@ -105,8 +125,9 @@ def one_object(
         hysteresis = profile.stated_hysteresis()
         correction = reading_correction(stated, hysteresis)
 
-        def excite() -> tuple:
-            times, q, stamps, readings = run_excitation(world, excitation, sensor, every)
+        def excite(cycles: int = 1) -> tuple:
+            motion = replace(excitation, cycles=cycles)
+            times, q, stamps, readings = without_rest(run_excitation(world, motion, sensor, every))
             if correction is not None:
                 readings = readings @ correction.T
             return times, q, stamps, readings
@@ -114,7 +135,7 @@ def one_object(
         def weighed(recorded: tuple) -> Calibration | None:
             return motion_calibration(stated, hysteresis, recorded[3])
 
-        empty = excite()
+        empty = excite(hand_cycles)
         hand = fit_motion(model, *empty, noise, calibration=weighed(empty))
         grasp(world, sensor=sensor)
         recorded = excite()
@@ -357,6 +378,8 @@ def main() -> None:
                         help="rad/s^2, or 'limits': the arm's own")  # fmt: skip
     parser.add_argument("--joint-rate", type=float, default=100.0)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--hand-cycles", type=int, default=HAND_CYCLES,
+                        help="periods of the empty hand's motion")  # fmt: skip
     parser.add_argument("--profile", default="realistic", choices=sorted(PROFILES))
     parser.add_argument("--calibration-accuracy", type=float,
                         help="in place of the profile's stated accuracy")  # fmt: skip
@@ -379,7 +402,8 @@ def main() -> None:
         profile = profile.with_overrides(calibration_accuracy=args.calibration_accuracy)
     every = round(1000.0 / args.joint_rate)
     print(f"{args.objects} objects per case, {args.period:g} s of motion within "
-          f"{args.acceleration} rad/s^2, joint states at "
+          f"{args.acceleration} rad/s^2 (the empty hand's {args.hand_cycles} times as "
+          f"long), joint states at "
           f"{1000.0 / every:g} Hz, the {args.profile} sensor, calibration accuracy "
           f"{profile.calibration_accuracy:g}")  # fmt: skip
     if args.calibrate:
@@ -414,7 +438,7 @@ def main() -> None:
         for mass in (float(m) for m in args.masses.split(",")):
             shapes = {k: SHAPES[k % 3] for k in seeds}
             results = [one_object(config, model, excitation, shapes[k], mass, k, every, profile,
-                                  calibrated[k]) for k in seeds]  # fmt: skip
+                                  calibrated[k], args.hand_cycles) for k in seeds]  # fmt: skip
             z = np.array([r["z"] for r in results])
             shown = z[[r["published"] for r in results], 4:]
             bound = np.median([r["bound"] for r in results], axis=0)

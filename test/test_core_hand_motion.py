@@ -3,6 +3,8 @@ sensor it was read by, on its robot model, along its motion, while young enough.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from com_core.estimation.fits.motion import MotionFit
@@ -41,3 +43,16 @@ def test_the_hand_motion_serves_its_own_hand_on_its_own_sensor_only(tmp_path):
         "it is of another motion"
     )
     assert saved.serves(OWNER, "sha", path, 6.0, np.inf).startswith("it is of a shorter motion")
+
+
+def test_a_hand_motion_of_more_periods_serves_a_run_along_its_first():
+    """The empty hand moved along four periods of 3 s: a run whose object moves along one
+    (the command at rest at home after it) is served while the kept path is its path over
+    those 3 s, whatever the hand did after; not when they part within them."""
+    times = np.linspace(0.0, 12.0, 30)
+    ran_on = np.where(times[:, None] > 3.0, 1.0, 0.0) * np.ones((1, 2))
+    longer = replace(entry(), times=times, positions=ran_on)
+    assert longer.serves(OWNER, "sha", path, 3.0, np.inf) == ""
+    early = np.where(times[:, None] > 2.0, 1.0, 0.0) * np.ones((1, 2))
+    parted = replace(longer, positions=early)
+    assert parted.serves(OWNER, "sha", path, 3.0, np.inf).startswith("it is of another motion")

@@ -13,6 +13,7 @@ from com_core.estimation.fits.motion import load_vector
 from com_core.estimation.runs.motion_solution import MotionResult
 from com_core.planning.excitation import Excitation, acceleration_bounds, design_excitation
 from com_core.planning.motion_accuracy import (
+    HAND_CYCLES,
     MotionAccuracy,
     box_inertia,
     cycles_for,
@@ -65,14 +66,16 @@ def test_the_links_beyond_the_sensor_are_the_hand_the_sim_holds(robot):
 
 
 def test_the_prediction_is_the_sigma_of_a_simulated_run_over_two_cycles(panda):
-    """The Panda's 0.5 kg box along two cycles of its excitation, through the realistic
-    sensor (serial 4): the estimator's sigmas of mass, COM and the six inertia elements
-    are within 0.85-1.3 of the prediction's over as many cycles (the run's fit also weighs
-    the noise it learnt, the delay it found and the chi-square; 1.03-1.2 measured over one
-    cycle for serials 0-3). The box's two equal moments make its principal axes, and so
-    each moment's sigma, arbitrary in their plane: the elements are compared."""
+    """The Panda's 0.5 kg box along two cycles of its excitation, the empty hand along
+    four (the sequencer's default), through the realistic sensor (serial 4): the
+    estimator's sigmas of mass, COM and the six inertia elements are within 0.85-1.3 of
+    the prediction's over as many cycles (the run's fit also weighs the noise it learnt,
+    the delay it found and the chi-square; 1.03-1.2 measured over one cycle for serials
+    0-3). The box's two equal moments make its principal axes, and so each moment's
+    sigma, arbitrary in their plane: the elements are compared."""
     model, excitation, hand, _ = panda
-    run = explore_in_motion(REALISTIC.calibration_accuracy, seed=4, cycles=2)
+    run = explore_in_motion(REALISTIC.calibration_accuracy, seed=4, cycles=2,
+                            hand_cycles=HAND_CYCLES)  # fmt: skip
     try:
         (mass, com), inertia = run.world.object_ground_truth(), run.world.inertia_ground_truth()
         load = inertial_parameters(mass, com, inertia[1])
@@ -81,9 +84,27 @@ def test_the_prediction_is_the_sigma_of_a_simulated_run_over_two_cycles(panda):
     finally:
         run.world.close()
     fit = predict_fit(model, replace(excitation, cycles=2), hand, load, REALISTIC.noise_model(),
-                      REALISTIC.calibration())  # fmt: skip
+                      REALISTIC.calibration(), None, HAND_CYCLES)  # fmt: skip
     ratio = np.sqrt(np.diag(result.load_cov) / np.diag(fit.load_cov()))
     assert np.all((ratio > 0.85) & (ratio < 1.3)), ratio
+
+
+def test_a_longer_motion_of_the_empty_hand_takes_its_share_of_the_noise_off(panda):
+    """The object's fit takes the empty hand's off: over motions of equal length half the
+    noise's share is the hand's. The hand along four periods, the object along one: the
+    object's mass and COM sigmas are 0.7-0.85 of the equal motions' (0.79 of them if the
+    two shares were equal: sqrt((1 + 1/4) / 2)); over two periods of the object with the
+    same hand the moments' sigmas are what ``sigma_moments_over`` makes of the one-period
+    prediction (within 5 %)."""
+    model, excitation, hand, box = panda
+    noise = REALISTIC.noise_model()
+    equal = predict_motion(model, excitation, hand, box, noise, None)
+    longer = predict_motion(model, excitation, hand, box, noise, None, None, hand_cycles=4)
+    shrunk = np.append(longer.sigma_mass / equal.sigma_mass, longer.sigma_com / equal.sigma_com)
+    assert np.all((shrunk > 0.7) & (shrunk < 0.85)), shrunk
+    two = predict_fit(model, replace(excitation, cycles=2), hand, box, noise, None, None, 4)
+    result = MotionResult(two, two, two.load_cov())
+    np.testing.assert_allclose(longer.sigma_moments_over(2), result.moments[1], rtol=0.05)
 
 
 def test_more_cycles_divide_the_noises_share_and_leave_the_calibrations(panda):

@@ -142,6 +142,8 @@ def test_a_run_in_motion_plans_each_excitation_with_its_lead_and_rest():
     cycled = run(cycles=3)  # the hand's and the object's motions, not the verification's
     assert cycled[TARE] == pytest.approx(3.0 + 9.5) and cycled[OBJECT_MOTION] == 9.5
     assert cycled[VERIFICATION] == pytest.approx(3.5)
+    longer = run(hand_cycles=4)  # the empty hand's motion alone runs longer
+    assert longer[TARE] == pytest.approx(3.0 + 12.5) and longer[OBJECT_MOTION] == 3.5
 
 
 def test_the_time_left_is_the_current_phases_plan_left_and_every_later_phases():

@@ -189,6 +189,7 @@ DEMO_FLAGS = {
     "--target-sigma": SEQUENCER["target_com_sigma"],
     "--motion-period": SEQUENCER["motion_period"],
     "--motion-cycles": SEQUENCER["motion_cycles"],
+    "--hand-motion-cycles": SEQUENCER["hand_motion_cycles"],
     "--motion-acceleration": SEQUENCER["motion_acceleration"],
     "--target-inertia": SEQUENCER["target_inertia"],
     "--timeout": demo.TIMEOUT,

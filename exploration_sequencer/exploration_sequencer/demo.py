@@ -174,9 +174,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--motion-cycles",
         type=int,
-        help="with --excitation motion: how many periods the empty hand's and the object's "
-        "motions run (python -m com_core.planning.motion_accuracy says how many a target "
-        "needs; default 1)",
+        help="with --excitation motion: how many periods the object's motion runs (and the "
+        "empty hand's, at least; python -m com_core.planning.motion_accuracy says how many "
+        "a target needs; default 1)",
+    )
+    p.add_argument(
+        "--hand-motion-cycles",
+        type=int,
+        help="with --excitation motion: how many periods the empty hand's motion runs when "
+        "it moves (its fit is kept and taken off each object's; default: the sequencer's, "
+        f"{SEQUENCER['hand_motion_cycles'].default})",
     )
     p.add_argument(
         "--motion-acceleration",
@@ -339,6 +346,7 @@ def node_parameters(
         ("excitation", args.excitation),
         ("motion_period", args.motion_period),
         ("motion_cycles", args.motion_cycles),
+        ("hand_motion_cycles", args.hand_motion_cycles),
         ("motion_acceleration", args.motion_acceleration),
         ("target_inertia", args.target_inertia),
         ("tilt", args.tilt),
@@ -367,6 +375,7 @@ FLAGS = {
     "excitation": "--excitation",
     "motion_period": "--motion-period",
     "motion_cycles": "--motion-cycles",
+    "hand_motion_cycles": "--hand-motion-cycles",
     "motion_acceleration": "--motion-acceleration",
     "target_inertia": "--target-inertia",
     "tilt_axes": "--axes",

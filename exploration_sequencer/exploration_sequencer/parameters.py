@@ -12,7 +12,7 @@ import math
 from com_core.estimation.runs.motion_solution import EXCITATIONS, STATIC
 from com_core.inputs import Input, table_of
 from com_core.planning.excitation import DEFAULT_ACCELERATION
-from com_core.planning.motion_accuracy import DENSITY_GUESS, MAX_CYCLES, PERIODS
+from com_core.planning.motion_accuracy import DENSITY_GUESS, HAND_CYCLES, MAX_CYCLES, PERIODS
 
 __all__ = ["PARAMETERS"]
 
@@ -39,6 +39,12 @@ PARAMETERS = table_of([
           "and the object's motions run (the noise's share of the inertia's variance goes as "
           "1 / cycles, the calibration's stays; python -m com_core.planning.motion_accuracy "
           "says how many a target needs)", kind="int", low=1, high=MAX_CYCLES),
+    Input("hand_motion_cycles", HAND_CYCLES, "with excitation 'motion': how many periods "
+          "the empty hand's motion runs when it moves (as many as motion_cycles if fewer): "
+          "its fit is taken off the object's, in this run and in each later one that reuses "
+          "it, so over a motion as long as the object's half the noise's share of the "
+          "object's variance is the hand's, and over n times as long 1 / n of the object's "
+          "share", kind="int", low=1, high=MAX_CYCLES),
     Input("motion_acceleration", DEFAULT_ACCELERATION, "with excitation 'motion': the "
           "bound on each wrist joint's acceleration, within the arm's own limits where its "
           "configuration states them (max_joint_acceleration): a faster motion tells the "

@@ -13,7 +13,9 @@ from numpy.typing import NDArray
 from com_core.contract import (
     DONE,
     JOINT_STATES_TOPIC,
+    MOTION_LEAD,
     MOTION_OBJECT,
+    MOTION_REST,
     MOTION_TARE,
     MOTION_VERIFY,
     MOVING,
@@ -46,6 +48,7 @@ __all__ = [
     "record_wandering",
     "run",
     "run_excitation",
+    "without_rest",
     "write_recording_bag",
 ]
 
@@ -117,12 +120,25 @@ def joined(ways: Sequence[Way]) -> Way:
 def run_excitation(
     world: ArmWorld, excitation: Excitation, sensor: WrenchSensor, joint_every: int = 1
 ) -> tuple[NDArray[np.float64], ...]:
-    """Run ``excitation`` from home now, and 0.3 s at rest after it: ``record_until``
-    its end."""
+    """Run ``excitation`` from home, as the sequencer sends it: ``MOTION_LEAD`` s from now,
+    and ``MOTION_REST`` s at rest after it (``record_until`` then); the wrenches from its
+    start (a ``motion/`` span's), the joint states from now."""
     robot = world.config.robot
     times, q, dq, ddq = excitation.waypoints(robot.arm_joints)
-    end = world.command_arm(robot.arm_joints, times, q, 0.0, dq, ddq)
-    return record_until(world, sensor, end + 0.3, joint_every)
+    start = world.time + MOTION_LEAD
+    end = world.command_arm(robot.arm_joints, times, q, start, dq, ddq)
+    joint_times, positions, stamps, readings = record_until(world, sensor, end + MOTION_REST,
+                                                            joint_every)  # fmt: skip
+    moving = stamps >= start
+    return joint_times, positions, stamps[moving], readings[moving]
+
+
+def without_rest(recorded: tuple[NDArray[np.float64], ...]) -> tuple[NDArray[np.float64], ...]:
+    """What the estimator fits of a ``run_excitation`` recording (``motion_solution``):
+    its wrenches but the last ``MOTION_REST`` s, the joint states all."""
+    joint_times, positions, stamps, readings = recorded
+    moving = stamps <= stamps[-1] - MOTION_REST
+    return joint_times, positions, stamps[moving], readings[moving]
 
 
 def hold_still(
@@ -197,12 +213,14 @@ def explore_in_motion(
     period: float = 3.0,
     acceleration: float | Sequence[float] = DEFAULT_ACCELERATION,
     profile: str = "realistic",
+    hand_cycles: int = 1,
 ) -> MotionRun:
     """As the sequencer runs ``excitation: motion`` on ``robot`` (a shipped configuration)
     with an object of ``mass`` kg and ``shape`` (its COM drawn from ``object_seed``): the
     empty hand at rest and along the D-optimal excitation of ``period`` s and
-    ``acceleration`` bound (rad/s^2; ``cycles`` periods), the grasp, the object along it
-    and along another design (one period); through the
+    ``acceleration`` bound (rad/s^2; ``hand_cycles`` periods, or ``cycles`` if more),
+    the grasp, the object along it (``cycles`` periods) and along another design (one
+    period); through the
     sensor of ``profile`` (``PROFILES``; the estimator told its datasheet) and serial
     ``seed`` with ``calibration_accuracy``,
     joint states every ``joint_every`` steps (10: 100 Hz); solved from its labels
@@ -224,7 +242,8 @@ def explore_in_motion(
     exploration = exploration_from(settings, world.urdf_text)
     move_arm(world, robot.home_joints, 1.0, sensor)
     feed(exploration, world, "tare/home", hold_still(world, sensor, 2.0, joint_every))
-    feed(exploration, world, MOTION_TARE, run_excitation(world, excitation, sensor, joint_every))
+    hand = replace(excitation, cycles=max(cycles, hand_cycles))
+    feed(exploration, world, MOTION_TARE, run_excitation(world, hand, sensor, joint_every))
     grasp(world, sensor=sensor)
     feed(exploration, world, MOTION_OBJECT, run_excitation(world, excitation, sensor, joint_every))
     feed(exploration, world, MOTION_VERIFY, run_excitation(world, other, sensor, joint_every))

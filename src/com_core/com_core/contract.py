@@ -43,8 +43,10 @@ __all__ = [
     "LATEST_LABEL_KEY",
     "LATEST_STAMP_KEY",
     "LIVE_STATUS_NAME",
+    "MOTION_LEAD",
     "MOTION_OBJECT",
     "MOTION_PREFIX",
+    "MOTION_REST",
     "MOTION_TARE",
     "MOTION_VERIFY",
     "MOVING",
@@ -177,6 +179,16 @@ MOTION_OBJECT = MOTION_PREFIX + "object"
 MOTION_VERIFY = MOTION_PREFIX + "verify"
 """Another motion with the object, that no fit uses: the compensated wrench is checked
 along it."""
+MOTION_LEAD = 0.5
+"""s between sending an excitation and its start, the arm still at its first point (a
+stamp the controller got late would jump the arm): the joint states reach before the
+span's first wrench."""
+MOTION_REST = 0.3
+"""s at rest at the end of every ``motion/`` span, after the motion itself: the joint
+states reach beyond its last wrench. The fits leave it out: over whole periods of the
+excitation, with the joint states on both sides, the empty hand's fit over more of them
+than the object's weighs each as the object's does, and the calibration's error on the
+hand's wrench cancels between them."""
 STATIC_PREFIXES = (TARE_PREFIX, OBJECT_PREFIX, VERIFY_PREFIX)
 """The labels that open a static window."""
 WINDOW_PREFIXES = (*STATIC_PREFIXES, MOTION_PREFIX)

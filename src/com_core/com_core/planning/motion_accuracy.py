@@ -4,7 +4,7 @@ inertia needs.
 
     python -m com_core.planning.motion_accuracy [--robot panda] [--profile realistic]
         [--masses 0.1,0.5,2.0] [--density 1000] [--com 0,0,0.1] [--period 3]
-        [--acceleration 8] [--target 0.2] [--reference 1.0]
+        [--acceleration 8] [--target 0.2] [--reference 1.0] [--hand-cycles 4]
 
 The prediction (``predict_motion``) is the estimator's own fit (``fits.motion.fit_motion``:
 the empty hand's, then the object's with the hand taken off) of the wrench the loads would
@@ -18,9 +18,15 @@ principal moments have no axes of their own, and each one's sigma then depends o
 axes chosen: the guess should have three distinct ones (the box's edges are 2:3:4).
 
 Motions of ``cycles`` periods of the same excitation (the D-optimal design is periodic;
-the sequencer's ``motion_cycles``, the empty hand's and the object's alike) divide the
-noise's share of the variance by ``cycles``; the calibration's share stays: it is the
-same error at every pass. ``cycles_for`` finds the fewest cycles over which every
+the sequencer's ``motion_cycles``) divide the noise's share of the variance by
+``cycles``; the calibration's share stays: it is the same error at every pass. The
+object's fit takes the empty hand's off, so over motions of equal length half the
+noise's share is the hand's. The hand moves once per sensor and hand (its fit is kept
+and taken off every later object's motion along the same excitation), so it may run
+longer: ``hand_cycles`` periods (the sequencer's ``hand_motion_cycles``, ``HAND_CYCLES``
+by default) leave of its share 1 / ``hand_cycles`` of the object's (the Panda, a 0.5 kg
+box over one 3 s period: the mass's and the COM's sigmas 0.79 of the equal motions' with
+4, 0.71 with the hand known exactly). ``cycles_for`` finds the fewest cycles over which every
 principal moment stands ``1 / target`` of its sigma, or says that the calibration's share
 alone forbids it (then a calibration in place or a faster motion, not a longer one, is
 what helps).
@@ -41,7 +47,7 @@ from __future__ import annotations
 import argparse
 import tempfile
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -56,9 +62,9 @@ from com_core.sensing.calibration import Calibration
 from com_core.sensing.hysteresis import Hysteresis
 from com_core.sensing.noise import NoiseModel
 
-__all__ = ["DENSITY_GUESS", "MAX_CYCLES", "PERIODS", "MotionAccuracy", "box_inertia",
-           "candidate_motions", "cycles_for", "fastest", "guessed_load", "predict_fit",
-           "predict_motion"]  # fmt: skip
+__all__ = ["DENSITY_GUESS", "HAND_CYCLES", "MAX_CYCLES", "PERIODS", "MotionAccuracy",
+           "box_inertia", "candidate_motions", "cycles_for", "fastest", "guessed_load",
+           "predict_fit", "predict_motion"]  # fmt: skip
 
 SENSOR_RATE = 1000.0
 """Hz: the wrenches the prediction reads."""
@@ -67,6 +73,8 @@ JOINT_RATE = 100.0
 _REST = 0.5  # s of joint states at rest before and after the motion
 MAX_CYCLES = 20
 """The most cycles ``cycles_for`` proposes (the sequencer's ``motion_cycles`` range)."""
+HAND_CYCLES = 4
+"""Periods the empty hand's motion runs by default, once per sensor and hand (module)."""
 PERIODS = (1.5, 2.0, 3.0)
 """s: the periods weighed besides the one asked for (``candidate_motions``)."""
 DENSITY_GUESS = 1000.0
@@ -79,19 +87,24 @@ class MotionAccuracy:
     ``sigma_mass`` (kg), ``sigma_com`` (3,; m), and the principal ``moments`` (3,; kg m^2,
     ascending, of the guess) with ``sigma_moments``. Of each moment's variance,
     ``fixed`` (3,; kg^2 m^4) does not shrink with more cycles (the calibration's share),
-    the rest is the noise's."""
+    the rest is the noise's, the object's and the empty hand's over its ``hand_cycles``
+    periods."""
 
     sigma_mass: float
     sigma_com: NDArray[np.float64]
     moments: NDArray[np.float64]
     sigma_moments: NDArray[np.float64]
     fixed: NDArray[np.float64]
+    hand_cycles: int = 1
 
     def sigma_moments_over(self, cycles: int) -> NDArray[np.float64]:
-        """kg m^2: the moments' sigmas over ``cycles`` periods of the empty hand's and the
-        object's motions."""
+        """kg m^2: the moments' sigmas over ``cycles`` periods of the object's motion and
+        ``max(cycles, hand_cycles)`` of the empty hand's (each motion's noise share as
+        large as the other's over as many periods)."""
         noise = self.sigma_moments**2 - self.fixed
-        return np.sqrt(self.fixed + noise / cycles)
+        hand = self.hand_cycles
+        shrink = (1 / cycles + 1 / max(cycles, hand)) / (1 + 1 / hand)
+        return np.sqrt(self.fixed + noise * shrink)
 
 
 def box_inertia(mass: float, size: ArrayLike) -> NDArray[np.float64]:
@@ -137,13 +150,14 @@ def predict_fit(
     noise: NoiseModel,
     calibration: Calibration | None,
     hysteresis: Hysteresis | None = None,
+    hand_cycles: int = 1,
 ) -> MotionFit:
     """The object's fit (see module) along ``excitation`` (its ``cycles``; the empty
-    hand's along as many) with the ``hand``'s and the object's (``load``) inertial
-    parameters (10,; sensor frame, ``robot.dynamics``), the sensor's ``noise`` model,
-    ``calibration`` and stated ``hysteresis`` (what its gain leaves, as the estimator
-    weighs it: ``motion_solution.motion_calibration``): its ``load_cov()`` is the
-    prediction."""
+    hand's along ``hand_cycles`` periods, or as many if more) with the ``hand``'s and the
+    object's (``load``) inertial parameters (10,; sensor frame, ``robot.dynamics``), the
+    sensor's ``noise`` model, ``calibration`` and stated ``hysteresis`` (what its gain
+    leaves, as the estimator weighs it: ``motion_solution.motion_calibration``): its
+    ``load_cov()`` is the prediction."""
 
     def fit(ex: Excitation, pi: NDArray[np.float64], under: MotionFit | None) -> MotionFit:
         joint_times = np.arange(-_REST, ex.duration + _REST, 1.0 / JOINT_RATE)
@@ -154,7 +168,8 @@ def predict_fit(
         return fit_motion(robot, joint_times, positions, times, wrenches, noise, under,
                           weighed)  # fmt: skip
 
-    return fit(excitation, hand + load, fit(excitation, hand, None))
+    hand_motion = replace(excitation, cycles=max(excitation.cycles, hand_cycles))
+    return fit(excitation, hand + load, fit(hand_motion, hand, None))
 
 
 def predict_motion(
@@ -165,18 +180,20 @@ def predict_motion(
     noise: NoiseModel,
     calibration: Calibration | None,
     hysteresis: Hysteresis | None = None,
+    hand_cycles: int = 1,
 ) -> MotionAccuracy:
-    """The object's predicted sigmas over ``excitation`` (``predict_fit``), and the part
-    of the moments' variance more cycles leave: the calibration's and the hysteresis's,
-    what the same fit without them lacks (the noise's share goes as 1 / cycles)."""
-    one = predict_fit(robot, excitation, hand, load, noise, calibration, hysteresis)
-    bare = predict_fit(robot, excitation, hand, load, noise, None)
+    """The object's predicted sigmas over ``excitation`` (``predict_fit``, the empty hand
+    along ``hand_cycles`` periods), and the part of the moments' variance more cycles
+    leave: the calibration's and the hysteresis's, what the same fit without them lacks
+    (``MotionAccuracy.sigma_moments_over``)."""
+    one = predict_fit(robot, excitation, hand, load, noise, calibration, hysteresis, hand_cycles)
+    bare = predict_fit(robot, excitation, hand, load, noise, None, None, hand_cycles)
     _, _, inertia = one.load()
     moments, sigma = principal_moments(inertia, one.load_cov()[4:, 4:])
     _, sigma_bare = principal_moments(inertia, bare.load_cov()[4:, 4:])
     fixed = np.clip(sigma**2 - sigma_bare**2, 0.0, sigma**2)
     sigmas = np.sqrt(np.diag(one.load_cov())[:4])
-    return MotionAccuracy(float(sigmas[0]), sigmas[1:4], moments, sigma, fixed)
+    return MotionAccuracy(float(sigmas[0]), sigmas[1:4], moments, sigma, fixed, hand_cycles)
 
 
 def cycles_for(accuracy: MotionAccuracy, target: float) -> int | None:
@@ -225,6 +242,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--target", type=float, default=0.2)
     parser.add_argument("--reference", type=float, default=1.0, metavar="KG")
+    parser.add_argument("--hand-cycles", type=int, default=HAND_CYCLES,
+                        help="periods of the empty hand's motion")  # fmt: skip
     parser.add_argument("--cache", default="", help="the excitations' cache file (JSON)")
     args = parser.parse_args(argv)
     config = read_robot_config(args.robot)
@@ -253,7 +272,8 @@ def main(argv: list[str] | None = None) -> int:
           f"{args.density:g} kg/m^3 (edges 2:3:4), its COM at "
           f"({', '.join(f'{1e3 * v:g}' for v in com)}) mm; "
           f"target: every principal moment within {args.target:.0%} (1 sigma); calibrated "
-          f"in place with a {args.reference:g} kg reference")  # fmt: skip
+          f"in place with a {args.reference:g} kg reference; the empty hand along "
+          f"{args.hand_cycles} cycle(s)")  # fmt: skip
     print(f"{'kg':>5} {'':>10}  {'mass %':>6} {'COM mm':>6}  {'moments %, 1 cycle':>18}  "
           f"{'never below %':>13}  {'cycles to the target':<24}  the fastest motion that "
           "meets it")  # fmt: skip
@@ -262,7 +282,7 @@ def main(argv: list[str] | None = None) -> int:
         for name, calibration in calibrations.items():
             predicted = [predict_motion(robot, excitation, motion.hand, load,
                                         profile.noise_model(), calibration,
-                                        profile.stated_hysteresis())
+                                        profile.stated_hysteresis(), args.hand_cycles)
                          for excitation in designs]  # fmt: skip
             a = predicted[0]  # the motion asked for
             cycles = cycles_for(a, args.target)

@@ -168,6 +168,7 @@ def motion_run_phases(
     lead: float,
     rest: float,
     hand_moves: bool,
+    hand_cycles: int | None = None,
     bias_dwell: float,
     grasp_check_dwell: float,
     release: bool,
@@ -175,18 +176,19 @@ def motion_run_phases(
 ) -> tuple[PhaseTime, ...]:
     """The phases of a run in motion from the empty hand at ``home`` (rad), in order: the
     tare (a ``bias_dwell`` window at home and, with ``hand_moves``, the empty hand along
-    the excitation), the grasp (``pick``, the fingers, lift home and
-    ``grasp_check_dwell``), the object along the excitation, along the verification's
-    motion, the return (with ``release`` the object put back) and the estimate. Each
-    motion starts ``lead`` s after it is sent, lasts ``period`` s (the hand's and the
-    object's ``cycles`` times that) and rests ``rest`` s;
-    moves at ``speed`` rad/s and ``settle`` s; ``wall`` s (wall) of the sequencer's work
-    per phase."""
+    the excitation, ``hand_cycles`` times its period; None: ``cycles``), the grasp
+    (``pick``, the fingers, lift home and ``grasp_check_dwell``), the object along the
+    excitation, along the verification's motion, the return (with ``release`` the object
+    put back) and the estimate. Each motion starts ``lead`` s after it is sent, lasts
+    ``period`` s (the object's ``cycles`` times that) and rests ``rest`` s; moves at
+    ``speed`` rad/s and ``settle`` s; ``wall`` s (wall) of the sequencer's work per
+    phase."""
     move = _mover(motion, speed, settle)
     excite, verify = lead + cycles * period + rest, lead + period + rest
+    hand = lead + (cycles if hand_cycles is None else hand_cycles) * period + rest
     down_and_up = move(home, pick) + GRIPPER_TIME + move(pick, home)
     return (
-        PhaseTime(TARE, bias_dwell + (excite if hand_moves else 0.0), wall.get(TARE, 0.0)),
+        PhaseTime(TARE, bias_dwell + (hand if hand_moves else 0.0), wall.get(TARE, 0.0)),
         PhaseTime(GRASP, down_and_up + grasp_check_dwell, wall.get(GRASP, 0.0)),
         PhaseTime(OBJECT_MOTION, excite, wall.get(OBJECT_MOTION, 0.0)),
         PhaseTime(VERIFICATION, verify, wall.get(VERIFICATION, 0.0)),

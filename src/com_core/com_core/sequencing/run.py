@@ -40,7 +40,9 @@ from com_core.contract import (
     ERROR,
     INTERNAL_ERROR,
     JOINT_STATES_TOPIC,
+    MOTION_LEAD,
     MOTION_OBJECT,
+    MOTION_REST,
     MOTION_TARE,
     MOTION_VERIFY,
     MOVING,
@@ -163,7 +165,6 @@ from com_core.sequencing.progress import RunProgress
 
 __all__ = [
     "CANCELLING",
-    "EXCITATION_LEAD",
     "ExplorationRun",
     "RunOutcome",
     "RunPorts",
@@ -171,9 +172,6 @@ __all__ = [
 ]
 
 CANCELLING = "cancelling"  # the phase of the way back after a cancel: no cancel from then on
-EXCITATION_LEAD = 0.5  # s (sim) between sending an excitation and its start: the arm holds
-# still at its first point until then; a stamp the controller gets late would jump the arm
-EXCITATION_REST = 0.3  # s (sim) at rest after an excitation, within its span
 EXCITATION_CACHE = "excitation_cache.json"  # beside the tare cache
 VERIFY_ITERATIONS = 40  # the verification's motion needs no optimum, only another motion
 ANSWER_RECORD_WAIT = 5.0  # s (wall) the bag's close waits for the recorder to hear the answer
@@ -612,7 +610,8 @@ class ExplorationRun:
         home, pick = list(config.home_joints), list(config.pick_joints)
         period, bounds, cycles = self._motion(motion, settings)
         excitation, verification = self._excitations(motion, period, bounds)
-        excitation = replace(excitation, cycles=cycles)  # the hand's and the object's
+        excitation = replace(excitation, cycles=cycles)  # the object's
+        hand_cycles = max(cycles, self.p("hand_motion_cycles"))
         if self.p("preview"):
             names = config.arm_joints
             moves = [("home", home), ("pick", pick)]
@@ -630,8 +629,9 @@ class ExplorationRun:
             pick=pick,
             period=period,
             cycles=cycles,
-            lead=EXCITATION_LEAD,
-            rest=EXCITATION_REST,
+            hand_cycles=hand_cycles,
+            lead=MOTION_LEAD,
+            rest=MOTION_REST,
             hand_moves=hand is None,
             bias_dwell=self.p("bias_dwell"),
             grasp_check_dwell=self.p("grasp_check_dwell"),
@@ -649,7 +649,7 @@ class ExplorationRun:
         if tare_home is None:
             raise RunError(f"the empty hand's window at {HOME} was not recorded")
         if hand is None:
-            self._excite(MOTION_TARE, excitation)
+            self._excite(MOTION_TARE, replace(excitation, cycles=hand_cycles))
         self._enter(GRASP, "phase 2/4: grasp and lift")
         self.arm.move(pick, "the object")
         self._close_on_object(home)
@@ -727,8 +727,9 @@ class ExplorationRun:
         calibration = self._planning_calibration(settings)
         designs = [self._excitation(motion, p, b) for p, b in candidates]
         hysteresis = hysteresis_of(settings)
+        hand_cycles = self.p("hand_motion_cycles")
         predicted = [predict_motion(motion.robot, ex, motion.hand, load, noise, calibration,
-                                    hysteresis) for ex in designs]  # fmt: skip
+                                    hysteresis, hand_cycles) for ex in designs]  # fmt: skip
         best = fastest(list(zip(designs, predicted, strict=True)), target)
         if best is None:
             reach = min(max(a.sigma_moments_over(MAX_CYCLES) / a.moments) for a in predicted)
@@ -783,11 +784,11 @@ class ExplorationRun:
 
     def _excite(self, label: str, excitation: Excitation) -> int:
         """Run ``excitation`` from home, labelled ``label`` from its start to
-        ``EXCITATION_REST`` s after its end (the joint states must reach beyond the last
+        ``MOTION_REST`` s after its end (the joint states must reach beyond the last
         wrench the fit takes); returns that end, sim time, ns."""
         self.arm.move(list(self.config.home_joints), "home")
-        start = self.clock.now_ns() + round(EXCITATION_LEAD * 1e9)
-        end = self.arm.follow(excitation, start, label) + round(EXCITATION_REST * 1e9)
+        start = self.clock.now_ns() + round(MOTION_LEAD * 1e9)
+        end = self.arm.follow(excitation, start, label) + round(MOTION_REST * 1e9)
         self._label(start, label)
         self.log.info(f"span {label} from t={start * 1e-9:.3f} s")
         self.clock.sleep_until(end, f"recording {label}")

@@ -121,7 +121,8 @@ class MotionFit:
         error and a misfit in common with the hand's motion explain (1: the noise alone).
     common : the chi^2 of a misfit this motion has in common with the hand's, beyond
         what the calibration's error explains (``common_misfit``; 0 without a hand): in
-        ``expected``, and taken off the hand's widening.
+        ``expected``, and taken off the hand's widening (as many times over as the hand's
+        motion is longer: its degrees of freedom over these).
     residual_blocks : (blocks, 6) the whitened least squares residual per axis summed
         over each ``BLOCK`` s from the motion's beginning (a joint ``MOVED`` from its
         first state), over the square root of its samples: unit variance for noise the
@@ -315,7 +316,9 @@ def fit_motion(
     expected += (misfit + common) / dof
     cov = cov * widening_factor(fit.chi2, dof, expected, misfit + common) + calibration_cov
     if hand is not None:  # the hand's noise and encoders' shares, widened by its own misfit
-        own = widening_factor(hand.chi2 - common, hand.dof, hand.expected, hand.misfit)
+        # the common misfit adds its chi^2 at each pass: a hand's longer motion, more often
+        own = widening_factor(hand.chi2 - common * hand.dof / dof, hand.dof, hand.expected,
+                              hand.misfit)  # fmt: skip
         cov += (hand.cov - hand.calibration_cov) / hand.widening * own
     return MotionFit(fit.pi, fit.least_squares, cov, fit.cov, calibration_cov, gain, bias,
                      delay, fit.chi2, dof, fit.constrained, len(t), expected, common,

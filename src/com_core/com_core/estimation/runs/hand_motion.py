@@ -82,13 +82,16 @@ class HandMotion:
     ) -> str:
         """'' when it serves a run of ``owner`` on that model whose motion is commanded
         to ``path(t)`` (rad, s from its start; ``joint_names``' positions) for
-        ``duration`` s, within ``PATH_TOLERANCE`` of the kept path over as long, no older
-        than ``max_age`` s; else why not."""
+        ``duration`` s, within ``PATH_TOLERANCE`` of the kept path over those ``duration``
+        s (the hand's may have run more periods), no older than ``max_age`` s; else why
+        not."""
         if other := self.other_owner(owner, urdf_sha256):
             return other
         if self.times[-1] < duration:
             return f"it is of a shorter motion ({self.times[-1]:.1f} s, this one {duration:g} s)"
-        apart = float(np.max(np.abs(path(self.times) - self.positions)))
+        within = self.times <= duration
+        kept, positions = self.times[within], self.positions[within]
+        apart = float(np.max(np.abs(path(kept) - positions)))
         if not apart <= PATH_TOLERANCE:
             return f"it is of another motion ({apart:.3f} rad apart)"
         if self.age() > max_age:

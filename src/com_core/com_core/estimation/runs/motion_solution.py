@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from com_core.contract import MOTION_OBJECT, MOTION_TARE, MOTION_VERIFY
+from com_core.contract import MOTION_OBJECT, MOTION_REST, MOTION_TARE, MOTION_VERIFY
 from com_core.estimation.fits.errors import EstimationError
 from com_core.estimation.fits.estimators import Consistency, Estimate
 from com_core.estimation.fits.motion import (
@@ -202,13 +202,15 @@ def _motion_data(
     inbox: Inbox, robot: RobotModel, label: str, until_ns: int | None
 ) -> tuple[NDArray[np.float64], ...]:
     """(joint stamps s, joint positions, wrench stamps s, wrenches) of motion ``label``:
-    the wrenches within its span, the joint states a second beyond it either way."""
+    the wrenches within its span but its rest (``MOTION_REST``: the fits weigh every
+    period of the excitation alike, the hand's and the object's), the joint states a
+    second beyond it either way."""
     parts = motion_spans(inbox, until_ns).get(label)
     if not parts:
         raise EstimationError(f"no {label!r} span before the end")
     start, stop = parts[0][0], parts[-1][1]
     stamps, wrenches = inbox.samples()
-    inside = (stamps >= start) & (stamps < stop)
+    inside = (stamps >= start) & (stamps < stop - round(MOTION_REST * 1e9))
     joint_times, positions = joint_arrays(inbox, robot, start - 10**9, stop + 10**9)
     return joint_times, positions, stamps[inside] * 1e-9, wrenches[inside]
 
