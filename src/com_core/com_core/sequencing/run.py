@@ -643,7 +643,8 @@ class ExplorationRun:
             save_hand_motion(bag / HAND_MOTION_FILE, hand)  # the replay's
         self._to_known_state(home, pick)
         self.arm.gripper(close=False)
-        line = "at rest" + (", then along the excitation" if hand is None else "")
+        line = "at rest" + (f", then along the excitation ({hand_cycles} x {period:g} s)"
+                            if hand is None else "")  # fmt: skip
         self._enter(TARE, f"phase 1/4: the empty hand {line}")
         tare_home = self._captured_tares([(HOME, home)], self.p("bias_dwell"))[0].get(HOME)
         if tare_home is None:
