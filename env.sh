@@ -17,4 +17,9 @@ fi
 # apart. Both may be overridden before sourcing.
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$(( $$ % 100 + 1 ))}"
+# One BLAS thread unless set: the fits' least squares are small, and on the cores the
+# simulator and the other nodes keep busy a second thread waiting for one makes a motion's
+# fit some four times slower (the estimator's answer past the sequencer's
+# estimate_timeout).
+export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}"
 unset _com_ws
