@@ -102,18 +102,8 @@ SHAPES = ("box", "cylinder", "mug")
 DIAGONAL = [4 + INERTIA_ELEMENTS.index(name) for name in ("ixx", "iyy", "izz")]  # in load_vector
 
 
-def one_object(
-    config,
-    model,
-    excitation,
-    shape,
-    mass,
-    seed,
-    every,
-    profile,
-    calibrated=None,
-    hand_cycles=HAND_CYCLES,
-) -> dict:
+def one_object(config, model, excitation, shape, mass, seed, every, profile, calibrated=None,
+               hand_cycles=HAND_CYCLES) -> dict:  # fmt: skip
     """Hand (along ``hand_cycles`` periods), grasp, object: the object's errors, its error
     / sigma and its bound; with ``calibrated`` (the sensor's calibration in place) the
     readings corrected by it."""

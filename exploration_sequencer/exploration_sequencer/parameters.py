@@ -35,10 +35,11 @@ PARAMETERS = table_of([
     Input("motion_period", 3.0, "with excitation 'motion': the excitation's period, the time "
           "of each motion (the empty hand's, the object's and the verification's)", unit="s",
           low=1.0, high=30.0),
-    Input("motion_cycles", 1, "with excitation 'motion': how many periods the empty hand's "
-          "and the object's motions run (the noise's share of the inertia's variance goes as "
-          "1 / cycles, the calibration's stays; python -m com_core.planning.motion_accuracy "
-          "says how many a target needs)", kind="int", low=1, high=MAX_CYCLES),
+    Input("motion_cycles", 1, "with excitation 'motion': how many periods the object's "
+          "motion runs (and the empty hand's, at least; the noise's share of the inertia's "
+          "variance goes as 1 / cycles, the calibration's stays; python -m "
+          "com_core.planning.motion_accuracy says how many a target needs)", kind="int",
+          low=1, high=MAX_CYCLES),
     Input("hand_motion_cycles", HAND_CYCLES, "with excitation 'motion': how many periods "
           "the empty hand's motion runs when it moves (as many as motion_cycles if fewer): "
           "its fit is taken off the object's, in this run and in each later one that reuses "

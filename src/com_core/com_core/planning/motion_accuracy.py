@@ -26,10 +26,10 @@ and taken off every later object's motion along the same excitation), so it may 
 longer: ``hand_cycles`` periods (the sequencer's ``hand_motion_cycles``, ``HAND_CYCLES``
 by default) leave of its share 1 / ``hand_cycles`` of the object's (the Panda, a 0.5 kg
 box over one 3 s period: the mass's and the COM's sigmas 0.79 of the equal motions' with
-4, 0.71 with the hand known exactly). ``cycles_for`` finds the fewest cycles over which every
-principal moment stands ``1 / target`` of its sigma, or says that the calibration's share
-alone forbids it (then a calibration in place or a faster motion, not a longer one, is
-what helps).
+4, 0.71 with the hand known exactly). ``cycles_for`` finds the fewest cycles over which
+every principal moment stands ``1 / target`` of its sigma, or says that the
+calibration's share alone forbids it (then a calibration in place or a faster motion,
+not a longer one, is what helps).
 
 A longer period is no substitute: the design is scaled to the URDF's position and velocity
 limits and an acceleration bound, so a slower motion has smaller accelerations, and the
