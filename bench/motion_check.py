@@ -3,7 +3,7 @@
     source ./env.sh && python bench/motion_check.py [--sensors 10] [--first 0]
         [--robots panda,xarm6,ur5e] [--masses 0.1,0.5,2.0] [--static]
         [--profile realistic] [--calibration-accuracy 0.01] [--period 3]
-        [--acceleration 8|limits]
+        [--acceleration 8|limits] [--hand-cycles 4]
 
 In process, no ROS: per arm, mass and sensor serial (the ``--profile``'s sensor, the
 estimator told its datasheet, a calibration drawn per serial at its accuracy or
@@ -11,7 +11,8 @@ estimator told its datasheet, a calibration drawn per serial at its accuracy or
 exploration the sequencer runs with ``excitation: motion`` (``wrench_sim.studies
 .explore_in_motion``), solved as the estimator and the replay solve it
 (``Exploration.solve``), its excitation of ``--period`` s within ``--acceleration`` rad/s^2
-(``limits``: the arm's own); with ``--static`` also the default exploration at rest of the
+(``limits``: the arm's own), the empty hand along ``--hand-cycles`` periods of it (the
+sequencer's ``hand_motion_cycles``); with ``--static`` also the default exploration at rest of the
 same object through the same sensor (``bench/motion.py``'s ``static_object``). Nothing
 is wrong with any of these runs, so every WARN is a false alarm: in motion, of the
 one-rigid-load test (chi^2/dof below ``MAX_CHI2_PER_DOF`` times what the noise, the
@@ -37,6 +38,7 @@ from com_core.estimation.fits.estimators import DEFAULT_ALPHA
 from com_core.estimation.fits.motion import load_vector
 from com_core.estimation.runs.motion_solution import allowed_chi2_per_dof
 from com_core.planning.excitation import DEFAULT_ACCELERATION
+from com_core.planning.motion_accuracy import HAND_CYCLES
 from com_core.robot.config import read_robot_config
 from com_core.robot.dynamics import inertial_parameters
 from com_core.sensing.sensor_profiles import PROFILES
@@ -51,6 +53,7 @@ def one_sensor(
     mass: float,
     period: float,
     acceleration: str,
+    hand_cycles: int = HAND_CYCLES,
 ) -> dict:
     """The run in motion of sensor ``serial``: status, chi^2/dof and what is explained,
     the check's ratios and allowances, the largest |error / sigma|, whether the object's
@@ -59,7 +62,7 @@ def one_sensor(
     bounds = wrist_bounds(read_robot_config(robot), acceleration)
     run = explore_in_motion(accuracy, serial, robot=robot, mass=mass, shape=SHAPES[serial % 3],
                             object_seed=serial, period=period, acceleration=bounds,
-                            profile=profile)  # fmt: skip
+                            profile=profile, hand_cycles=hand_cycles)  # fmt: skip
     try:
         solution, result = run.solution, run.solution.motion
         (mass_, com), inertia = run.world.object_ground_truth(), run.world.inertia_ground_truth()
@@ -94,6 +97,8 @@ def main() -> None:
     parser.add_argument("--calibration-accuracy", type=float,
                         help="default: the profile's")  # fmt: skip
     parser.add_argument("--period", type=float, default=3.0)
+    parser.add_argument("--hand-cycles", type=int, default=HAND_CYCLES,
+                        help="periods of the empty hand's motion")  # fmt: skip
     parser.add_argument("--acceleration", default=str(DEFAULT_ACCELERATION),
                         help="rad/s^2, or 'limits': the arm's own")  # fmt: skip
     args = parser.parse_args()
@@ -108,7 +113,7 @@ def main() -> None:
             runs = []
             for serial in serials:
                 r = one_sensor(args.profile, args.calibration_accuracy, serial, robot, mass,
-                               args.period, args.acceleration)  # fmt: skip
+                               args.period, args.acceleration, args.hand_cycles)  # fmt: skip
                 runs.append(r)
                 print(f"{robot} {mass:g} kg sensor {serial:3d} {r['status']:4s} chi2/dof "
                       f"{r['chi2_dof']:.3f} ({r['chi2_dof'] / r['expected']:.2f} of explained, "
