@@ -12,14 +12,14 @@ exploration the sequencer runs with ``excitation: motion`` (``wrench_sim.studies
 .explore_in_motion``), solved as the estimator and the replay solve it
 (``Exploration.solve``), its excitation of ``--period`` s within ``--acceleration`` rad/s^2
 (``limits``: the arm's own), the empty hand along ``--hand-cycles`` periods of it (the
-sequencer's ``hand_motion_cycles``); with ``--static`` also the default exploration at rest of the
-same object through the same sensor (``bench/motion.py``'s ``static_object``). Nothing
-is wrong with any of these runs, so every WARN is a false alarm: in motion, of the
-one-rigid-load test (chi^2/dof below ``MAX_CHI2_PER_DOF`` times what the noise, the
-encoders and the calibration explain, or more where the calibration's misfit rules:
-``allowed_chi2_per_dof``) or of the check along the motion no fit used (its
-ratio to the prediction above the allowance, forces and torques); at rest, of the
-consistency test or the verification pose. Printed: per run, its chi^2/dof against what
+sequencer's ``hand_motion_cycles``); with ``--static`` also the default exploration at
+rest of the same object through the same sensor (``bench/motion.py``'s
+``static_object``). Nothing is wrong with any of these runs, so every WARN is a false
+alarm: in motion, of the one-rigid-load test (chi^2/dof below ``MAX_CHI2_PER_DOF``
+times what the noise, the encoders and the calibration explain, or more where the
+calibration's misfit rules: ``allowed_chi2_per_dof``) or of the check along the motion no
+fit used (its ratio to the prediction above the allowance, forces and torques); at rest,
+of the consistency test or the verification pose. Printed: per run, its chi^2/dof against what
 is explained, the check's ratios against their allowances, the 10 parameters' largest
 |error / sigma| (mass, COM, the inertia's 6 elements), whether the object's fit was
 projected onto a physical body and whether its inertia is published; per case, the false

@@ -125,8 +125,8 @@ def test_a_run_in_motion_plans_each_excitation_with_its_lead_and_rest():
     def run(**changes) -> dict[str, float]:
         arguments = dict(
             motion=PANDA, speed=1.35, settle=0.3, home=HOME, pick=PICK, period=3.0, cycles=1,
-            lead=0.2, rest=0.3, hand_moves=True, bias_dwell=3.0, grasp_check_dwell=0.2,
-            release=True, wall=NO_WALL,
+            lead=0.2, rest=0.3, hand_moves=True, hand_cycles=1, bias_dwell=3.0,
+            grasp_check_dwell=0.2, release=True, wall=NO_WALL,
         )  # fmt: skip
         return seconds(motion_run_phases(**(arguments | changes)))
 
@@ -139,7 +139,7 @@ def test_a_run_in_motion_plans_each_excitation_with_its_lead_and_rest():
     assert moving[OBJECT_MOTION] == moving[VERIFICATION] == pytest.approx(3.5)
     assert moving[RETURN] == pytest.approx(down_and_up) and run(release=False)[RETURN] == 0.0
     assert run(period=10.0)[OBJECT_MOTION] == pytest.approx(10.5)
-    cycled = run(cycles=3)  # the hand's and the object's motions, not the verification's
+    cycled = run(cycles=3, hand_cycles=3)  # the hand's and the object's, not the verification's
     assert cycled[TARE] == pytest.approx(3.0 + 9.5) and cycled[OBJECT_MOTION] == 9.5
     assert cycled[VERIFICATION] == pytest.approx(3.5)
     longer = run(hand_cycles=4)  # the empty hand's motion alone runs longer

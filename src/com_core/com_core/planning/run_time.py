@@ -168,7 +168,7 @@ def motion_run_phases(
     lead: float,
     rest: float,
     hand_moves: bool,
-    hand_cycles: int | None = None,
+    hand_cycles: int,
     bias_dwell: float,
     grasp_check_dwell: float,
     release: bool,
@@ -176,7 +176,7 @@ def motion_run_phases(
 ) -> tuple[PhaseTime, ...]:
     """The phases of a run in motion from the empty hand at ``home`` (rad), in order: the
     tare (a ``bias_dwell`` window at home and, with ``hand_moves``, the empty hand along
-    the excitation, ``hand_cycles`` times its period; None: ``cycles``), the grasp
+    the excitation, ``hand_cycles`` times its period), the grasp
     (``pick``, the fingers, lift home and ``grasp_check_dwell``), the object along the
     excitation, along the verification's motion, the return (with ``release`` the object
     put back) and the estimate. Each motion starts ``lead`` s after it is sent, lasts
@@ -185,7 +185,7 @@ def motion_run_phases(
     phase."""
     move = _mover(motion, speed, settle)
     excite, verify = lead + cycles * period + rest, lead + period + rest
-    hand = lead + (cycles if hand_cycles is None else hand_cycles) * period + rest
+    hand = lead + hand_cycles * period + rest
     down_and_up = move(home, pick) + GRIPPER_TIME + move(pick, home)
     return (
         PhaseTime(TARE, bias_dwell + (hand if hand_moves else 0.0), wall.get(TARE, 0.0)),
