@@ -27,6 +27,7 @@ from wrench_sim.sensor import (
     BiasDrift,
     WrenchSensor,
     profile_calibration,
+    profile_drift,
     profile_sensor,
     random_streams,
 )
@@ -100,6 +101,22 @@ def test_the_bias_warms_up_toward_an_offset_drawn_per_axis():
             assert_allclose(drift.at(t), drift.final * (1.0 - math.exp(-t / 600.0)), rtol=1e-15)
         finals.append(drift.final)
     assert_allclose(np.std(finals, axis=0) / WARMUP, 1.0, atol=spread_tolerance(3000))
+
+
+@pytest.mark.parametrize("name", [n for n in PROFILES if PROFILES[n].bias_drift_rate])
+def test_the_bias_drifts_at_the_rate_its_profile_tells_the_estimator(name):
+    """``SensorProfile.bias_drift_rate`` (the datasheet's ``bias_drift_rate``, the fits'
+    prior) is the spread of the sim's drift per second from power-on: over the first minute
+    the warm-up's mean rate is 10 (1 - exp(-1/10)) = 0.952 of its rate at power-on, and the
+    random walk adds a nineteenth of it in quadrature (0.953)."""
+    profile = PROFILES[name]
+    rates = []
+    for seed in range(2000):
+        drift = profile_drift(profile, np.random.default_rng(seed))
+        rates.append((drift.at(60.0) - drift.at(0.0)) / 60.0)
+    stated = np.repeat(profile.bias_drift_rate, 3)
+    assert profile.datasheet()["bias_drift_rate"] == list(profile.bias_drift_rate)
+    assert_allclose(np.std(rates, axis=0) / stated, 0.953, atol=spread_tolerance(2000))
 
 
 @pytest.mark.parametrize("step", [0.001, 0.05])

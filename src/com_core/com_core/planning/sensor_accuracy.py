@@ -55,12 +55,14 @@ FIXTURE_COM_SIGMA = 5e-5
 
 def default_pass(profile: SensorProfile, mass: float) -> Plan:
     """The sequencer's default static pass (module) of an object of ``mass`` kg read
-    through ``profile``, with its stated calibration."""
+    through ``profile``, with its stated calibration and its bias's drift rate."""
     sensor = SensorModel.from_scalars(max(profile.sigma_f, 1e-6), max(profile.sigma_tau, 1e-7))
-    return Plan(axes=("y", "x"), dwell=0.9, tare_dwell=5.0, sensor=sensor, mass_guess=mass,
+    plan = Plan(axes=("y", "x"), dwell=0.9, tare_dwell=5.0, sensor=sensor, mass_guess=mass,
                 com_guess=(0.0, 0.0, 0.1), noise=profile.noise_model(),
                 calibration=profile.calibration(),
                 hysteresis=profile.stated_hysteresis())  # fmt: skip
+    drift = profile.bias_drift_rate
+    return plan if drift is None else replace(plan, bias_drift_rate=drift)
 
 
 def predicted_calibration(

@@ -14,7 +14,8 @@
     calibrations);
   - a bias that warms up: each axis toward a final offset drawn N(0, 0.3 N / 0.015 N m),
     time constant 600 s from power-on (sim time 0), plus a random walk of 2e-4 N/sqrt(s)
-    and 1e-5 N m/sqrt(s);
+    and 1e-5 N m/sqrt(s): 0.03 N/min and 1.5 mN m/min at power-on, what its datasheet
+    tells the estimator (``bias_drift_rate``);
   - the arm's structure: two lightly damped modes, 12 Hz (damping ratio 0.03) and 27 Hz
     (0.02), of the order of collaborative arms' first structural modes, excited at the end
     of every move by 1 m/s^2 of the load's acceleration per m/s of the move's peak speed,
@@ -226,17 +227,31 @@ class SensorProfile:
             return None
         return Hysteresis.stated(self.hysteresis, self.limit_f, self.limit_tau)
 
+    @property
+    def bias_drift_rate(self) -> tuple[float, float] | None:
+        """N/s, N m/s: the 1-sigma rate of the bias's drift at its fastest, at power-on:
+        the warm-up's spread over its time constant (its random walk adds
+        ``random_walk / sqrt(T)`` over T s, a nineteenth of it over a minute with the
+        realistic profile's figures); None for a bias that does not warm up."""
+        if self.warmup_time <= 0 or not (self.warmup_f or self.warmup_tau):
+            return None
+        return (self.warmup_f / self.warmup_time, self.warmup_tau / self.warmup_time)
+
     def datasheet(self) -> dict[str, object]:
-        """What a user tells the estimator of this sensor from its datasheet (its settings
-        ``accuracy``, ``full_scale`` and ``hysteresis``; ``com_core.estimation.runs.settings``):
-        {} for a profile that states no calibration accuracy (``ideal``, ``white``)."""
-        if self.calibration_accuracy <= 0:
-            return {}
-        return {
-            "accuracy": self.calibration_accuracy,
-            "full_scale": [self.limit_f, self.limit_tau],
-            "hysteresis": list(self.hysteresis or [0.0] * 6),
-        }
+        """What a user tells the estimator of this sensor (its settings;
+        ``com_core.estimation.runs.settings``): ``bias_drift_rate`` for a bias that warms
+        up, and from a stated calibration accuracy ``accuracy``, ``full_scale`` and
+        ``hysteresis``; {} for ``ideal`` and ``white``."""
+        out: dict[str, object] = {}
+        if self.bias_drift_rate is not None:
+            out["bias_drift_rate"] = list(self.bias_drift_rate)
+        if self.calibration_accuracy > 0:
+            out |= {
+                "accuracy": self.calibration_accuracy,
+                "full_scale": [self.limit_f, self.limit_tau],
+                "hysteresis": list(self.hysteresis or [0.0] * 6),
+            }
+        return out
 
     @property
     def modes(self) -> tuple[tuple[float, float], ...]:
