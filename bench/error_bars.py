@@ -152,8 +152,10 @@ def in_motion(config, model, excitation, shape, mass, serial, profile, matrices,
             correction = reading_correction(stated, hysteresis)
             read = [through(run, c, correction) for run in (empty, loaded)]
             weighed = [motion_calibration(stated, hysteresis, run[3]) for run in read]
-            hand = fit_motion(model, *read[0], noise, calibration=weighed[0])
-            fit = fit_motion(model, *read[1], noise, hand, weighed[1])
+            hand = fit_motion(
+                model, *read[0], noise, calibration=weighed[0], hysteresis=hysteresis
+            )
+            fit = fit_motion(model, *read[1], noise, hand, weighed[1], hysteresis=hysteresis)
             got = fit.load_vector()
             z = (got - truth) / np.sqrt(np.diag(fit.load_cov()))
             errors = [abs(got[0] - true_mass) / true_mass, np.linalg.norm(got[1:4] - true_com)]

@@ -126,11 +126,11 @@ def one_object(config, model, excitation, shape, mass, seed, every, profile, cal
             return motion_calibration(stated, hysteresis, recorded[3])
 
         empty = excite(hand_cycles)
-        hand = fit_motion(model, *empty, noise, calibration=weighed(empty))
+        hand = fit_motion(model, *empty, noise, calibration=weighed(empty), hysteresis=hysteresis)
         grasp(world, sensor=sensor)
         recorded = excite()
         start = time.perf_counter()
-        fit = fit_motion(model, *recorded, noise, hand, weighed(recorded))
+        fit = fit_motion(model, *recorded, noise, hand, weighed(recorded), hysteresis=hysteresis)
         seconds = time.perf_counter() - start
         true_mass, true_com = world.object_ground_truth()
         true_inertia = world.inertia_ground_truth()[1]

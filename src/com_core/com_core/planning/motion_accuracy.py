@@ -166,7 +166,7 @@ def predict_fit(
         wrenches = sensor_regressors(robot, *ex.at(times)) @ pi
         weighed = motion_calibration(calibration, hysteresis, wrenches)
         return fit_motion(robot, joint_times, positions, times, wrenches, noise, under,
-                          weighed)  # fmt: skip
+                          weighed, hysteresis=hysteresis)  # fmt: skip
 
     hand_motion = replace(excitation, cycles=max(excitation.cycles, hand_cycles))
     return fit(excitation, hand + load, fit(hand_motion, hand, None))

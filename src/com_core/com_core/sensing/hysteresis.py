@@ -179,6 +179,22 @@ class Hysteresis:
         memory[:start] = 0.0
         return memory
 
+    def path_memory(self, loads: ArrayLike) -> NDArray[np.float64]:
+        """(n, 6): for a path sampled as ``loads`` (n, 6; N, N m) in time order, the share
+        each sample still carries of the state's offset at the first, exp(-T /
+        (``SATURATION`` r)) after the load's travel T since (``travel``'s deadband
+        follower, its turns' half-widths not put back: a share never smaller than the
+        truth's; ones for a path shorter than three blocks), as ``start_memory`` for
+        windows (module)."""
+        x = np.asarray(loads, dtype=np.float64).reshape(-1, 6)
+        follower, _ = follow(x)
+        if not len(follower):
+            return np.ones_like(x)
+        moved = np.vstack([np.zeros(6), np.cumsum(np.abs(np.diff(follower, axis=0)), axis=0)])
+        scale = SATURATION * np.asarray(self.full_scale, dtype=np.float64)
+        memory = np.repeat(np.exp(-moved / scale), TRAVEL_BLOCK, axis=0)
+        return np.vstack([memory, np.repeat(memory[-1:], len(x) - len(memory), axis=0)])
+
 
 def _moves(
     means: ArrayLike, travels: ArrayLike | None

@@ -25,10 +25,13 @@ delays slow signals by T). The fit, step by step:
    innovation's sigma, the generalised least squares of the AR model. The covariance is
    then the Cramer-Rao bound under that noise, and chi^2 tests the model.
 4. **Bias eliminated, load consistent.** b enters linearly and unconstrained; it is
-   projected out (variable projection), and the 10 parameters are fitted physically
-   consistent (``estimation.fits.inertial``: log-Cholesky when the least squares estimate is
-   not). A known hand (its parameters from an empty-hand motion, ``hand``) is taken off
-   first, so what is fitted, and made consistent, is the object alone. What is taken off
+   projected out (variable projection), with, for a sensor of stated hysteresis, the
+   state's offset where the motion starts, which fades as the load travels
+   (``_with_offset``: weighed by its prior, anywhere in its band), and the 10
+   parameters are fitted physically consistent (``estimation.fits.inertial``:
+   log-Cholesky when the least squares estimate is not). A known hand (its parameters
+   from an empty-hand motion, ``hand``) is taken off first, so what is fitted, and made
+   consistent, is the object alone. What is taken off
    is the hand's least squares estimate, not the consistent one: a misfit common to both
    motions along the same trajectory (an arm model's error in a wrench estimated from the
    joint torques, the hand's cables) moves both least squares estimates alike and
@@ -61,6 +64,7 @@ from com_core.estimation.fits.inertial import fit_whitened
 from com_core.robot.dynamics import inertia_elements, load_of, sensor_regressors
 from com_core.robot.model import RobotModel
 from com_core.sensing.calibration import Calibration
+from com_core.sensing.hysteresis import Hysteresis
 from com_core.sensing.noise import NoiseModel
 
 __all__ = [
@@ -249,14 +253,18 @@ def fit_motion(
     hand: MotionFit | None = None,
     calibration: Calibration | None = None,
     position_sigma: float = 0.0,
+    hysteresis: Hysteresis | None = None,
 ) -> MotionFit:
     """The load's parameters from the ``wrenches`` (n, 6; N, N m, ``ft_sensor``, stamped
     ``wrench_times`` s, evenly spaced, one motion) and the joint positions (samples,
     ``robot.joint_names``; rad, m) stamped ``joint_times`` (s), with the sensor's ``noise``
     model (see module). ``hand``: the empty hand's fit, taken off; None: the whole load is
     fitted. ``calibration``: the sensor's stated accuracy (None: perfect).
-    ``position_sigma``: rad, the encoders' noise per joint sample. ValueError when the
-    motion does not excite the 10 parameters or the joint states do not cover it."""
+    ``position_sigma``: rad, the encoders' noise per joint sample. ``hysteresis``: the
+    sensor's stated one, whose state's offset where the motion starts is fitted with the
+    bias (``_with_offset``; what its gain leaves along the loops is in ``calibration``,
+    ``motion_solution.motion_calibration``). ValueError when the motion does not excite
+    the 10 parameters or the joint states do not cover it."""
     w = np.asarray(wrenches, dtype=np.float64)
     t = np.asarray(wrench_times, dtype=np.float64)
     jt = np.asarray(joint_times, dtype=np.float64)
@@ -284,20 +292,26 @@ def fit_motion(
     Y = regressors(delay)
     object_wrench = w - Y @ hand_pi
     A, b = _whitened_system(Y, object_wrench, noise, 1)
+    rows = len(b)  # the samples' (the prior's pseudo-observations after them)
     A_pi, A_bias = A[:, :10], A[:, 10:]
+    if hysteresis is not None:
+        A_pi, A_bias, b = _with_offset(A_pi, A_bias, b, hysteresis, w, noise)
     basis, _ = np.linalg.qr(A_bias)
 
     def project(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        if len(x) < len(basis):  # the samples' rows: none of the prior's
+            x = np.concatenate([x, np.zeros((len(basis) - len(x), *x.shape[1:]))])
         return x - basis @ (basis.T @ x)
 
     fitted, target = project(A_pi), project(b)
     fit = fit_whitened(fitted, target)
-    bias, *_ = np.linalg.lstsq(A_bias, b - A_pi @ fit.pi, rcond=None)
+    bias = np.linalg.lstsq(A_bias, b - A_pi @ fit.pi, rcond=None)[0][:6]
     moved = np.flatnonzero(np.max(np.abs(jq - jq[0]), axis=1) > MOVED)
     began = jt[moved[0]] if len(moved) else jt[0]
-    blocks = _block_sums(target - fitted @ fit.least_squares, t - delay - began, noise)
+    residual_rows = (target - fitted @ fit.least_squares)[:rows]
+    blocks = _block_sums(residual_rows, t - delay - began, noise)
     shared = 0.0 if hand is None else common_misfit(hand.residual_blocks, blocks)
-    dof = A.shape[0] - 16
+    dof = rows - 16  # the offset's six columns come with its prior's six rows
     gain, misfit, squares, explained = np.zeros((10, 36)), 0.0, 0.0, 0.0
     if calibration is not None:
         hand_wrench = None if hand is None else Y @ hand_pi
@@ -472,6 +486,33 @@ def _calibration_share(
     common = 0.0 if hand is None else float(np.sum((left(hand) @ root) * misfit))
     weights = np.linalg.eigvalsh(misfit.T @ misfit)
     return gain, float(np.sum(weights)), float(np.sum(weights**2)), common
+
+
+def _with_offset(
+    A_pi: NDArray[np.float64],
+    A_bias: NDArray[np.float64],
+    b: NDArray[np.float64],
+    hysteresis: Hysteresis,
+    wrenches: NDArray[np.float64],
+    noise: NoiseModel,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The whitened system (``_whitened_system``'s, split) with the hysteresis state's
+    offset h where the motion starts as six more nuisance columns beside the bias's:
+    sample k of the ``wrenches`` (n, 6) still carries h m_k, m_k its memory after the
+    load's travel since (``Hysteresis.path_memory``), and h is anywhere in its band,
+    weighed as six pseudo-observations of its variance (``Hysteresis.start_variance``)
+    after the samples' rows. After a contact (the grasp) nothing tells where in its band
+    the state is, and along a light load's loops what the start's offset leaves as it
+    fades is far more than what the gain leaves (``Hysteresis.residual_share``): the fit
+    takes it off, and its covariance holds what the motion does not tell of it."""
+    memory = hysteresis.path_memory(wrenches)
+    offset = _whiten(memory[:, :, None] * np.eye(6), noise)  # d w_k / d h, whitened
+    prior = np.diag(1.0 / np.sqrt(hysteresis.start_variance()))
+    return (
+        np.vstack([A_pi, np.zeros((6, 10))]),
+        np.block([[A_bias, offset], [np.zeros((6, 6)), prior]]),
+        np.concatenate([b, np.zeros(6)]),
+    )
 
 
 def _encoder_share(

@@ -227,7 +227,9 @@ def _fit(
     data = _motion_data(inbox, setup.robot, label, until_ns)
     calibration = motion_calibration(setup.calibration, setup.hysteresis, data[3])
     try:
-        return fit_motion(setup.robot, *data, noise, hand, calibration)
+        return fit_motion(
+            setup.robot, *data, noise, hand, calibration, hysteresis=setup.hysteresis
+        )
     except ValueError as exc:
         raise EstimationError(f"{label}: {exc}") from exc
 
