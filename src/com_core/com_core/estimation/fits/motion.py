@@ -311,7 +311,7 @@ def fit_motion(
     residual_rows = (target - fitted @ fit.least_squares)[:rows]
     blocks = _block_sums(residual_rows, t - delay - began, noise)
     shared = 0.0 if hand is None else common_misfit(hand.residual_blocks, blocks)
-    dof = rows - 16  # the offset's six columns come with its prior's six rows
+    dof = rows - 16  # the offset's columns come with as many rows of its prior
     gain, misfit, squares, explained = np.zeros((10, 36)), 0.0, 0.0, 0.0
     if calibration is not None:
         hand_wrench = None if hand is None else Y @ hand_pi
@@ -497,21 +497,24 @@ def _with_offset(
     noise: NoiseModel,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """The whitened system (``_whitened_system``'s, split) with the hysteresis state's
-    offset h where the motion starts as six more nuisance columns beside the bias's:
-    sample k of the ``wrenches`` (n, 6) still carries h m_k, m_k its memory after the
-    load's travel since (``Hysteresis.path_memory``), and h is anywhere in its band,
-    weighed as six pseudo-observations of its variance (``Hysteresis.start_variance``)
-    after the samples' rows. After a contact (the grasp) nothing tells where in its band
-    the state is, and along a light load's loops what the start's offset leaves as it
-    fades is far more than what the gain leaves (``Hysteresis.residual_share``): the fit
-    takes it off, and its covariance holds what the motion does not tell of it."""
+    offset h where the motion starts as a nuisance column per axis with a band beside
+    the bias's: sample k of the ``wrenches`` (n, 6) still carries h m_k, m_k its memory
+    after the load's travel since (``Hysteresis.path_memory``), and h is anywhere in its
+    band, weighed as a pseudo-observation per column of its variance
+    (``Hysteresis.start_variance``) after the samples' rows. After a contact (the grasp)
+    nothing tells where in its band the state is, and along a light load's loops what
+    the start's offset leaves as it fades is far more than what the gain leaves
+    (``Hysteresis.residual_share``): the fit takes it off, and its covariance holds what
+    the motion does not tell of it."""
+    variance = hysteresis.start_variance()
+    axes = np.flatnonzero(variance > 0)  # an axis without a band has no offset
     memory = hysteresis.path_memory(wrenches)
-    offset = _whiten(memory[:, :, None] * np.eye(6), noise)  # d w_k / d h, whitened
-    prior = np.diag(1.0 / np.sqrt(hysteresis.start_variance()))
+    offset = _whiten(memory[:, :, None] * np.eye(6)[:, axes], noise)  # d w_k / d h
+    prior = np.diag(1.0 / np.sqrt(variance[axes]))
     return (
-        np.vstack([A_pi, np.zeros((6, 10))]),
-        np.block([[A_bias, offset], [np.zeros((6, 6)), prior]]),
-        np.concatenate([b, np.zeros(6)]),
+        np.vstack([A_pi, np.zeros((len(axes), 10))]),
+        np.block([[A_bias, offset], [np.zeros((len(axes), 6)), prior]]),
+        np.concatenate([b, np.zeros(len(axes))]),
     )
 
 
