@@ -27,16 +27,15 @@ delays slow signals by T). The fit, step by step:
 4. **Bias eliminated, load consistent.** b enters linearly and unconstrained; it is
    projected out (variable projection), with, for a sensor of stated hysteresis, the
    state's offset where the motion starts, which fades as the load travels
-   (``_with_offset``: weighed by its prior, anywhere in its band), and the 10
-   parameters are fitted physically consistent (``estimation.fits.inertial``:
-   log-Cholesky when the least squares estimate is not). A known hand (its parameters
-   from an empty-hand motion, ``hand``) is taken off first, so what is fitted, and made
-   consistent, is the object alone. What is taken off
-   is the hand's least squares estimate, not the consistent one: a misfit common to both
-   motions along the same trajectory (an arm model's error in a wrench estimated from the
-   joint torques, the hand's cables) moves both least squares estimates alike and
-   cancels in their difference; the hand made consistent would leave the constraint's
-   pull in the object's parameters.
+   (``_with_offset``: weighed by its prior, anywhere in its band), and the 10 parameters
+   are fitted physically consistent (``estimation.fits.inertial``: log-Cholesky when the
+   least squares estimate is not). A known hand (its parameters from an empty-hand
+   motion, ``hand``) is taken off first, so what is fitted, and made consistent, is the
+   object alone. What is taken off is the hand's least squares estimate, not the
+   consistent one: a misfit common to both motions along the same trajectory (an arm
+   model's error in a wrench estimated from the joint torques, the hand's cables) moves
+   both least squares estimates alike and cancels in their difference; the hand made
+   consistent would leave the constraint's pull in the object's parameters.
 5. **Error bars.** The covariance adds to the noise's share the encoders' noise through
    the accelerations (``position_sigma``), both widened when the fit's residual is
    larger than the noise model, the encoders' noise, the calibration's error and a
