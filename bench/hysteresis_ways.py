@@ -13,11 +13,14 @@ sensor's band) knows the readings. Per way between two windows and axis: the loa
 total variation beyond what ``travel`` measures from the readings, in half-widths of its
 deadband (what rings within the noise); the true increment of the state's first-order
 residual (from a state started in the middle of its band along the same loads) over the
-sigma the fit weighs for it (``hysteresis_cov``); and the share each window keeps of the
-state's offset where the run starts, or after the contact, the fit's (``start_memory``
-of the travel measured) against the truth's. A way through contact (the grasp) is
-weighed at the most it can move the state and leaves it anywhere in its band: the twin
-starts from the middle again after it, as the fit's offset does.
+sigma the fit weighs for it (``hysteresis_cov``), and what is left of it less its second
+order, the sum of d x |dx| / (``SATURATION`` r) along the readings' path through
+``travel``'s follower (x the load from where the twin started, which the sim knows: a
+fit's start offset would take that part, as it is the travel's); and the share each
+window keeps of the state's offset where the run starts, or after the contact, the fit's
+(``start_memory`` of the travel measured) against the truth's. A way through contact
+(the grasp) is weighed at the most it can move the state and leaves it anywhere in its
+band: the twin starts from the middle again after it, as the fit's offset does.
 """
 
 from __future__ import annotations
@@ -34,7 +37,7 @@ from com_core.estimation.fits.windows import Window
 from com_core.estimation.runs.fit_setup import FitSetup
 from com_core.robot.choreography import Choreography
 from com_core.robot.config import read_robot_config
-from com_core.sensing.hysteresis import Hysteresis, follow, reach, travel
+from com_core.sensing.hysteresis import SATURATION, Hysteresis, follow, reach, travel
 from com_core.sensing.sensor_profiles import PROFILES
 from wrench_sim.config import SimConfig
 from wrench_sim.joint_torques import wrench_in
@@ -101,7 +104,11 @@ def ways(steps: dict, hysteresis: Hysteresis) -> dict:
     index = [np.flatnonzero(steps["in"] == label) for label in labels]
     middles = [i[len(i) // 2] for i in index]
     readings = steps["reading"] / gain
-    observations, hidden = [], []
+    d = hysteresis.gain_deficit()
+    scale = SATURATION * np.asarray(hysteresis.full_scale)
+    zero = readings[index[0]].mean(axis=0) - steps["load"][index[0]].mean(axis=0)
+    contact = next(k for k, label in enumerate(labels) if label.startswith(OBJECT_PREFIX))
+    observations, hidden, second = [], [], []
     for k, (label, i) in enumerate(zip(labels, index, strict=True)):
         window = Window(label, readings[i].mean(axis=0), np.eye(6), len(i))
         loaded = label.startswith(OBJECT_PREFIX)
@@ -111,6 +118,10 @@ def ways(steps: dict, hysteresis: Hysteresis) -> dict:
             known = {"travel": travel(readings[a:b]), "reach": reach(readings[a:b])}
             own = np.abs(np.diff(steps["load"][a:b], axis=0)).sum(axis=0)
             hidden.append((own - known["travel"]) / follow(readings[a:b])[1])
+            start = steps["load"][index[contact][0] if k >= contact else 0]  # the twin's
+            path, _ = follow(readings[a:b] - zero - start)
+            moved = 0.5 * (path[1:] + path[:-1]) * np.abs(np.diff(path, axis=0))
+            second.append(d * moved.sum(axis=0) / scale)
         observations.append(Observation(window, np.eye(3), loaded, 0, float(k), **known))
     told = FitSetup(hysteresis=hysteresis)
     n = len(observations)
@@ -121,7 +132,6 @@ def ways(steps: dict, hysteresis: Hysteresis) -> dict:
     designs = [o.nuisance for o in told.with_hysteresis(observations)]
     kept = np.array([np.diag(designs[k][:, 6 * (n + starts.index(latest[k])) :][:, :6])
                      for k in range(n)])  # fmt: skip
-    d = hysteresis.gain_deficit()
     residual = np.array([(steps["twin"][i] + d * steps["load"][i]).mean(axis=0) for i in index])
     offset = np.array([(steps["state"][i] - steps["twin"][i]).mean(axis=0) for i in index])
     return {
@@ -129,6 +139,7 @@ def ways(steps: dict, hysteresis: Hysteresis) -> dict:
         "contact": [k in starts for k in range(1, n)],
         "hidden": np.array(hidden),
         "z": (np.diff(residual, axis=0) / sigma[1:]),
+        "z_second": (np.diff(residual, axis=0) - np.array(second)) / sigma[1:],
         "kept": kept[1:],
         "true_kept": offset[1:] / offset[latest[1:]],
     }
@@ -166,6 +177,8 @@ def main() -> None:
         f"  increment / sigma between poses, rms per axis: {np.sqrt(np.mean(between**2, axis=0))}"
     )
     print(f"  increment / sigma between poses, largest |.|:  {np.abs(between).max(axis=0)}")
+    left = np.concatenate([o["z_second"] for o in found])[~contact]
+    print(f"  less its second order, rms per axis:           {np.sqrt(np.mean(left**2, axis=0))}")
     off = np.abs(kept - true_kept).max(axis=0)
     print(f"  the start's share kept, the fit's less the truth's, largest |.|: {off}")
 
