@@ -49,7 +49,6 @@ from motion import (
 )
 
 from com_core.estimation.fits.motion import fit_motion, load_vector
-from com_core.estimation.runs.motion_solution import motion_calibration
 from com_core.estimation.runs.sensor_calibration import SensorCalibration
 from com_core.estimation.runs.settings import use_sensor_calibration
 from com_core.planning.excitation import DEFAULT_ACCELERATION, design_excitation
@@ -151,11 +150,8 @@ def in_motion(config, model, excitation, shape, mass, serial, profile, matrices,
             hysteresis = profile.stated_hysteresis()
             correction = reading_correction(stated, hysteresis)
             read = [through(run, c, correction) for run in (empty, loaded)]
-            weighed = [motion_calibration(stated, hysteresis, run[3]) for run in read]
-            hand = fit_motion(
-                model, *read[0], noise, calibration=weighed[0], hysteresis=hysteresis
-            )
-            fit = fit_motion(model, *read[1], noise, hand, weighed[1], hysteresis=hysteresis)
+            hand = fit_motion(model, *read[0], noise, calibration=stated, hysteresis=hysteresis)
+            fit = fit_motion(model, *read[1], noise, hand, stated, hysteresis=hysteresis)
             got = fit.load_vector()
             z = (got - truth) / np.sqrt(np.diag(fit.load_cov()))
             errors = [abs(got[0] - true_mass) / true_mass, np.linalg.norm(got[1:4] - true_com)]

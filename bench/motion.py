@@ -66,7 +66,7 @@ from com_core.estimation.fits.motion import fit_motion, load_vector
 from com_core.estimation.fits.windows import subtract_tare
 from com_core.estimation.runs.exploration import Exploration
 from com_core.estimation.runs.fit_setup import INFORMATION, KINEMATICS_MOUNT
-from com_core.estimation.runs.motion_solution import MotionResult, motion_calibration
+from com_core.estimation.runs.motion_solution import MotionResult
 from com_core.estimation.runs.sensor_calibration import SensorCalibration
 from com_core.estimation.runs.settings import exploration_from, use_sensor_calibration
 from com_core.planning.excitation import (
@@ -81,7 +81,7 @@ from com_core.robot.choreography import Choreography
 from com_core.robot.config import RobotConfig, read_robot_config
 from com_core.robot.dynamics import INERTIA_ELEMENTS, inertial_parameters
 from com_core.robot.model import RobotModel
-from com_core.sensing.calibration import Calibration, reading_correction
+from com_core.sensing.calibration import reading_correction
 from com_core.sensing.sensor_profiles import PROFILES
 from com_core.sensing.wrench_model import STANDARD_GRAVITY, skew
 from wrench_sim.config import SimConfig
@@ -122,15 +122,12 @@ def one_object(config, model, excitation, shape, mass, seed, every, profile, cal
                 readings = readings @ correction.T
             return times, q, stamps, readings
 
-        def weighed(recorded: tuple) -> Calibration | None:
-            return motion_calibration(stated, hysteresis, recorded[3])
-
         empty = excite(hand_cycles)
-        hand = fit_motion(model, *empty, noise, calibration=weighed(empty), hysteresis=hysteresis)
+        hand = fit_motion(model, *empty, noise, calibration=stated, hysteresis=hysteresis)
         grasp(world, sensor=sensor)
         recorded = excite()
         start = time.perf_counter()
-        fit = fit_motion(model, *recorded, noise, hand, weighed(recorded), hysteresis=hysteresis)
+        fit = fit_motion(model, *recorded, noise, hand, stated, hysteresis=hysteresis)
         seconds = time.perf_counter() - start
         true_mass, true_com = world.object_ground_truth()
         true_inertia = world.inertia_ground_truth()[1]

@@ -332,7 +332,7 @@ def test_an_excursion_after_a_turn_reads_short_by_the_gain_deficit_the_motion_fi
     by nearly twice it, and on along the near edge hardly at all; the fit in motion weighs it as
     a further gain error per axis (``motion_calibration``), with or without a stated
     accuracy, and no hysteresis leaves the calibration as it is."""
-    from com_core.estimation.runs.motion_solution import motion_calibration
+    from com_core.estimation.fits.motion import motion_calibration
     from com_core.sensing.calibration import Calibration
     from com_core.sensing.hysteresis import Hysteresis
 

@@ -54,7 +54,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from com_core.estimation.fits.motion import MotionFit, fit_motion, principal_moments
-from com_core.estimation.runs.motion_solution import motion_calibration
 from com_core.planning.excitation import Excitation, acceleration_bounds
 from com_core.robot.dynamics import inertial_parameters, sensor_regressors
 from com_core.robot.model import RobotModel
@@ -156,7 +155,7 @@ def predict_fit(
     hand's along ``hand_cycles`` periods, or as many if more) with the ``hand``'s and the
     object's (``load``) inertial parameters (10,; sensor frame, ``robot.dynamics``), the
     sensor's ``noise`` model, ``calibration`` and stated ``hysteresis`` (what its gain
-    leaves, as the estimator weighs it: ``motion_solution.motion_calibration``): its
+    leaves, as the estimator weighs it: ``fits.motion.motion_calibration``): its
     ``load_cov()`` is the prediction."""
 
     def fit(ex: Excitation, pi: NDArray[np.float64], under: MotionFit | None) -> MotionFit:
@@ -164,9 +163,8 @@ def predict_fit(
         positions = ex.at(np.clip(joint_times, 0.0, ex.duration))[0]
         times = np.arange(0.0, ex.duration, 1.0 / SENSOR_RATE)
         wrenches = sensor_regressors(robot, *ex.at(times)) @ pi
-        weighed = motion_calibration(calibration, hysteresis, wrenches)
         return fit_motion(robot, joint_times, positions, times, wrenches, noise, under,
-                          weighed, hysteresis=hysteresis)  # fmt: skip
+                          calibration, hysteresis=hysteresis)  # fmt: skip
 
     hand_motion = replace(excitation, cycles=max(excitation.cycles, hand_cycles))
     return fit(excitation, hand + load, fit(hand_motion, hand, None))

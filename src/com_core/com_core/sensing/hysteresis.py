@@ -20,7 +20,7 @@ state off the middle by h moves it by d_a h / b_a, h within +-d_a span / 2 once 
 have swung over their span; the share min(1, u / 2) of d_a bounds either. Along a loop
 the slope moves evenly between those bounds, so the fit in motion weighs the rms, the
 share over sqrt(3), as a spread of each axis's own gain
-(``motion_solution.motion_calibration``, ``Calibration.with_gain_spread``). The state's
+(``fits.motion.motion_calibration``, ``Calibration.with_gain_spread``). The state's
 offset where a motion starts fades along it as at rest (next; ``path_memory``), and the
 fit in motion takes it off beside its bias (``fits.motion``).
 

@@ -53,6 +53,7 @@ delays slow signals by T). The fit, step by step:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -76,6 +77,7 @@ __all__ = [
     "fit_motion",
     "joint_motion",
     "load_vector",
+    "motion_calibration",
     "principal_moments",
     "regressors_along",
     "widening_factor",
@@ -258,13 +260,14 @@ def fit_motion(
     ``wrench_times`` s, evenly spaced, one motion) and the joint positions (samples,
     ``robot.joint_names``; rad, m) stamped ``joint_times`` (s), with the sensor's ``noise``
     model (see module). ``hand``: the empty hand's fit, taken off; None: the whole load is
-    fitted. ``calibration``: the sensor's stated accuracy (None: perfect).
-    ``position_sigma``: rad, the encoders' noise per joint sample. ``hysteresis``: the
-    sensor's stated one, whose state's offset where the motion starts is fitted with the
-    bias (``_with_offset``; what its gain leaves along the loops is in ``calibration``,
-    ``motion_solution.motion_calibration``). ValueError when the motion does not excite
-    the 10 parameters or the joint states do not cover it."""
+    fitted. ``calibration``: the sensor's stated accuracy or its calibration in place
+    (None: perfect). ``position_sigma``: rad, the encoders' noise per joint sample.
+    ``hysteresis``: the sensor's stated one: what its gain leaves along the loops is
+    weighed with the calibration (``motion_calibration``), and the state's offset where
+    the motion starts is fitted with the bias (``_with_offset``). ValueError when the
+    motion does not excite the 10 parameters or the joint states do not cover it."""
     w = np.asarray(wrenches, dtype=np.float64)
+    calibration = motion_calibration(calibration, hysteresis, w)
     t = np.asarray(wrench_times, dtype=np.float64)
     jt = np.asarray(joint_times, dtype=np.float64)
     jq = np.asarray(joint_positions, dtype=np.float64)
@@ -336,6 +339,25 @@ def fit_motion(
     return MotionFit(fit.pi, fit.least_squares, cov, fit.cov, calibration_cov, gain, bias,
                      delay, fit.chi2, dof, fit.constrained, len(t), expected, common,
                      blocks, misfit, squares)  # fmt: skip
+
+
+def motion_calibration(
+    calibration: Calibration | None, hysteresis: Hysteresis | None, wrenches: ArrayLike
+) -> Calibration | None:
+    """The sensor's error a fit in motion of ``wrenches`` (n, 6; N, N m) weighs: the
+    ``calibration`` term with, for a sensor of stated ``hysteresis``, what is left of its
+    gain deficit once taken off the readings as a further gain error per axis, zero-mean,
+    its spread the rms of the gain along the motion's loops: the slope moves evenly
+    between the bounds the share of the deficit the motion's span leaves
+    (``Hysteresis.residual_share``) sets on either side, so its rms is that share over
+    sqrt(3)."""
+    if hysteresis is None:
+        return calibration
+    if calibration is None:
+        force, torque = hysteresis.full_scale[0], hysteresis.full_scale[3]
+        calibration = Calibration(0.0, force, torque)
+    share = hysteresis.residual_share(wrenches) / math.sqrt(3.0)
+    return calibration.with_gain_spread(share * hysteresis.gain_deficit())
 
 
 def common_misfit(hand: NDArray[np.float64], loaded: NDArray[np.float64]) -> float:

@@ -27,7 +27,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from com_core.contract import MOTION_OBJECT, MOTION_REST, MOTION_TARE, MOTION_VERIFY
 from com_core.estimation.fits.errors import EstimationError
@@ -37,6 +37,7 @@ from com_core.estimation.fits.motion import (
     MotionFit,
     fit_motion,
     joint_motion,
+    motion_calibration,
     principal_moments,
     regressors_along,
 )
@@ -47,7 +48,6 @@ from com_core.estimation.runs.hand_motion import PATH_POINTS, HandMotion
 from com_core.estimation.runs.inbox import Inbox
 from com_core.robot.model import RobotModel
 from com_core.sensing.calibration import Calibration
-from com_core.sensing.hysteresis import Hysteresis
 from com_core.sensing.noise import NoiseModel
 
 __all__ = [
@@ -61,7 +61,6 @@ __all__ = [
     "allowed_chi2_per_dof",
     "fitted_wrenches",
     "hand_motion_of",
-    "motion_calibration",
     "solve_motion",
 ]
 
@@ -225,10 +224,9 @@ def _fit(
 ) -> MotionFit:
     assert setup.robot is not None
     data = _motion_data(inbox, setup.robot, label, until_ns)
-    calibration = motion_calibration(setup.calibration, setup.hysteresis, data[3])
     try:
         return fit_motion(
-            setup.robot, *data, noise, hand, calibration, hysteresis=setup.hysteresis
+            setup.robot, *data, noise, hand, setup.calibration, hysteresis=setup.hysteresis
         )
     except ValueError as exc:
         raise EstimationError(f"{label}: {exc}") from exc
@@ -384,25 +382,6 @@ def allowed_chi2_per_dof(fit: MotionFit, alpha: float) -> float:
         quantile = fit.misfit_squares / fit.misfit * chi2_isf(alpha, nu)
         allowed = max(allowed, fit.expected + (quantile - fit.misfit) / fit.dof)
     return allowed
-
-
-def motion_calibration(
-    calibration: Calibration | None, hysteresis: Hysteresis | None, wrenches: ArrayLike
-) -> Calibration | None:
-    """The sensor's error a fit in motion of ``wrenches`` (n, 6; N, N m) weighs: the
-    ``calibration`` term with, for a sensor of stated ``hysteresis``, what is left of its
-    gain deficit once taken off the readings as a further gain error per axis, zero-mean,
-    its spread the rms of the gain along the motion's loops: the slope moves evenly
-    between the bounds the share of the deficit the motion's span leaves
-    (``Hysteresis.residual_share``) sets on either side, so its rms is that share over
-    sqrt(3)."""
-    if hysteresis is None:
-        return calibration
-    if calibration is None:
-        force, torque = hysteresis.full_scale[0], hysteresis.full_scale[3]
-        calibration = Calibration(0.0, force, torque)
-    share = hysteresis.residual_share(wrenches) / math.sqrt(3.0)
-    return calibration.with_gain_spread(share * hysteresis.gain_deficit())
 
 
 def fitted_wrenches(
