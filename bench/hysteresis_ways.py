@@ -13,10 +13,11 @@ sensor's band) knows the readings. Per way between two windows and axis: the loa
 total variation beyond what ``travel`` measures from the readings, in half-widths of its
 deadband (what rings within the noise); the true increment of the state's first-order
 residual (from a state started in the middle of its band along the same loads) over the
-sigma the fit weighs for it (``hysteresis_cov``), and what is left of it less its second
-order, the sum of d x |dx| / (``SATURATION`` r) along the readings' path through
-``travel``'s follower (x the load from where the twin started, which the sim knows: a
-fit's start offset would take that part, as it is the travel's); and the share each
+sigma the fit would weigh for it were its move beyond the first order not taken off
+(``hysteresis_cov``), and what that move leaves of it over the sigma the fit weighs for
+what is left (``BEYOND_LEFT``): the move read from the readings as the fit reads it
+(``Hysteresis.beyond_first_order``), but from where the twin started, which the sim
+knows (the fit's start offset takes the rest, the model being linear in it); and the share each
 window keeps of the state's offset where the run starts, or after the contact, the fit's
 (``start_memory`` of the travel measured) against the truth's. A way through contact
 (the grasp) is weighed at the most it can move the state and leaves it anywhere in its
@@ -27,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import copy
+from dataclasses import replace
 
 import numpy as np
 from motion import SETTLE, STATIC_PLAN, TARE_DWELL
@@ -37,7 +39,7 @@ from com_core.estimation.fits.windows import Window
 from com_core.estimation.runs.fit_setup import FitSetup
 from com_core.robot.choreography import Choreography
 from com_core.robot.config import read_robot_config
-from com_core.sensing.hysteresis import SATURATION, Hysteresis, follow, reach, travel
+from com_core.sensing.hysteresis import Hysteresis, follow, reach, travel
 from com_core.sensing.sensor_profiles import PROFILES
 from wrench_sim.config import SimConfig
 from wrench_sim.joint_torques import wrench_in
@@ -98,17 +100,15 @@ def read_pass(robot: str, mass: float, seed: int, profile) -> dict:
 def ways(steps: dict, hysteresis: Hysteresis) -> dict:
     """Per window after the first (n - 1,): the way's label, whether it is through
     contact, and per axis (n - 1, 6) the hidden travel in half-widths, the true
-    increment over the fit's sigma, and the start's share the fit and the truth keep."""
-    gain = hysteresis.gain()
+    increment over the sigma the fit weighs for it without ``Observation.beyond``, what
+    it leaves less the move beyond its first order over the sigma weighed with it, and the
+    start's share the fit and the truth keep."""
     labels = [label for label in dict.fromkeys(steps["in"]) if label]
     index = [np.flatnonzero(steps["in"] == label) for label in labels]
     middles = [i[len(i) // 2] for i in index]
-    readings = steps["reading"] / gain
-    d = hysteresis.gain_deficit()
-    scale = SATURATION * np.asarray(hysteresis.full_scale)
-    zero = readings[index[0]].mean(axis=0) - steps["load"][index[0]].mean(axis=0)
+    readings = steps["reading"] / hysteresis.gain()
     contact = next(k for k, label in enumerate(labels) if label.startswith(OBJECT_PREFIX))
-    observations, hidden, second = [], [], []
+    observations, hidden, beyond = [], [], [np.zeros(6)]
     for k, (label, i) in enumerate(zip(labels, index, strict=True)):
         window = Window(label, readings[i].mean(axis=0), np.eye(6), len(i))
         loaded = label.startswith(OBJECT_PREFIX)
@@ -118,28 +118,32 @@ def ways(steps: dict, hysteresis: Hysteresis) -> dict:
             known = {"travel": travel(readings[a:b]), "reach": reach(readings[a:b])}
             own = np.abs(np.diff(steps["load"][a:b], axis=0)).sum(axis=0)
             hidden.append((own - known["travel"]) / follow(readings[a:b])[1])
-            start = steps["load"][index[contact][0] if k >= contact else 0]  # the twin's
-            path, _ = follow(readings[a:b] - zero - start)
-            moved = 0.5 * (path[1:] + path[:-1]) * np.abs(np.diff(path, axis=0))
-            second.append(d * moved.sum(axis=0) / scale)
+            first = index[contact][0] if k >= contact else 0  # where the twin started
+            beyond.append(hysteresis.beyond_first_order(readings[first:b])[-1])
         observations.append(Observation(window, np.eye(3), loaded, 0, float(k), **known))
     told = FitSetup(hysteresis=hysteresis)
     n = len(observations)
-    sigma = np.sqrt(np.diag(told.hysteresis_cov(observations))[: 6 * n]).reshape(n, 6)
+
+    def sigma(obs: list[Observation]) -> np.ndarray:
+        return np.sqrt(np.diag(told.hysteresis_cov(obs))[: 6 * n]).reshape(n, 6)[1:]
+
+    taken = [replace(o, beyond=moved) for o, moved in zip(observations, beyond, strict=True)]
     held = [o.load for o in observations]
     starts = [0] + [k for k in range(1, n) if held[k] != held[k - 1]]
     latest = [max(j for j in starts if j <= k) for k in range(n)]  # the offset each keeps
     designs = [o.nuisance for o in told.with_hysteresis(observations)]
     kept = np.array([np.diag(designs[k][:, 6 * (n + starts.index(latest[k])) :][:, :6])
                      for k in range(n)])  # fmt: skip
+    d = hysteresis.gain_deficit()
     residual = np.array([(steps["twin"][i] + d * steps["load"][i]).mean(axis=0) for i in index])
     offset = np.array([(steps["state"][i] - steps["twin"][i]).mean(axis=0) for i in index])
+    increment = np.diff(residual, axis=0)
     return {
         "label": labels[1:],
         "contact": [k in starts for k in range(1, n)],
         "hidden": np.array(hidden),
-        "z": (np.diff(residual, axis=0) / sigma[1:]),
-        "z_second": (np.diff(residual, axis=0) - np.array(second)) / sigma[1:],
+        "z": increment / sigma(observations),
+        "z_left": (increment - np.diff(beyond, axis=0)) / sigma(taken),
         "kept": kept[1:],
         "true_kept": offset[1:] / offset[latest[1:]],
     }
@@ -164,6 +168,7 @@ def main() -> None:
         for k, label in enumerate(out["label"]):
             kind = "contact" if out["contact"][k] else "       "
             print(f"  {label:18s} {kind}  hidden {out['hidden'][k]}  z {out['z'][k]}")
+            print(f"  {'':27s} less beyond, z {out['z_left'][k]}")
     contact = np.concatenate([o["contact"] for o in found])
     hidden = np.concatenate([o["hidden"] for o in found])
     z = np.concatenate([o["z"] for o in found])
@@ -177,8 +182,10 @@ def main() -> None:
         f"  increment / sigma between poses, rms per axis: {np.sqrt(np.mean(between**2, axis=0))}"
     )
     print(f"  increment / sigma between poses, largest |.|:  {np.abs(between).max(axis=0)}")
-    left = np.concatenate([o["z_second"] for o in found])[~contact]
-    print(f"  less its second order, rms per axis:           {np.sqrt(np.mean(left**2, axis=0))}")
+    left = np.concatenate([o["z_left"] for o in found])[~contact]
+    print(f"  less its move beyond the first order, over the sigma then weighed, rms per axis: "
+          f"{np.sqrt(np.mean(left**2, axis=0))}")  # fmt: skip
+    print(f"  the same, largest |.|: {np.abs(left).max(axis=0)}")
     off = np.abs(kept - true_kept).max(axis=0)
     print(f"  the start's share kept, the fit's less the truth's, largest |.|: {off}")
 

@@ -180,42 +180,49 @@ def xarm_pass(serial: int, verify: np.ndarray | None = None, slip: float = 0.0) 
 def test_the_estimator_weighs_the_hysteresis_a_static_pass_leaves():
     """A static pass (``xarm_pass``) read through the xArm F/T's hysteresis: the kinematic
     fit told the band (``FitSetup.hysteresis``), the readings' gain taken off
-    (``Hysteresis.gain``) and each window's travel and reach measured from the noisy
-    samples on the way (``hysteresis.travel``, ``reach``), fits its windows as the noise
-    and the state's moves explain, with honest error bars, the state starting anywhere in
-    its band (where the loads before the run left it); weighed by the net change of the
-    means alone (the path taken as straight) or without the start's offset
+    (``Hysteresis.gain``), each window's travel and reach measured from the noisy samples
+    on the way (``hysteresis.travel``, ``reach``) and the state's move beyond its first
+    order taken off (``FitSetup.with_ways``), fits its windows as the noise and the
+    state's moves explain, with honest error bars, the state starting anywhere in its band
+    (where the loads before the run left it); weighed by the net change of the means alone
+    (the path taken as straight) or without the start's offset
     (``Hysteresis.start_memory``) it fails, and without the band it is hundreds of times
-    off."""
+    off. With the move beyond the first order left in, weighed at the bound, the mass's
+    error bars are wide: rms error / sigma 0.43 (0.74 taken off; over 24 serials, 0.67
+    and 0.99)."""
     from dataclasses import replace
 
     from com_core.estimation.fits.known_gravity import kinematic_ml
     from com_core.estimation.runs.fit_setup import FitSetup
 
-    blind, straight, unstarted, weighed, z = [], [], [], [], []
+    blind, straight, unstarted, weighed, z, bent = [], [], [], [], [], []
     for serial in range(12):
-        obs, _, _, _, hysteresis = xarm_pass(serial)
+        obs, _, stamps, reads, hysteresis = xarm_pass(serial)
         told = FitSetup(hysteresis=hysteresis)
         gain = hysteresis.gain()
         read = [replace(o, window=replace(o.window, mean=o.window.mean * gain)) for o in obs]
         e = kinematic_ml(read).estimate
         blind.append(e.chi2 / e.dof)
-        for travelled, started, out in ((False, True, straight), (True, False, unstarted),
-                                        (True, True, weighed)):  # fmt: skip
-            taken = obs if travelled else [replace(o, travel=None, reach=None) for o in obs]
+        ways = told.with_ways(obs, stamps, reads)
+        cases = ((obs, True, bent), ([replace(o, travel=None, reach=None) for o in obs],
+                 True, straight), (ways, False, unstarted), (ways, True, weighed))  # fmt: skip
+        for taken, started, out in cases:
             carried, cov = told.with_hysteresis(taken), told.hysteresis_cov(taken)
             cov[6 * len(obs) :, 6 * len(obs) :] *= started  # the start's offset weighed
             e = kinematic_ml(carried, nuisance_cov=cov).estimate
-            out.append(e.chi2 / e.dof)
-        z.append((np.r_[e.mass, e.com] - np.r_[LOAD[0], LOAD[1]]) / np.sqrt(np.diag(e.cov)))
+            error = (np.r_[e.mass, e.com] - np.r_[LOAD[0], LOAD[1]]) / np.sqrt(np.diag(e.cov))
+            out.append(error[0] if out is bent else e.chi2 / e.dof)
+        z.append(error)
         assert replace(told, hysteresis=None).with_hysteresis(obs) == obs
         assert replace(told, hysteresis=None).hysteresis_cov(obs) is None
+        assert replace(told, hysteresis=None).with_ways(obs, stamps, reads) == obs
     assert np.median(blind) > 5, blind  # the hysteresis, read as a load that moved: ~1200
     assert np.max(weighed) < 2.0, weighed  # ~0.9, at most 1.6
     assert np.median(unstarted) > 5, unstarted  # ~25
     assert np.median(weighed) < np.median(straight), (weighed, straight)  # ~1.0, 30
-    rms = np.sqrt(np.mean(np.square(z), axis=0))  # ~0.41, 0.82, 0.32, 0.68
-    assert np.all(np.abs(z) < 3.5) and np.all(rms < 1.4) and np.sqrt(np.mean(rms**2)) > 0.5, z
+    rms = np.sqrt(np.mean(np.square(z), axis=0))
+    assert np.all(np.abs(z) < 3.5) and np.all(rms < 1.4) and np.sqrt(np.mean(rms**2)) > 0.6, z
+    assert rms[0] > 0.65 > np.sqrt(np.mean(np.square(bent))), (rms, bent)  # 0.74, 0.43
 
 
 def test_a_verification_pose_weighs_the_hysteresis_as_the_fit_left_it():
@@ -462,3 +469,31 @@ def test_two_states_close_in_along_a_motion_as_the_path_memory_read_from_the_rea
     assert np.all(truth[-1] < 0.5)  # the states close in by half or more over 3 s
     assert_allclose(memory, truth, atol=0.03)
     assert np.all(memory >= truth)
+
+
+def test_the_move_beyond_the_first_order_is_read_from_the_noisy_readings_of_a_static_pass():
+    """A pass through plateaus (a 2 kg load tilted about, 1 s ways and 1 s at rest, the
+    state started in the middle of its band), read with noise: what the state moved beyond
+    its first order -d dx at rest, the model's curvature the gain does not take (to second
+    order d / (SATURATION r) times the integral of x |dx|), is read by
+    ``Hysteresis.beyond_first_order`` from the readings, their gain taken off, to within 5
+    % of its largest (measured 0.5-3 %); without noise to within 1 % (0.6 %)."""
+    from com_core.sensing.hysteresis import Hysteresis
+
+    plateaus = np.array([[0, 0, 20, 0, 0, 0], [10, 0, 17, -0.5, 0.2, 0.3],
+                         [-10, 0, 17, 0.5, -0.2, -0.3], [0, 12, 16, 0.1, 0.6, 0.1],
+                         [0, -12, 16, -0.1, -0.6, 0.4], [0, 0, 20, 0, 0, 0]])  # fmt: skip
+    ramp = 0.5 - 0.5 * np.cos(np.linspace(0.0, np.pi, 1000))[:, None]
+    ramp = np.vstack([ramp, np.ones((1000, 1))])
+    loads = np.vstack([a + ramp * (b - a) for a, b in pairwise(plateaus)])
+    rest = np.tile(np.arange(2000) >= 1000, len(plateaus) - 1)
+    g = gauges(hysteresis=BAND)
+    g.state = np.zeros(6)
+    clean = np.array([g.apply(x) for x in loads])
+    hysteresis = Hysteresis(BAND, (150.0,) * 3 + (4.0,) * 3)
+    truth = clean - loads + hysteresis.gain_deficit() * (loads - loads[0])
+    largest = np.abs(truth).max(axis=0)
+    noise = np.random.default_rng(5).normal(0.0, [0.05] * 3 + [0.002] * 3, loads.shape)
+    for sigmas, within in ((0.0, 0.01), (1.0, 0.05)):
+        read = hysteresis.beyond_first_order((clean + sigmas * noise) / hysteresis.gain())
+        assert np.all(np.abs(read - truth)[rest].max(axis=0) < within * largest)

@@ -141,7 +141,8 @@ def plan_observations(plan: Plan) -> list[Observation]:
     release's paths are not known before the run (the fingers press on the table, the lift
     overshoots): the windows after them have an unbounded ``travel``, the most a sensor's
     hysteresis moves on such a way (``Hysteresis.window_sigma``); the moves between poses
-    are taken as straight."""
+    are taken as straight, and the hysteresis's move beyond its first order along them as
+    told by this run's samples (``Observation.beyond``), not by the cached pass's."""
     g_home = as_vector(plan.gravity_home, 3, "gravity_home")
     home = _home_rotation(g_home / np.linalg.norm(g_home))
     base_g = np.asarray(DEFAULT_GRAVITY)
@@ -159,7 +160,9 @@ def plan_observations(plan: Plan) -> list[Observation]:
         if load:
             wrench = wrench + gravity_wrench(plan.mass_guess, plan.com_guess, g)
         n = max(1, round(dwell * rate))
-        return Observation(Window(pose, wrench, sample_cov / n, n), rotation, load, epoch, time)
+        window = Window(pose, wrench, sample_cov / n, n)
+        beyond = np.zeros(6) if epoch == 0 else None  # this run's samples tell it
+        return Observation(window, rotation, load, epoch, time, beyond=beyond)
 
     rotations = [(name, home @ r) for name, r in plan.poses()]
     tare_rotations = [(name, home @ r) for name, r in plan.tare_plan().poses()]

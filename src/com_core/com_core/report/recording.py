@@ -70,7 +70,7 @@ def write_recording_report(recording: Recording, fit: RecordingFit, png: Path | 
         residuals = [
             (
                 o.time - recording.times[0],
-                (o.window.mean - wrench) / np.sqrt(np.diag(o.window.cov)),
+                (o.mean - wrench) / np.sqrt(np.diag(o.window.cov)),
             )
             for o, wrench in _window_residuals(fit)
         ]

@@ -95,7 +95,10 @@ class Observation:
     known, is the load's total variation on the way from the window before it in its
     epoch (``sensing.hysteresis.travel``; what the sensor's hysteresis moves with), and
     ``reach`` (2, 6; N, N m) the lowest and highest load on that way (``hysteresis.reach``:
-    a press or an overshoot beyond what the windows read)."""
+    a press or an overshoot beyond what the windows read). ``beyond`` (6,; N, N m), when
+    known, is what the hysteresis state moved beyond its first order since its epoch's
+    first window, or the first after a contact (``Hysteresis.beyond_first_order``): the
+    fits take it off the window's mean (``mean``)."""
 
     window: Window
     rotation: NDArray[np.float64]
@@ -107,6 +110,12 @@ class Observation:
     nuisance: NDArray[np.float64] | None = None
     travel: NDArray[np.float64] | None = None
     reach: NDArray[np.float64] | None = None
+    beyond: NDArray[np.float64] | None = None
+
+    @property
+    def mean(self) -> NDArray[np.float64]:
+        """(6,; N, N m): the window's mean less ``beyond``, what the fits take."""
+        return self.window.mean if self.beyond is None else self.window.mean - self.beyond
 
 
 @dataclass(frozen=True)
@@ -379,7 +388,7 @@ class _Model:
         self.mount = slice(start, start + 5) if fit_mount else slice(start, start)
         self.size = self.mount.stop
         self.tilt_axes = _across(gravity)
-        self.means = np.concatenate([o.window.mean for o in self.obs]) if self.obs else None
+        self.means = np.concatenate([o.mean for o in self.obs]) if self.obs else None
         self.whiten = self._whitening() if whitening is None else whitening
         self.epoch_time = [
             float(np.mean([o.time for o in self.obs if o.epoch == e] or [0.0]))

@@ -885,8 +885,8 @@ def _self_check(
             return None
         for i in predicted:
             o = obs[i]
-            wrench, cov = fit.predict(o.rotation, o.time, o.load, o.window.mean, o.design)
-            r = o.window.mean - wrench
+            wrench, cov = fit.predict(o.rotation, o.time, o.load, o.mean, o.design)
+            r = o.mean - wrench
             residuals.append(r)
             sigmas.append(r / np.sqrt(np.diag(cov + o.window.cov)))
     return SelfCheck(

@@ -320,9 +320,44 @@ class FitSetup:
             loads = subtracted
         for window in loads:
             add(window, OBJECT_PREFIX + window.pose, True, 0)
-        if self.hysteresis is not None:
-            observations = _with_travel(observations, stamps, wrenches)
-        return self.with_hysteresis(observations)
+        return self.with_hysteresis(self.with_ways(observations, stamps, wrenches))
+
+    def with_ways(
+        self,
+        observations: list[Observation],
+        stamps: NDArray[np.int64],
+        wrenches: NDArray[np.float64],
+    ) -> list[Observation]:
+        """``observations`` of this run (epoch 0) with the load's ``travel`` from the window
+        before each, in time order: the samples (``stamps`` ns, ``wrenches`` (n, 6)) from
+        the middle of one window to the middle of the next (``sensing.hysteresis.travel``),
+        the lowest and highest load on it (``reach``), and what the sensor's hysteresis
+        state moved beyond its first order since the first window after the epoch's start
+        or the last way through contact (``beyond``; ``Hysteresis.beyond_first_order``);
+        as they are without a hysteresis."""
+        if self.hysteresis is None:
+            return observations
+        out = list(observations)
+        order = np.argsort(stamps, kind="stable")
+        times, loads = stamps[order] * 1e-9, wrenches[order]
+
+        def at(time: float, side: str) -> int:
+            return int(np.searchsorted(times, time, side=side))
+
+        for epoch in _epoch_orders(out):
+            if out[epoch[0]].epoch != 0:
+                continue
+            for earlier, later in pairwise(epoch):
+                way = loads[at(out[earlier].time, "left") : at(out[later].time, "right")]
+                out[later] = replace(out[later], travel=travel(way), reach=reach(way))
+            for ways in _between_contacts(out, epoch):
+                start = at(out[ways[0]].time, "left")
+                path = loads[start : at(out[ways[-1]].time, "right")]
+                moved = self.hysteresis.beyond_first_order(path)
+                for i in ways:
+                    k = min(max(at(out[i].time, "right") - 1 - start, 0), len(moved) - 1)
+                    out[i] = replace(out[i], beyond=moved[k])
+        return out
 
     def with_hysteresis(self, observations: list[Observation]) -> list[Observation]:
         """``observations`` with the sensor's hysteresis as a nuisance each window carries
@@ -382,7 +417,8 @@ class FitSetup:
             return None
         used = list(fit.observations)
         n = 6 * len(used)
-        extended = self.with_hysteresis(_with_travel([*used, observation], stamps, wrenches))
+        ways = self.with_ways([*used, observation], stamps, wrenches)
+        extended = self.with_hysteresis(ways)
         design = extended[-1].nuisance
         own_cov = self.hysteresis_cov(extended)
         assert design is not None and own_cov is not None
@@ -390,7 +426,8 @@ class FitSetup:
         shared = np.hstack([design[:, :n], design[:, n + 6 :]])  # the fit's unknowns
         own = design[:, n : n + 6] @ own_cov[n : n + 6, n : n + 6] @ design[:, n : n + 6].T
         mean, cov = posterior
-        return shared @ mean, shared @ cov @ shared.T + own
+        beyond = np.zeros(6) if ways[-1].beyond is None else ways[-1].beyond
+        return shared @ mean + beyond, shared @ cov @ shared.T + own
 
     def _hysteresis_ways(
         self, observations: Sequence[Observation]
@@ -414,7 +451,7 @@ class FitSetup:
             contact = [i for i in range(1, len(picked)) if picked[i].load != picked[i - 1].load]
             moves = np.array(travels, dtype=np.float64)
             moves[contact] = np.inf
-            sigma = h.window_sigma(means, moves, reaches)
+            sigma = h.window_sigma(means, moves, reaches, [o.beyond is not None for o in picked])
             starts = [0, *contact]
             out.append((order, sigma, [h.start_memory(means, travels, j) for j in starts]))
         return out
@@ -488,25 +525,16 @@ class FitSetup:
         return fit, observations
 
 
-def _with_travel(
-    observations: list[Observation], stamps: NDArray[np.int64], wrenches: NDArray[np.float64]
-) -> list[Observation]:
-    """``observations`` of this run (epoch 0) with the load's ``travel`` from the window
-    before each, in time order: the samples (``stamps`` ns, ``wrenches`` (n, 6)) from the
-    middle of one window to the middle of the next (``sensing.hysteresis.travel``), and
-    the lowest and highest load on it (``reach``)."""
-    out = list(observations)
-    order = np.argsort(stamps, kind="stable")
-    times, loads = stamps[order] * 1e-9, wrenches[order]
-    for epoch in _epoch_orders(out):
-        if out[epoch[0]].epoch != 0:
-            continue
-        for earlier, later in pairwise(epoch):
-            start = np.searchsorted(times, out[earlier].time, side="left")
-            stop = np.searchsorted(times, out[later].time, side="right")
-            way = loads[start:stop]
-            out[later] = replace(out[later], travel=travel(way), reach=reach(way))
-    return out
+def _between_contacts(observations: Sequence[Observation], order: list[int]) -> list[list[int]]:
+    """``order`` (an epoch's indices in time order) cut where the object was grasped or
+    released (``Observation.load`` changes): the ways through contact."""
+    runs: list[list[int]] = []
+    for i in order:
+        if runs and observations[i].load == observations[runs[-1][-1]].load:
+            runs[-1].append(i)
+        else:
+            runs.append([i])
+    return runs
 
 
 def _epoch_orders(observations: Sequence[Observation]) -> list[list[int]]:
