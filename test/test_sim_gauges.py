@@ -216,6 +216,10 @@ def test_the_estimator_weighs_the_hysteresis_a_static_pass_leaves():
         assert replace(told, hysteresis=None).with_hysteresis(obs) == obs
         assert replace(told, hysteresis=None).hysteresis_cov(obs) is None
         assert replace(told, hysteresis=None).with_ways(obs, stamps, reads) == obs
+        alone = told.with_ways(obs[:6], stamps, reads)  # the grasp's window alone after it
+        assert not alone[0].beyond.any() and not alone[5].beyond.any(), alone
+        same = zip(alone[:5], ways[:5], strict=True)
+        assert all(np.array_equal(a.beyond, b.beyond) for a, b in same)
     assert np.median(blind) > 5, blind  # the hysteresis, read as a load that moved: ~1200
     assert np.max(weighed) < 2.0, weighed  # ~0.9, at most 1.6
     assert np.median(unstarted) > 5, unstarted  # ~25

@@ -353,9 +353,9 @@ class FitSetup:
             for ways in _between_contacts(out, epoch):
                 start = at(out[ways[0]].time, "left")
                 path = loads[start : at(out[ways[-1]].time, "right")]
-                moved = self.hysteresis.beyond_first_order(path)
-                for i in ways:
-                    k = min(max(at(out[i].time, "right") - 1 - start, 0), len(moved) - 1)
+                moved = np.vstack([np.zeros(6), self.hysteresis.beyond_first_order(path)])
+                for i in ways:  # a way of no samples (a window alone): none moved
+                    k = min(max(at(out[i].time, "right") - start, 0), len(moved) - 1)
                     out[i] = replace(out[i], beyond=moved[k])
         return out
 
