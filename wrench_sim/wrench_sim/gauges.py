@@ -31,7 +31,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from com_core.sensing.hysteresis import SATURATION, edge
+from com_core.sensing.hysteresis import SATURATION, dahl_step, edge
 from com_core.sensing.sensor_profiles import SensorProfile
 
 __all__ = ["GaugeErrors", "profile_gauges"]
@@ -95,9 +95,7 @@ class GaugeErrors:
         (s); calls in time order (the hysteresis remembers the load's path)."""
         x = np.asarray(wrench, dtype=np.float64)
         if self._last is not None:
-            step = x - self._last
-            reach = -np.expm1(-np.abs(step) / (SATURATION * self.range))
-            self.state -= (np.sign(step) * self.edge + self.state) * reach
+            self.state = dahl_step(self.state, x - self._last, self.edge, SATURATION * self.range)
         self._last = x.copy()
         gain = 1.0 + self.coefficient * self.temperature(t)
         return x * gain + self.state + self.nonlinearity * self.shape(x / self.range)

@@ -73,6 +73,7 @@ __all__ = [
     "TRAVEL_BLOCK",
     "TRAVEL_DEADBAND",
     "Hysteresis",
+    "dahl_step",
     "edge",
     "follow",
     "reach",
@@ -238,10 +239,21 @@ class Hysteresis:
         b, scale = edge(self.band), SATURATION * np.asarray(self.full_scale, dtype=np.float64)
         state = np.zeros_like(follower)
         for i, step in enumerate(np.diff(follower, axis=0), start=1):
-            reach = -np.expm1(-np.abs(step) / scale)
-            state[i] = state[i - 1] - (np.sign(step) * b + state[i - 1]) * reach
+            state[i] = dahl_step(state[i - 1], step, b, scale)
         moved = state + self.gain_deficit() * (follower - follower[0])
         return _per_sample(moved, len(x))
+
+
+def dahl_step(
+    state: NDArray[np.float64],
+    step: NDArray[np.float64],
+    b: NDArray[np.float64],
+    scale: ArrayLike,
+) -> NDArray[np.float64]:
+    """(6,): the state (N, N m) after a change ``step`` (6,) of the load: it moves toward
+    -b while the load rises, +b while it falls, by 1 - exp(-|step| / ``scale``) of the
+    way (``scale`` = ``SATURATION`` r; module)."""
+    return state - (np.sign(step) * b + state) * -np.expm1(-np.abs(step) / scale)
 
 
 def _per_sample(blocks: NDArray[np.float64], n: int) -> NDArray[np.float64]:

@@ -350,7 +350,7 @@ class FitSetup:
             for earlier, later in pairwise(epoch):
                 way = loads[at(out[earlier].time, "left") : at(out[later].time, "right")]
                 out[later] = replace(out[later], travel=travel(way), reach=reach(way))
-            for ways in _between_contacts(out, epoch):
+            for ways in np.split(np.array(epoch), _contacts(out, epoch)):
                 start = at(out[ways[0]].time, "left")
                 path = loads[start : at(out[ways[-1]].time, "right")]
                 moved = np.vstack([np.zeros(6), self.hysteresis.beyond_first_order(path)])
@@ -426,7 +426,8 @@ class FitSetup:
         shared = np.hstack([design[:, :n], design[:, n + 6 :]])  # the fit's unknowns
         own = design[:, n : n + 6] @ own_cov[n : n + 6, n : n + 6] @ design[:, n : n + 6].T
         mean, cov = posterior
-        beyond = np.zeros(6) if ways[-1].beyond is None else ways[-1].beyond
+        beyond = ways[-1].beyond
+        assert beyond is not None, "a window of this run without its way's samples"
         return shared @ mean + beyond, shared @ cov @ shared.T + own
 
     def _hysteresis_ways(
@@ -448,7 +449,7 @@ class FitSetup:
             means = [o.window.mean for o in picked]
             travels = [np.full(6, np.nan) if o.travel is None else o.travel for o in picked]
             reaches = [np.full((2, 6), np.nan) if o.reach is None else o.reach for o in picked]
-            contact = [i for i in range(1, len(picked)) if picked[i].load != picked[i - 1].load]
+            contact = _contacts(observations, order)
             moves = np.array(travels, dtype=np.float64)
             moves[contact] = np.inf
             sigma = h.window_sigma(means, moves, reaches, [o.beyond is not None for o in picked])
@@ -525,16 +526,11 @@ class FitSetup:
         return fit, observations
 
 
-def _between_contacts(observations: Sequence[Observation], order: list[int]) -> list[list[int]]:
-    """``order`` (an epoch's indices in time order) cut where the object was grasped or
-    released (``Observation.load`` changes): the ways through contact."""
-    runs: list[list[int]] = []
-    for i in order:
-        if runs and observations[i].load == observations[runs[-1][-1]].load:
-            runs[-1].append(i)
-        else:
-            runs.append([i])
-    return runs
+def _contacts(observations: Sequence[Observation], order: list[int]) -> list[int]:
+    """The places in ``order`` (an epoch's indices in time order) whose window follows a
+    way through contact: the object grasped or released (``Observation.load`` changed)."""
+    return [k for k in range(1, len(order))
+            if observations[order[k]].load != observations[order[k - 1]].load]  # fmt: skip
 
 
 def _epoch_orders(observations: Sequence[Observation]) -> list[list[int]]:
