@@ -125,3 +125,42 @@ def test_a_hand_model_serves_the_sensor_it_was_read_by_only(tmp_path):
     assert latest_hand_model(path, cache_owner("panda_hand", "ft-3")) is None
     assert latest_hand_model(path, cache_owner("panda_hand", "")) is None
     assert cache_owner("panda_hand", "") == "panda_hand on an unnamed sensor"
+
+
+def test_cached_windows_and_their_ways_read_as_the_samples_do(tmp_path):
+    """The cache keeps what the sensor read, and each window's way (``Way``) to the last
+    bit; an exploration takes both through what corrects its samples (here the gain of the
+    xArm F/T's stated hysteresis, 1.8-3.5 % in the forces): a cached hand weighs what the
+    run's own samples say it weighs, not 3.5 % less across the sensor."""
+    from com_core.estimation.runs.exploration import Exploration
+    from com_core.estimation.runs.settings import use_cached_tares
+    from com_core.sensing.hysteresis import Hysteresis, Way
+    from com_core.sensing.sensor_profiles import PROFILES
+
+    xarm = PROFILES["xarm_ft"]
+    hysteresis = Hysteresis.stated(xarm.hysteresis, xarm.limit_f, xarm.limit_tau)
+    read = np.array([-5.6, -1.4, 7.7, 0.02, -0.22, 0.01])
+    ways = {
+        "home": Way(None, None, np.zeros(6)),
+        "tilt": Way(np.full(6, 3.0), np.array([[-6.0] * 6, [9.5] * 6]), read * 1e-3),
+    }
+    path = tmp_path / "tare_cache.json"
+    cov = np.eye(6) * 1e-6
+    cached = {pose: window_from_mean(pose, read, cov, 5000) for pose in ways}
+    save_tares(path, "panda_hand", cached, ways=ways)
+    again = load_tares(path)
+    assert again.ways.keys() == ways.keys() and again.ways["home"].travel is None
+    for name in ("travel", "reach", "beyond"):
+        np.testing.assert_array_equal(
+            getattr(again.ways["tilt"], name), getattr(ways["tilt"], name)
+        )
+    exploration = Exploration(expected_frame="", hysteresis=hysteresis)
+    use_cached_tares(exploration, path)
+    exploration.add_samples([1], [read], "")
+    as_read = exploration.samples()[1][0]
+    assert np.abs(as_read[:3] / read[:3] - 1.0).min() > 0.015  # the gain: 3.5, 3.5, 1.8 %
+    np.testing.assert_allclose(exploration.tares["tilt"].mean, as_read, rtol=1e-12)
+    way = exploration.tare_ways["tilt"]
+    np.testing.assert_allclose(way.beyond, as_read * 1e-3, rtol=1e-12)
+    np.testing.assert_allclose(way.reach, np.outer([-6.0, 9.5], as_read / read), rtol=1e-12)
+    np.testing.assert_allclose(way.travel, 3.0 * as_read / read, rtol=1e-12)

@@ -73,6 +73,7 @@ __all__ = [
     "TRAVEL_BLOCK",
     "TRAVEL_DEADBAND",
     "Hysteresis",
+    "Way",
     "dahl_step",
     "edge",
     "follow",
@@ -117,6 +118,29 @@ def _loop_opening(saturation: float) -> float:
 def edge(band: ArrayLike) -> NDArray[np.float64]:
     """b per axis (6,): the state's bound for a full-range loop's ``band`` H (6,)."""
     return np.asarray(band, dtype=np.float64) / _loop_opening(SATURATION)
+
+
+@dataclass(frozen=True)
+class Way:
+    """What a window's way from the window before it did to the hysteresis state, as the
+    readings tell it (``Hysteresis.ways``): the load's ``travel`` (6,; N, N m) and ``reach``
+    (2, 6), None for the first window of its run or pass, and ``beyond`` (6,), the state's
+    move beyond its first order since that first window or the last way through contact
+    (``Hysteresis.beyond_first_order``). A cached tare pass keeps its windows' ways as read
+    (``corrected`` takes them through what corrects a reading)."""
+
+    travel: NDArray[np.float64] | None
+    reach: NDArray[np.float64] | None
+    beyond: NDArray[np.float64]
+
+    def corrected(self, correction: ArrayLike) -> Way:
+        """The way of the readings times ``correction`` (6, 6)'s transpose: its ``reach``'s
+        ends and ``beyond`` so mapped, its ``travel`` bounded by |correction| times it
+        (a total variation's bound under a linear map)."""
+        m = np.asarray(correction, dtype=np.float64)
+        travel = None if self.travel is None else np.abs(m) @ self.travel
+        reach = None if self.reach is None else np.sort(self.reach @ m.T, axis=0)
+        return Way(travel, reach, m @ self.beyond)
 
 
 @dataclass(frozen=True)
@@ -242,6 +266,36 @@ class Hysteresis:
             state[i] = dahl_step(state[i - 1], step, b, scale)
         moved = state + self.gain_deficit() * (follower - follower[0])
         return _per_sample(moved, len(x))
+
+    def ways(
+        self,
+        times: Sequence[float],
+        contacts: Sequence[int],
+        stamps: NDArray[np.float64],
+        loads: NDArray[np.float64],
+    ) -> list[Way]:
+        """Each window's ``Way``, for windows whose middles are at ``times`` (s, ascending)
+        read along the samples at ``stamps`` (s, ascending) of ``loads`` (n, 6; N, N m):
+        the samples from the middle of one window to the middle of the next give its
+        ``travel`` and ``reach``, and those from the first window, or from the first after
+        each way through contact (``contacts``: those windows' indices), its ``beyond``;
+        a window alone between contacts, with no samples on its way, moved nothing."""
+
+        def at(time: float, side: str) -> int:
+            return int(np.searchsorted(stamps, time, side=side))
+
+        beyond = np.zeros((len(times), 6))
+        for ways in np.split(np.arange(len(times)), sorted(set(contacts) - {0})):
+            start = at(times[ways[0]], "left")
+            path = loads[start : at(times[ways[-1]], "right")]
+            moved = np.vstack([np.zeros(6), self.beyond_first_order(path)])
+            for k in ways:
+                beyond[k] = moved[min(max(at(times[k], "right") - start, 0), len(moved) - 1)]
+        out = [Way(None, None, beyond[0])]
+        for k in range(1, len(times)):
+            way = loads[at(times[k - 1], "left") : at(times[k], "right")]
+            out.append(Way(travel(way), reach(way), beyond[k]))
+        return out
 
 
 def dahl_step(

@@ -141,7 +141,7 @@ from com_core.report import RunData, read_run, write_report
 from com_core.robot.choreography import VERIFY_POSE, Choreography
 from com_core.robot.config import BAG_ROBOT_FILE, RobotConfig, write_robot_config
 from com_core.sensing.calibration import Calibration
-from com_core.sensing.hysteresis import Hysteresis
+from com_core.sensing.hysteresis import Hysteresis, Way
 from com_core.sensing.noise import NoiseModel
 from com_core.sequencing.errors import (
     CancelledRunError,
@@ -424,7 +424,9 @@ class ExplorationRun:
         bag = self._start_bag(self.progress.plan(phases), values)
         self._to_known_state(home, pick)
         self.arm.gripper(close=False)
-        tare_home = self._tare(plan, motion, bag, values["tare_cache"], bracket)
+        tare_home = self._tare(
+            plan, motion, bag, values["tare_cache"], bracket, hysteresis_of(values)
+        )
         self._enter(GRASP, "phase 2/4: grasp and lift")
         self.arm.move(home, "home")
         self.arm.move(pick, "the object")
@@ -806,10 +808,12 @@ class ExplorationRun:
         bag: Path,
         estimator_cache: str,
         hand_model: bool,
+        hysteresis: Hysteresis | None,
     ) -> Window:
         """Phase 1: reuse the cached tare pass of this hand if still valid, else take a new
-        one; returns an empty-hand window at home (of this run when it has one). The
-        policy: docs/design.md, "The tare cache"."""
+        one, cached with its windows' ways through the sensor's stated ``hysteresis``;
+        returns an empty-hand window at home (of this run when it has one). The policy:
+        docs/design.md, "The tare cache"."""
         log = self.log
         path = self._cache_path()
         tare_poses = motion.pose_joints(plan.tare_plan())
@@ -847,14 +851,16 @@ class ExplorationRun:
             log.warning(f"tare not reusable ({reuse.verdict}): new tare pass")
             self.progress.plan(self._static_phases(plan, motion, hand_model, False))
         self._enter(TARE, "phase 1/4: tare pass with the empty hand")
-        windows, noise = self._captured_tares(tare_poses, plan.tare_dwell or plan.dwell)
+        windows, noise, ways = self._captured_tares(
+            tare_poses, plan.tare_dwell or plan.dwell, hysteresis
+        )
         if home_name not in windows:
             raise RunError(f"the tare window at {home_name} was not recorded")
         if complete_tare_pass(windows, [name for name, _ in tare_poses]):
             seen = {pose: self._record.windows[TARE_PREFIX + pose] for pose in windows}
             times = {pose: time for pose, (time, _) in seen.items()}
             joints = {p: j for p, (_, j) in seen.items()}
-            save_tares(path, signature, windows, joints, times, noise)
+            save_tares(path, signature, windows, joints, times, noise, ways)
             log.info(f"tare: saved to {path}")
         return windows[home_name]
 
@@ -937,10 +943,15 @@ class ExplorationRun:
             self.log.info(f"grasp holds {mass * 1e3:.1f} g")
 
     def _captured_tares(
-        self, poses: list[tuple[str, list[float]]], dwell: float
-    ) -> tuple[dict[str, Window], NoiseModel | None]:
+        self,
+        poses: list[tuple[str, list[float]]],
+        dwell: float,
+        hysteresis: Hysteresis | None = None,
+    ) -> tuple[dict[str, Window], NoiseModel | None, dict[str, Way]]:
         """Run a tare pass and reduce its windows from the wrenches the recorder saw, with
-        the noise they learn (``com_core.sensing.noise``); (windows by pose, that noise)."""
+        the noise they learn (``com_core.sensing.noise``) and, given the sensor's stated
+        ``hysteresis``, each window's way from the one before it (``Hysteresis.ways``);
+        (windows by pose, that noise, those ways; all as read)."""
 
         def tare_pass() -> int:
             self._pass(TARE_PREFIX, poses, dwell)
@@ -958,7 +969,14 @@ class ExplorationRun:
             self.log.warning(f"not usable: {note}")
         learnt = f"; {noise.summary()}" if noise is not None else ""
         self.log.info(f"{TARE_PREFIX}: {len(tares)} windows from {len(raws)} wrenches{learnt}")
-        return tares, noise
+        if hysteresis is None or not tares:
+            return tares, noise, {}
+        stamps, wrenches = exploration.samples()
+        times = {p: exploration.window_time(TARE_PREFIX + p, stamps, end) for p in tares}
+        order, ahead = sorted(tares, key=times.__getitem__), np.argsort(stamps, kind="stable")
+        found = hysteresis.ways([times[p] for p in order], [], stamps[ahead] * 1e-9,
+                                wrenches[ahead])  # fmt: skip
+        return tares, noise, dict(zip(order, found, strict=True))
 
     def _wrenches_during(self, act: Callable[[], int], what: str) -> tuple[list[bytes], int]:
         """(the raw wrenches the recorder saw while ``act`` ran, and up to the sim time

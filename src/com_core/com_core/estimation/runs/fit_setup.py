@@ -23,7 +23,6 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from itertools import pairwise
 
 import numpy as np
 from numpy.typing import NDArray
@@ -60,7 +59,7 @@ from com_core.estimation.runs.cutting import window_rotation, window_time
 from com_core.estimation.runs.inbox import Inbox
 from com_core.robot.model import KinematicsError, RobotModel
 from com_core.sensing.calibration import Calibration
-from com_core.sensing.hysteresis import Hysteresis, reach, travel
+from com_core.sensing.hysteresis import Hysteresis, Way
 from com_core.sensing.noise import NoiseModel
 from com_core.sensing.wrench_model import STANDARD_GRAVITY, SensorModel
 
@@ -108,6 +107,8 @@ class FitSetup:
         exploration's own tare windows take precedence.
     tare_joints, tare_times : the joint positions (rad, m; by name) and the time (s) of
         each cached tare window, for the hand model of the kinematic information.
+    tare_ways : each cached tare window's way from the one before it in its pass
+        (``sensing.hysteresis.Way``), for a sensor of stated hysteresis.
     untared : estimate the whole load beyond the sensor (hand + object) without any
         tare; the solution is then at best WARN and says so.
     information : 'wrenches', 'kinematics' or 'kinematics+mount' (see module); with no
@@ -138,6 +139,7 @@ class FitSetup:
     tares: Mapping[str, Window] = field(default_factory=dict)
     tare_joints: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
     tare_times: Mapping[str, float] = field(default_factory=dict)
+    tare_ways: Mapping[str, Way] = field(default_factory=dict)
     untared: bool = False
     information: str = WRENCHES
     robot: RobotModel | None = None
@@ -290,6 +292,7 @@ class FitSetup:
             load: bool,
             epoch: int,
             cached: tuple[Mapping[str, float], float] | None = None,
+            way: Way | None = None,
         ) -> None:
             try:
                 if cached is None:
@@ -300,7 +303,7 @@ class FitSetup:
             except (WindowError, KinematicsError) as exc:
                 notes.append(f"left out: {exc}")
                 return
-            observations.append(Observation(window, rotation, load, epoch, time))
+            observations.append(with_way(Observation(window, rotation, load, epoch, time), way))
 
         if not self.untared:
             for pose, window in fresh_tares.items():
@@ -308,7 +311,8 @@ class FitSetup:
             for pose, window in self.tares.items():
                 if pose not in fresh_tares and pose in self.tare_joints:
                     cached = (self.tare_joints[pose], self.tare_times.get(pose, 0.0))
-                    add(window, f"cached tare {pose!r}", False, 1, cached)
+                    way = self.tare_ways.get(pose)
+                    add(window, f"cached tare {pose!r}", False, 1, cached, way)
         loads = objects
         if not self.untared and all(o.load for o in observations):
             if not subtracted:
@@ -340,23 +344,14 @@ class FitSetup:
         out = list(observations)
         order = np.argsort(stamps, kind="stable")
         times, loads = stamps[order] * 1e-9, wrenches[order]
-
-        def at(time: float, side: str) -> int:
-            return int(np.searchsorted(times, time, side=side))
-
         for epoch in _epoch_orders(out):
             if out[epoch[0]].epoch != 0:
                 continue
-            for earlier, later in pairwise(epoch):
-                way = loads[at(out[earlier].time, "left") : at(out[later].time, "right")]
-                out[later] = replace(out[later], travel=travel(way), reach=reach(way))
-            for ways in np.split(np.array(epoch), _contacts(out, epoch)):
-                start = at(out[ways[0]].time, "left")
-                path = loads[start : at(out[ways[-1]].time, "right")]
-                moved = np.vstack([np.zeros(6), self.hysteresis.beyond_first_order(path)])
-                for i in ways:  # a way of no samples (a window alone): none moved
-                    k = min(max(at(out[i].time, "right") - start, 0), len(moved) - 1)
-                    out[i] = replace(out[i], beyond=moved[k])
+            found = self.hysteresis.ways(
+                [out[i].time for i in epoch], _contacts(out, epoch), times, loads
+            )
+            for i, way in zip(epoch, found, strict=True):
+                out[i] = with_way(out[i], way)
         return out
 
     def with_hysteresis(self, observations: list[Observation]) -> list[Observation]:
@@ -524,6 +519,14 @@ class FitSetup:
                 "fit absorbed it; re-tare"
             )
         return fit, observations
+
+
+def with_way(observation: Observation, way: Way | None) -> Observation:
+    """``observation`` with its way's ``travel``, ``reach`` and ``beyond`` (``Way``);
+    as it is for none."""
+    if way is None:
+        return observation
+    return replace(observation, travel=way.travel, reach=way.reach, beyond=way.beyond)
 
 
 def _contacts(observations: Sequence[Observation], order: list[int]) -> list[int]:

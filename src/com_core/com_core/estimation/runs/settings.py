@@ -34,7 +34,7 @@ from com_core.estimation.runs.tare_cache import TareCache, load_tares
 from com_core.inputs import Input, table_of
 from com_core.robot.config import default_robot_config
 from com_core.robot.model import DEFAULT_GRAVITY, KinematicsError, RobotModel
-from com_core.sensing.calibration import Calibration
+from com_core.sensing.calibration import Calibration, reading_correction
 from com_core.sensing.hysteresis import Hysteresis
 from com_core.sensing.sensor_profiles import DEFAULT_PROFILE, PROFILES
 from com_core.sensing.wrench_model import SensorModel
@@ -269,15 +269,18 @@ def load_cached_tares(path: str | Path) -> TareCache | None:
 
 def use_cached_tares(exploration: Exploration, path: str | Path) -> None:
     """Give ``exploration`` the current entry of the cache file ``path``: its tare windows
-    (corrected by a calibration in place, ``use_sensor_calibration``), their joint
-    positions and times, and the noise learnt from them (none for '', no file or a broken
-    one)."""
+    and their ways (corrected as its samples are: by the gain of the sensor's stated
+    hysteresis and a calibration in place, ``use_sensor_calibration``;
+    ``Exploration.samples``), their joint positions and times, and the noise learnt from
+    them (none for '', no file or a broken one)."""
     cache = load_cached_tares(path) or TareCache("", 0.0, {})
     exploration.tares, exploration.tare_joints = cache.windows, cache.joints
-    if exploration.calibration is not None and exploration.calibration.estimate is not None:
-        m = exploration.calibration.correction  # the cache keeps the windows as read
+    exploration.tare_ways = cache.ways
+    m = reading_correction(exploration.calibration, exploration.hysteresis)
+    if m is not None:  # the cache keeps the windows as read; the samples are read corrected
         exploration.tares = {pose: replace(w, mean=m @ w.mean, cov=m @ w.cov @ m.T)
                              for pose, w in cache.windows.items()}  # fmt: skip
+        exploration.tare_ways = {pose: w.corrected(m) for pose, w in cache.ways.items()}
     exploration.tare_times, exploration.noise = cache.times, cache.noise
 
 

@@ -30,6 +30,7 @@ import numpy as np
 
 from com_core.estimation.fits.stats import chi2_sf
 from com_core.estimation.fits.windows import Window, window_from_mean
+from com_core.sensing.hysteresis import Way
 from com_core.sensing.noise import NoiseModel
 
 __all__ = [
@@ -58,7 +59,10 @@ class TareCache:
     joint positions of each window (rad, m, by joint name), the hand's wrench is known
     at any orientation (``known_gravity``), not only at these poses; ``times`` are the
     windows' middles (s, the sensor's clock), for a bias that drifts within the pass;
-    ``noise`` the sensor's noise learnt from the pass (``com_core.sensing.noise``)."""
+    ``noise`` the sensor's noise learnt from the pass (``com_core.sensing.noise``);
+    ``ways`` each window's way from the one before it in the pass, as read, for a sensor
+    of stated hysteresis (``com_core.sensing.hysteresis.Way``: the fits weigh the cached
+    windows as the pass's own run did)."""
 
     signature: str
     created: float
@@ -66,6 +70,7 @@ class TareCache:
     joints: dict[str, dict[str, float]] = field(default_factory=dict)
     times: dict[str, float] = field(default_factory=dict)
     noise: NoiseModel | None = None
+    ways: dict[str, Way] = field(default_factory=dict)
 
     def age(self) -> float:
         return time.time() - self.created
@@ -88,6 +93,12 @@ class TareCache:
                 windows[pose]["joints"] = self.joints[pose]
             if pose in self.times:
                 windows[pose]["time"] = self.times[pose]
+            if (way := self.ways.get(pose)) is not None:
+                windows[pose]["way"] = {
+                    "beyond": way.beyond.tolist(),
+                    **({} if way.travel is None else {"travel": way.travel.tolist()}),
+                    **({} if way.reach is None else {"reach": way.reach.tolist()}),
+                }
         out = {"signature": self.signature, "created": self.created, "windows": windows}
         if self.noise is not None:
             out["noise"] = self.noise.as_dict()
@@ -106,7 +117,18 @@ class TareCache:
         }
         times = {pose: float(w["time"]) for pose, w in data["windows"].items() if "time" in w}
         noise = NoiseModel.from_dict(data["noise"]) if "noise" in data else None
-        return TareCache(data["signature"], float(data["created"]), windows, joints, times, noise)
+        ways = {pose: _way_from_json(w["way"]) for pose, w in data["windows"].items()
+                if "way" in w}  # fmt: skip
+        return TareCache(
+            data["signature"], float(data["created"]), windows, joints, times, noise, ways
+        )
+
+
+def _way_from_json(data: dict) -> Way:
+    """A window's ``Way`` as ``TareCache.as_json`` writes it."""
+    travel, reach = (np.array(data[key], dtype=np.float64) if key in data else None
+                     for key in ("travel", "reach"))  # fmt: skip
+    return Way(travel, reach, np.array(data["beyond"], dtype=np.float64))
 
 
 def cache_owner(hand_id: str, sensor_id: str) -> str:
@@ -161,15 +183,18 @@ def save_tares(
     joints: dict[str, dict[str, float]] | None = None,
     times: dict[str, float] | None = None,
     noise: NoiseModel | None = None,
+    ways: dict[str, Way] | None = None,
 ) -> None:
     """Add (or replace) the entry for ``signature``, taken now, and make it current;
     ``joints`` and ``times``: each window's joint positions (rad, m, by joint name) and
-    time (s, the middle of the window, the sensor's clock); ``noise``: the sensor's."""
+    time (s, the middle of the window, the sensor's clock); ``noise``: the sensor's;
+    ``ways``: each window's way, as read (``TareCache``)."""
     path = Path(path)
     entries = _read_or_empty(path)
     entries[signature] = TareCache(
-        signature, time.time(), dict(windows), dict(joints or {}), dict(times or {}), noise
-    )
+        signature, time.time(), dict(windows), dict(joints or {}), dict(times or {}), noise,
+        dict(ways or {}),
+    )  # fmt: skip
     _write(path, entries, signature)
 
 
