@@ -11,6 +11,7 @@ import math
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 from conftest import PANDA, made_up_calibration
 from fake_robot import HOME, MS, NOISE, OBJECT, PICK, SAMPLE, FakeWorld
@@ -35,7 +36,7 @@ from com_core.estimation.runs.sensor_calibration import (
     save_calibration,
 )
 from com_core.estimation.runs.settings import BAG_SETTINGS_FILE
-from com_core.estimation.runs.tare_cache import BAG_TARE_FILE
+from com_core.estimation.runs.tare_cache import BAG_TARE_FILE, load_tares
 from com_core.planning.decisions import BIAS_AFTER_SUFFIX, BIAS_WINDOW_SUFFIX
 from com_core.planning.run_time import ESTIMATE, WALL
 from com_core.robot.choreography import VERIFY_POSE
@@ -245,6 +246,32 @@ def test_a_second_run_checks_the_cached_tare_at_home_and_takes_no_tare_pass(tmp_
                      f"{TARE_PREFIX}home{BIAS_AFTER_SUFFIX}"]  # fmt: skip
     assert any(m.startswith("tare: reusing the cache") for _, m in world.sent("info"))
     assert (outcome.bag / BAG_TARE_FILE).is_file()  # the replay's tare
+
+
+def test_a_tare_pass_through_a_sensor_of_stated_hysteresis_caches_each_windows_way(tmp_path):
+    """Told the sensor's hysteresis (the xArm's), the tare pass caches each window's way
+    from the one before it as read (``Hysteresis.ways``): the first has none, each other
+    has travelled the change of the windows' means (within the noise its deadband
+    leaves out) and reached below it; the bag of a run that reuses it keeps them too."""
+    world = FakeWorld()
+    world.settings_values |= {"hysteresis": [3.75, 3.75, 2.0, 0.04, 0.04, 0.04],
+                              "full_scale": [150.0, 4.0]}  # fmt: skip
+    outcome = make_run(world, tmp_path).execute()
+    assert outcome.status == OK, outcome.message
+    cached = load_tares(tmp_path / "tare.json")
+    order = sorted(cached.windows, key=cached.times.__getitem__)
+    assert len(order) == 5 and cached.ways.keys() == set(order)
+    assert cached.ways[order[0]].travel is None and not cached.ways[order[0]].beyond.any()
+    for before, pose in itertools.pairwise(order):
+        change = np.abs(cached.windows[pose].mean - cached.windows[before].mean)
+        way = cached.ways[pose]
+        assert np.all(way.travel >= 0.9 * change - 0.01) and np.all(np.isfinite(way.reach)), way
+        assert np.all(way.reach[0] <= cached.windows[pose].mean + 0.05), way
+    again = make_run(world, tmp_path, run_id="run-2").execute()
+    assert again.status == OK, again.message  # the cache reused: the bag keeps its copy
+    assert (
+        load_tares(again.bag / BAG_TARE_FILE).as_json()["windows"] == cached.as_json()["windows"]
+    )
 
 
 def test_a_run_on_another_sensor_takes_its_own_tare_pass(tmp_path):
