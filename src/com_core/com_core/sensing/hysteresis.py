@@ -285,11 +285,11 @@ class Hysteresis:
             return int(np.searchsorted(stamps, time, side=side))
 
         beyond = np.zeros((len(times), 6))
-        for ways in np.split(np.arange(len(times)), sorted(set(contacts) - {0})):
-            start = at(times[ways[0]], "left")
-            path = loads[start : at(times[ways[-1]], "right")]
+        for segment in np.split(np.arange(len(times)), sorted(set(contacts) - {0})):
+            start = at(times[segment[0]], "left")
+            path = loads[start : at(times[segment[-1]], "right")]
             moved = np.vstack([np.zeros(6), self.beyond_first_order(path)])
-            for k in ways:
+            for k in segment:
                 beyond[k] = moved[min(max(at(times[k], "right") - start, 0), len(moved) - 1)]
         out = [Way(None, None, beyond[0])]
         for k in range(1, len(times)):
