@@ -131,7 +131,8 @@ def test_cached_windows_and_their_ways_read_as_the_samples_do(tmp_path):
     """The cache keeps what the sensor read, and each window's way (``Way``) to the last
     bit; an exploration takes both through what corrects its samples (here the gain of the
     xArm F/T's stated hysteresis, 1.8-3.5 % in the forces): a cached hand weighs what the
-    run's own samples say it weighs, not 3.5 % less across the sensor."""
+    run's own samples say it weighs, not 3.5 % less across the sensor. Told no hysteresis,
+    it takes the windows as read and no ways."""
     from com_core.estimation.runs.exploration import Exploration
     from com_core.estimation.runs.settings import use_cached_tares
     from com_core.sensing.hysteresis import Hysteresis, Way
@@ -164,3 +165,25 @@ def test_cached_windows_and_their_ways_read_as_the_samples_do(tmp_path):
     np.testing.assert_allclose(way.beyond, as_read * 1e-3, rtol=1e-12)
     np.testing.assert_allclose(way.reach, np.outer([-6.0, 9.5], as_read / read), rtol=1e-12)
     np.testing.assert_allclose(way.travel, 3.0 * as_read / read, rtol=1e-12)
+    untold = Exploration(expected_frame="")  # no hysteresis stated: the windows as read
+    use_cached_tares(untold, path)
+    assert not untold.tare_ways and np.array_equal(untold.tares["tilt"].mean, read)
+
+
+def test_a_drift_since_the_tare_is_a_warning_only_beyond_what_the_fit_can_tell():
+    """``fit_setup.drifted``: a bias drift is beyond ``max_drift_f`` (1 N) when it exceeds
+    it by more than its sigma along it allows at alpha 1e-3 (3.09 sigma, one-sided):
+    1.2 N read to 0.05 N is; read to 0.4 N, as a sensor of stated hysteresis leaves it (an
+    offset after each contact), it is not, until 2.24 N. Only the sigma along the drift
+    counts, and within the limit nothing is."""
+    from com_core.estimation.runs.fit_setup import drifted
+
+    up = np.array([0.0, 0.6, 0.8])
+    assert drifted(1.2 * up, np.eye(3) * 0.05**2, 1.0, 1e-3)
+    assert not drifted(1.2 * up, np.eye(3) * 0.4**2, 1.0, 1e-3)
+    assert drifted(2.3 * up, np.eye(3) * 0.4**2, 1.0, 1e-3)
+    assert not drifted(2.2 * up, np.eye(3) * 0.4**2, 1.0, 1e-3)
+    across = np.diag([0.1, 0.4, 0.4]) ** 2  # read to 0.1 N along x
+    assert drifted(np.array([1.4, 0.0, 0.0]), across, 1.0, 1e-3)
+    assert not drifted(np.array([0.0, 1.4, 0.0]), across, 1.0, 1e-3)
+    assert not drifted(0.99 * up, np.zeros((3, 3)), 1.0, 1e-3)

@@ -53,7 +53,7 @@ from com_core.estimation.fits.known_gravity import (
     locate_move,
 )
 from com_core.estimation.fits.motion import MotionFit
-from com_core.estimation.fits.stats import chi2_sf
+from com_core.estimation.fits.stats import chi2_isf, chi2_sf
 from com_core.estimation.fits.windows import Window
 from com_core.estimation.runs.cutting import window_rotation, window_time
 from com_core.estimation.runs.inbox import Inbox
@@ -74,6 +74,7 @@ __all__ = [
     "WRENCHES",
     "FitSetup",
     "check_load_direction",
+    "drifted",
 ]
 
 LOAD_SIGMAS = 5.0
@@ -85,8 +86,9 @@ INFORMATION = (WRENCHES, KINEMATICS, KINEMATICS_MOUNT)
 _DRIFT_STEP = 1e-3
 """The drift rate's central-difference step in ``wrenches_estimate``, in its sigmas."""
 MAX_DRIFT_F, MAX_DRIFT_TAU = 1.0, 0.05
-"""N, N m: a bias drift since the tare beyond either is a WARN (re-tare; the fit absorbs
-it, but a sensor drifting that fast is warming up or was overloaded)."""
+"""N, N m: a bias drift since the tare beyond either, as far as the fit can tell
+(``drifted``), is a WARN (re-tare; the fit absorbs it, but a sensor drifting that fast is
+warming up or was overloaded)."""
 
 
 @dataclass
@@ -100,7 +102,7 @@ class FitSetup:
     noise : the sensor's noise known from before (a cached tare pass's,
         ``com_core.sensing.noise``): used when an exploration's own static windows are too
         few to learn it, and compared with what they give (a changed noise is named).
-    alpha : false-alarm rate of the consistency and verification tests.
+    alpha : false-alarm rate of the consistency and verification tests, and the drift's.
     min_tilt_sigmas : refuse tilts below this many sigma of noise.
     g : m/s^2, the gravity the wrench-only fits divide by.
     tares : tare windows known from before (a cached tare pass), by pose; an
@@ -489,8 +491,8 @@ class FitSetup:
     ) -> tuple[KinematicFit, list[Observation]]:
         """The hand, the bias and the object fitted to every window with its orientation
         (``kinematic_observations``; ``known_gravity.kinematic_ml``). A bias drift beyond
-        ``max_drift_f`` or ``max_drift_tau`` is noted (a WARN). Returns the fit and its
-        observations."""
+        ``max_drift_f`` or ``max_drift_tau`` as far as the fit can tell (``drifted``) is
+        noted (a WARN). Returns the fit and its observations."""
         assert self.robot is not None
         robot = self.robot
         observations = self.kinematic_observations(
@@ -510,15 +512,32 @@ class FitSetup:
                 f"no load beyond the hand ({e.mass * 1e3:.3g} +- {e.sigma_mass * 1e3:.2g} g): "
                 "the object was not held (an empty grasp, or it fell)"
             )
-        drift = fit.drift()[0]
-        force, torque = float(np.linalg.norm(drift[:3])), float(np.linalg.norm(drift[3:]))
-        if force > self.max_drift_f or torque > self.max_drift_tau:
+        drift, cov = fit.drift()
+        if drifted(drift[:3], cov[:3, :3], self.max_drift_f, self.alpha) or drifted(
+            drift[3:], cov[3:, 3:], self.max_drift_tau, self.alpha
+        ):
+            force, torque = float(np.linalg.norm(drift[:3])), float(np.linalg.norm(drift[3:]))
             notes.append(
                 f"the sensor's bias drifted {force:.3g} N, {torque:.3g} N m since the cached "
-                f"tare (more than {self.max_drift_f:g} N or {self.max_drift_tau:g} N m): the "
-                "fit absorbed it; re-tare"
+                f"tare (more than {self.max_drift_f:g} N or {self.max_drift_tau:g} N m, "
+                "beyond the fit's sigma): the fit absorbed it; re-tare"
             )
         return fit, observations
+
+
+def drifted(drift: NDArray[np.float64], cov: NDArray[np.float64], limit: float,
+            alpha: float) -> bool:  # fmt: skip
+    """Whether the bias drifted more than ``limit`` (N or N m) since the tare, as far as
+    the fit can tell: the norm of ``drift`` (3,) exceeds it by more than the one-sided
+    1 - ``alpha`` quantile of its sigma along it (``cov`` (3, 3)). A sensor of stated
+    hysteresis leaves an offset after each contact that the fit cannot tell from a drift,
+    and it is in that sigma (the xArm F/T sensor's: 0.1-0.5 N per axis)."""
+    size = float(np.linalg.norm(drift))
+    if size <= limit:
+        return False
+    along = drift / size
+    sigma = math.sqrt(max(float(along @ cov @ along), 0.0))
+    return size - limit > math.sqrt(chi2_isf(2.0 * alpha, 1)) * sigma
 
 
 def with_way(observation: Observation, way: Way | None) -> Observation:

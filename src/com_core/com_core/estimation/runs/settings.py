@@ -94,7 +94,8 @@ def _urdf(value: str) -> str:
 SETTINGS = table_of([
     Input("method", "ml", "'ml' (multi-pose maximum likelihood) or 'two_pose' (the paper)",
           kind="str", choices=METHODS),
-    Input("alpha", DEFAULT_ALPHA, "false-alarm rate of the object-moved test", low=0.0,
+    Input("alpha", DEFAULT_ALPHA, "false-alarm rate of the object-moved test (and of the "
+          "verification's, the bias drift's)", low=0.0,
           high=0.5, low_open=True, high_open=True),
     Input("expected_frame", "ft_sensor", "frame_id wrenches must carry; others are dropped",
           **_TEXT),
@@ -143,10 +144,10 @@ SETTINGS = table_of([
           "allow for within a run (the kinematic fit's prior; the wrenches alone weigh with it "
           "the drift between each pose's tare and object windows; [0, 0]: a constant bias "
           "within a run)", kind="floats", unit="N/s, N m/s", lengths=(2,), **_DRIFT),
-    Input("max_drift_f", MAX_DRIFT_F, "a larger bias drift since the cached tare is a WARN",
-          unit="N", **_DRIFT),
-    Input("max_drift_tau", MAX_DRIFT_TAU, "a larger bias drift since the cached tare is a "
-          "WARN", unit="N m", **_DRIFT),
+    Input("max_drift_f", MAX_DRIFT_F, "a larger bias drift since the cached tare, beyond "
+          "the fit's sigma at alpha, is a WARN", unit="N", **_DRIFT),
+    Input("max_drift_tau", MAX_DRIFT_TAU, "a larger bias drift since the cached tare, beyond "
+          "the fit's sigma at alpha, is a WARN", unit="N m", **_DRIFT),
     Input("reference_mass", 0.0, "the object is a reference weight of this mass: the run "
           "calibrates the sensor in place (com_core.estimation.fits.in_place) and keeps it "
           "for sensor_id beside tare_cache, instead of weighing the object; 0: an unknown "
@@ -269,18 +270,18 @@ def load_cached_tares(path: str | Path) -> TareCache | None:
 
 def use_cached_tares(exploration: Exploration, path: str | Path) -> None:
     """Give ``exploration`` the current entry of the cache file ``path``: its tare windows
-    and their ways (corrected as its samples are: by the gain of the sensor's stated
-    hysteresis and a calibration in place, ``use_sensor_calibration``;
+    and, told the sensor's hysteresis, their ways (corrected as its samples are: by the
+    gain of that hysteresis and a calibration in place, ``use_sensor_calibration``;
     ``Exploration.samples``), their joint positions and times, and the noise learnt from
     them (none for '', no file or a broken one)."""
     cache = load_cached_tares(path) or TareCache("", 0.0, {})
     exploration.tares, exploration.tare_joints = cache.windows, cache.joints
-    exploration.tare_ways = cache.ways
+    exploration.tare_ways = cache.ways if exploration.hysteresis is not None else {}
     m = reading_correction(exploration.calibration, exploration.hysteresis)
     if m is not None:  # the cache keeps the windows as read; the samples are read corrected
         exploration.tares = {pose: replace(w, mean=m @ w.mean, cov=m @ w.cov @ m.T)
                              for pose, w in cache.windows.items()}  # fmt: skip
-        exploration.tare_ways = {pose: w.corrected(m) for pose, w in cache.ways.items()}
+        exploration.tare_ways = {pose: w.corrected(m) for pose, w in exploration.tare_ways.items()}
     exploration.tare_times, exploration.noise = cache.times, cache.noise
 
 
