@@ -42,7 +42,10 @@ persistent nuisance). Most of that move is not unknown, though: its second order
 sign on every sensor, and the readings tell it (``Hysteresis.beyond_first_order``, the
 model's steps along the readings' path less their first order). The fit takes it off
 each window's mean (``Observation.beyond``) and weighs ``BEYOND_LEFT`` of the share for
-what the model's loop shape and the readings' path leave.
+what the model's loop shape and the readings' path leave. What a way did (its travel,
+reach and move beyond the first order: ``Way``, ``Hysteresis.ways``) is kept with a
+cached tare pass's windows, whose samples are gone, so a run that reuses the pass weighs
+them as the pass's own run did.
 
 Where a run starts, the state is wherever the loads before it left it, anywhere within
 +-b_a (``Hysteresis.start_variance``); not in the middle of its band, which only a sensor
