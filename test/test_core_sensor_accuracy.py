@@ -65,6 +65,29 @@ def test_a_reference_of_known_com_at_least_halves_the_demos_com_sigma():
     assert main(["--profiles", "realistic", "--masses", "0.5", "--fixture"]) == 0
 
 
+def test_no_calibration_halves_the_default_demos_com_sigma_and_a_fixture_nears_the_floor():
+    """The floor is the pass with no calibration error at all: every calibration lies
+    between it and the stated one. The default demo's 0.1 kg box is the noise's: its
+    floor is 0.79 of the stated COM sigma along z, so no calibration halves it (a longer
+    pass does); at 0.5 kg a reference on a fixture comes within 1.3 of the floor, one
+    gripped stays 2.5 times above it along z."""
+    for mass in (0.1, 0.5, 2.0):
+        a = sensor_accuracy(REALISTIC, mass, com_sigma=FIXTURE_COM_SIGMA)
+        floor = predict(replace(default_pass(REALISTIC, mass), calibration=None), "ml",
+                        INFORMATION)  # fmt: skip
+        assert a.floor_sigma_mass == floor.sigma_mass
+        np.testing.assert_array_equal(a.floor_sigma_com, floor.sigma_com)
+        assert a.floor_sigma_mass < a.calibrated_sigma_mass < a.sigma_mass
+        assert np.all(a.floor_sigma_com < a.calibrated_sigma_com)
+        assert np.all(a.calibrated_sigma_com < a.sigma_com)
+    demo = sensor_accuracy(REALISTIC, 0.1)
+    assert 0.7 < demo.floor_sigma_com[2] / demo.sigma_com[2] < 0.9  # 0.79
+    at_half = sensor_accuracy(REALISTIC, 0.5, com_sigma=FIXTURE_COM_SIGMA)
+    assert np.all(at_half.calibrated_sigma_com < 1.35 * at_half.floor_sigma_com)  # 1.15-1.3
+    gripped = sensor_accuracy(REALISTIC, 0.5)
+    assert gripped.calibrated_sigma_com[2] > 2 * gripped.floor_sigma_com[2]
+
+
 def test_the_lightest_object_is_where_the_prediction_crosses_five_percent():
     lightest = lightest_mass(REALISTIC, REALISTIC.calibration())
     for mass, above in ((0.99 * lightest, True), (1.01 * lightest, False)):
@@ -78,10 +101,10 @@ def test_the_table_names_each_profile_and_what_it_leaves_out(capsys):
     assert main(["--profiles", profiles, "--masses", "0.5"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert any(x.endswith("realistic: the lightest object weighed to 5% (2 sigma): 28 g, "
-                          "calibrated 25 g") for x in lines)  # fmt: skip
+                          "calibrated 25 g, the floor 24 g") for x in lines)  # fmt: skip
     # half the realistic sensor's noise and twice its calibration's error
     assert any(x.endswith("bota_sensone: the lightest object weighed to 5% (2 sigma): 16 g, "
-                          "calibrated 13 g") for x in lines)  # fmt: skip
+                          "calibrated 13 g, the floor 12 g") for x in lines)  # fmt: skip
     (xarm,) = [x for x in lines if "xarm_ft: the lightest" in x]
     assert "not in these" not in xarm  # its hysteresis is, and it states no non-linearity
     assert any("fr3_estimated: the lightest" in x and "arm model's error is not in these" in x

@@ -1,6 +1,6 @@
 """What a named sensor can do before anything moves: the accuracy the sequencer's default
-static pass reaches with it, its calibration as stated or calibrated in place, and the
-lightest object it weighs to 5 %.
+static pass reaches with it, its calibration as stated, calibrated in place, or perfect
+(the floor no calibration goes below), and the lightest object it weighs to 5 %.
 
     python -m com_core.planning.sensor_accuracy [--profiles realistic,ur_e_series,...]
         [--masses 0.1,0.5,2.0] [--reference 1.0] [--fixture]
@@ -16,7 +16,10 @@ place: the calibration a reference of ``--reference`` kg through the same poses 
 depends on the design, not on the readings). ``--fixture``: the reference's COM known to
 ``FIXTURE_COM_SIGMA`` (a weight on a fixture of known geometry: the estimator's
 ``reference_com`` and ``reference_com_sigma``), which identifies the part of the torque
-error a COM offset explains and a gripped reference leaves.
+error a COM offset explains and a gripped reference leaves. The floor: the same pass with
+no calibration error at all, its noise's and its hysteresis's share alone; where the
+stated prediction is not twice the floor, no calibration halves the sigma, and only a
+longer pass narrows it (``planner``).
 
 The prediction holds what a profile's stated hysteresis leaves once its gain is taken
 off (``sensing.hysteresis``), as the fits weigh it. It is linear: a profile's
@@ -88,27 +91,31 @@ def predicted_calibration(
 @dataclass(frozen=True)
 class SensorAccuracy:
     """The predicted 1-sigma of a static pass: ``sigma_mass`` (kg) and ``sigma_com`` (3,;
-    m), as stated and calibrated in place (``calibrated_*``)."""
+    m), as stated, calibrated in place (``calibrated_*``) and with a perfect calibration
+    (``floor_*``: the noise's and the hysteresis's share alone)."""
 
     mass: float
     sigma_mass: float
     sigma_com: np.ndarray
     calibrated_sigma_mass: float
     calibrated_sigma_com: np.ndarray
+    floor_sigma_mass: float
+    floor_sigma_com: np.ndarray
 
 
 def sensor_accuracy(
     profile: SensorProfile, mass: float, reference_mass: float = 1.0, com_sigma: float = 0.0
 ) -> SensorAccuracy:
     """The default pass's predicted accuracy for an object of ``mass`` kg with
-    ``profile``, stated and calibrated in place with a ``reference_mass`` kg reference,
-    its COM known to ``com_sigma`` m (0: unknown)."""
+    ``profile``, stated, calibrated in place with a ``reference_mass`` kg reference, its
+    COM known to ``com_sigma`` m (0: unknown), and calibrated perfectly."""
     plan = default_pass(profile, mass)
     stated = predict(plan, "ml", INFORMATION)
     calibration = predicted_calibration(plan, reference_mass, com_sigma)
     calibrated = predict(replace(plan, calibration=calibration), "ml", INFORMATION)
+    floor = predict(replace(plan, calibration=None), "ml", INFORMATION)
     return SensorAccuracy(mass, stated.sigma_mass, stated.sigma_com, calibrated.sigma_mass,
-                          calibrated.sigma_com)  # fmt: skip
+                          calibrated.sigma_com, floor.sigma_mass, floor.sigma_com)  # fmt: skip
 
 
 def lightest_mass(
@@ -116,7 +123,8 @@ def lightest_mass(
 ) -> float:
     """kg: the lightest object the default pass weighs to ``target`` of its mass at 95 %
     (2 sigma) with ``calibration`` in place of the profile's stated one (bisection on a log
-    scale over 1 g to 100 kg; inf when even 100 kg is not weighed so)."""
+    scale over 1 g to 100 kg; inf when even 100 kg is not weighed so); ``calibration``
+    None is a perfect one."""
 
     def share(mass: float) -> float:
         plan = replace(default_pass(profile, mass), calibration=calibration)
@@ -147,10 +155,14 @@ def main(argv: list[str] | None = None) -> int:
     masses = [float(m) for m in args.masses.split(",")]
     com_sigma = FIXTURE_COM_SIGMA if args.fixture else 0.0
     fixture = f", its COM known to {1e3 * com_sigma:g} mm" if args.fixture else ""
-    print(f"the default static pass, predicted (1 sigma); calibrated in place with a "
-          f"{args.reference:g} kg reference{fixture}")  # fmt: skip
-    print(f"{'profile':>13} {'kg':>5}  {'mass %':>7} {'COM mm (worst axis)':>20}  "
-          f"{'calibrated: mass %':>18} {'COM mm':>7}")  # fmt: skip
+    print(
+        f"the default static pass, predicted (1 sigma); calibrated in place with a "
+        f"{args.reference:g} kg reference{fixture}; the floor: a perfect calibration"
+    )
+    print(
+        f"{'profile':>13} {'kg':>5}  {'mass %':>7} {'COM mm (worst axis)':>20}  "
+        f"{'calibrated: mass %':>18} {'COM mm':>7}  {'floor: mass %':>13} {'COM mm':>7}"
+    )
     for name in args.profiles.split(","):
         profile = PROFILES[name]
         for mass in masses:
@@ -158,16 +170,20 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{name:>13} {mass:5.2f}  {100 * a.sigma_mass / mass:7.3f} "
                   f"{1e3 * a.sigma_com.max():20.3f}  "
                   f"{100 * a.calibrated_sigma_mass / mass:18.3f} "
-                  f"{1e3 * a.calibrated_sigma_com.max():7.3f}")  # fmt: skip
+                  f"{1e3 * a.calibrated_sigma_com.max():7.3f}  "
+                  f"{100 * a.floor_sigma_mass / mass:13.3f} "
+                  f"{1e3 * a.floor_sigma_com.max():7.3f}")  # fmt: skip
         plan = default_pass(profile, args.reference)
         lightest = lightest_mass(profile, profile.calibration())
         calibrated = lightest_mass(profile, predicted_calibration(plan, args.reference, com_sigma))
+        floor = lightest_mass(profile, None)
         left_out = " (its non-linearity is not in these)" if profile.nonlinearity else ""
         if profile.joint_torque_estimate:
             left_out = (" (its arm model's error is not in these: the default fit refuses it "
                         "at rest, bench/README.md, Named sensors)")  # fmt: skip
         print(f"{name:>13}: the lightest object weighed to {TARGET:.0%} (2 sigma): "
-              f"{1e3 * lightest:.0f} g, calibrated {1e3 * calibrated:.0f} g"
+              f"{1e3 * lightest:.0f} g, calibrated {1e3 * calibrated:.0f} g, "
+              f"the floor {1e3 * floor:.0f} g"
               f"{left_out}")  # fmt: skip
     return 0
 
