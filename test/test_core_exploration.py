@@ -194,6 +194,37 @@ def test_each_joint_is_taken_from_the_publishers_that_name_it_in_any_arrival_ord
     assert "window 'object/home': the joint states lack 'panda_joint1'" in alone.reason
 
 
+def test_a_run_lacks_its_input_until_each_stream_passes_its_done():
+    """The estimator solves a run once its input up to ``done`` has come: the wrenches,
+    and for a kinematic fit the joint states of every joint that moves the sensor, each
+    publisher's stream on its own. An arm's stream that lags (its gripper's and the
+    sensor's past ``done``) is named until it passes; the gripper's joints are not waited
+    for, nor any joint by a fit of the wrenches alone."""
+    from conftest import PANDA
+
+    stream, states, robot = kinematic_stream(np.random.default_rng(8))
+    done = next(t for t, label in stream.labels if label == "done")
+    fingers = list(PANDA.gripper_joints)
+    ex = Exploration(information="kinematics", robot=robot)
+    assert ex.lacking(done) == "the wrenches (up to none)"
+    fed(stream, ex)
+    assert ex.lacking(done) == "the joint states of the joints that move the sensor (up to none)"
+    ex.add_joint_state(done + 1, fingers, [0.04, 0.04])  # the gripper's, past done
+    for stamp, _, q in states:  # the arm's, up to its last window
+        ex.add_joint_state(stamp, [n for n in q if n not in fingers],
+                           [v for n, v in q.items() if n not in fingers])  # fmt: skip
+    last = max(t for t, _, _ in states)
+    assert last < done and ex.joint_states_until(robot.chain_names) == last
+    assert ex.lacking(done) == (
+        f"the joint states of the joints that move the sensor (up to t={last * 1e-9:.3f} s)"
+    )
+    arm = dict(states[-1][2])
+    ex.add_joint_state(done, [n for n in arm if n not in fingers],
+                       [v for n, v in arm.items() if n not in fingers])  # fmt: skip
+    assert ex.lacking(done) == ""
+    assert fed(stream, Exploration(robot=robot)).lacking(done) == ""  # the wrenches alone
+
+
 def test_an_exploration_without_labels_solves_to_no_windows():
     ex = Exploration()
     ex.add_samples([1, 2, 3], np.zeros((3, 6)), "ft_sensor")

@@ -179,6 +179,7 @@ def test_every_sensor_part_it_takes_gives_readings_or_is_refused_by_name(name):
 DEMO_FLAGS = {
     "--mass": SIM["object_mass"],
     "--seed": SIM["seed"],
+    "--sensor-serial": SIM["sensor_serial"],
     "--slip-sigma": SIM["slip_sigma"],
     "--sigma-f": SIM["sigma_f"],
     "--sigma-tau": SIM["sigma_tau"],
@@ -318,6 +319,7 @@ def test_the_demo_names_the_simulated_sensor_by_its_profile_serial_and_set_parts
     ideal = sensor_ids("--sensor-profile", "ideal", "--sigma-f", "1e-6", "--sigma-tau", "1e-7")
     assert ideal == {"sim-ideal-0-sigma_f=1e-06-sigma_tau=1e-07"}
     assert sensor_ids("--sigma-f", "0.2") == {"sim-realistic-0-sigma_f=0.2"}
+    assert sensor_ids("--sensor-serial", "7") == {"sim-realistic-7"}
 
 
 def test_the_demos_reference_com_is_the_estimators_on_a_fixture_and_checked_as_it(tmp_path):

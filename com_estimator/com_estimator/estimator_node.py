@@ -126,6 +126,12 @@ from com_core.sensing.calibration import reading_correction
 from com_estimator.stream_qos import subscribe_adapted
 
 MAX_MESSAGE_LENGTH = 1000  # characters of a diagnostic message
+SOLVE_TIMEOUT = 4.0
+"""s (wall): how long a run's ``done`` waits for its input. A process starved on a loaded
+machine loses samples at its transport, and a reliable stream's are sent again at its
+publisher's next heartbeat, 3 s apart in Fast DDS (``WriterTimes.heartbeat_period``):
+a 100 Hz joint state stream came up to 2.9 s after the wrenches of its stamps, two demos
+side by side on two cores."""
 LIVE_KEYS = frozenset(
     ["mass", "sigma_mass", "information"]
     + [f"{k}_{a}" for k in ("com", "sigma_com") for a in "xyz"]
@@ -133,7 +139,8 @@ LIVE_KEYS = frozenset(
 """What the live status carries of a solution (and its windows' ``samples <label>``)."""
 
 PARAMETERS = SETTINGS | table_of([
-    Input("solve_timeout", 1.0, "(wall) to wait after 'done' for samples up to its stamp",
+    Input("solve_timeout", SOLVE_TIMEOUT, "(wall) to wait after 'done' for the wrenches, "
+          "and the joint states of the joints that move the sensor, up to its stamp",
           unit="s", low=0.0, high=60.0, low_open=True),
     Input("payload_file", "", "payload.yaml to compensate with from the start ('': none); "
           "read at start", kind="str", read_only=True),
@@ -581,8 +588,14 @@ class EstimatorNode(Node):
             self._live_stamp = None
         if self._done_stamp is None:
             return
-        caught_up = latest is not None and latest >= self._done_stamp
-        if caught_up or time.monotonic() - self._done_wall > self._param("solve_timeout"):
+        lacking = self._exploration.lacking(self._done_stamp)
+        if not lacking:
+            self._solve_done()
+        elif time.monotonic() - self._done_wall > self._param("solve_timeout"):
+            self.get_logger().warning(
+                f"solving at solve_timeout ({self._param('solve_timeout'):g} s after "
+                f"'done' at t={self._done_stamp * 1e-9:.3f} s) without {lacking}"
+            )
             self._solve_done()
 
     def _solve_done(self) -> None:

@@ -117,6 +117,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="the simulated sensor's parts (com_core.sensing.sensor_profiles; default: the "
         f"robot file's sensor_profile, else {DEFAULT_PROFILE})",
     )
+    p.add_argument(
+        "--sensor-serial",
+        type=int,
+        default=0,
+        help="which sensor of the profile: its calibration error and gauges are drawn from "
+        "it, the same whatever --seed (another serial: another sensor, its own tare cache)",
+    )
     p.add_argument("--sigma-f", type=float, help="N per published sample (default: the profile's)")
     p.add_argument("--sigma-tau", type=float, help="N m per published sample (as --sigma-f)")
     p.add_argument("--tilt", type=float, help="rad (default: the sequencer's, pi/6)")
@@ -316,6 +323,7 @@ def node_parameters(
         "grasp_mode": args.grasp_mode,
         "slip_sigma": args.slip_sigma,
         "sensor_profile": simulated_sensor(args),
+        "sensor_serial": args.sensor_serial,
         "real_time_factor": args.real_time_factor,
     } | noise
     tare_cache = str((args.bag_dir / "tare_cache.json").resolve())  # shared by both nodes
@@ -365,6 +373,7 @@ FLAGS = {
     "seed": "--seed",
     "slip_sigma": "--slip-sigma",
     "sensor_profile": "--sensor-profile",
+    "sensor_serial": "--sensor-serial",
     "sigma_f": "--sigma-f",
     "sigma_tau": "--sigma-tau",
     "real_time_factor": "--real-time-factor",

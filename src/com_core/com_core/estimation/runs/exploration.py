@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from com_core.estimation.fits.windows import Window
 from com_core.estimation.runs import cutting
 from com_core.estimation.runs.cutting import Segments
-from com_core.estimation.runs.fit_setup import FitSetup
+from com_core.estimation.runs.fit_setup import WRENCHES, FitSetup
 from com_core.estimation.runs.inbox import Inbox
 from com_core.estimation.runs.solution import Solution, solve
 from com_core.sensing.calibration import reading_correction
@@ -82,7 +82,28 @@ class Exploration(Inbox, FitSetup):
             noise = self.noise_model(until_ns, segments)
         return cutting.reduced_windows(segments, self.sensor, noise)
 
+    def lacking(self, until_ns: int) -> str:
+        """What of the input up to ``until_ns`` (a run's ``done``) has not come yet: the
+        wrenches, and, when the fit takes the windows' orientations from the joint states,
+        those of every joint that moves the sensor (each publisher's stream comes on its
+        own: an arm's may lag its gripper's and the sensor's); '' when all has."""
+        latest = self.latest_stamp
+        if latest is None or latest < until_ns:
+            return f"the wrenches (up to {_reached(latest)})"
+        if self.information == WRENCHES or self.robot is None:
+            return ""
+        joints = self.joint_states_until(self.robot.chain_names)
+        if joints is None or joints < until_ns:
+            return (
+                f"the joint states of the joints that move the sensor (up to {_reached(joints)})"
+            )
+        return ""
+
     def solve(self, until_ns: int | None = None) -> Solution:
         """Windows, per-pose tare, estimate and consistency test, with a status
         (``solution.solve``)."""
         return solve(self, self, until_ns)
+
+
+def _reached(stamp: int | None) -> str:
+    return "none" if stamp is None else f"t={stamp * 1e-9:.3f} s"

@@ -27,7 +27,7 @@ across topics, so the estimator node and the offline replay keep the same input:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -87,6 +87,7 @@ class Inbox:
     wrench_sign: float = 1.0
     max_label_gap: float = MAX_LABEL_GAP
     _joint_states: list[tuple[int, dict[str, float]]] = field(default_factory=list, repr=False)
+    _joint_latest: dict[str, int] = field(default_factory=dict, repr=False)
     _stamps: list[NDArray[np.int64]] = field(default_factory=list, repr=False)
     _wrenches: list[NDArray[np.float64]] = field(default_factory=list, repr=False)
     _labels: list[tuple[int, str]] = field(default_factory=list, repr=False)
@@ -259,4 +260,15 @@ class Inbox:
         if len(positions) != len(names):
             return False
         self._joint_states.append((int(stamp_ns), dict(zip(names, positions, strict=True))))
+        latest = self._joint_latest
+        for name in names:
+            latest[name] = max(latest.get(name, int(stamp_ns)), int(stamp_ns))
         return True
+
+    def joint_states_until(self, names: Iterable[str]) -> int | None:
+        """Stamp (ns) up to which a joint state of each of ``names`` has come (the
+        earliest of their latest: each publisher's stream, an arm's and a gripper's, comes
+        on its own), or None while one of them has none."""
+        latest = self._joint_latest
+        stamps = [latest.get(name) for name in names]
+        return None if None in stamps else min(stamps, default=None)
