@@ -127,11 +127,9 @@ from com_estimator.stream_qos import subscribe_adapted
 
 MAX_MESSAGE_LENGTH = 1000  # characters of a diagnostic message
 SOLVE_TIMEOUT = 4.0
-"""s (wall): how long a run's ``done`` waits for its input. A process starved on a loaded
-machine loses samples at its transport, and a reliable stream's are sent again at its
-publisher's next heartbeat, 3 s apart in Fast DDS (``WriterTimes.heartbeat_period``):
-a 100 Hz joint state stream came up to 2.9 s after the wrenches of its stamps, two demos
-side by side on two cores."""
+"""s (wall): how long a run's ``done`` waits for its input: a reliable stream's sample lost
+at a starved process's transport comes again at its publisher's next heartbeat, 3 s apart
+in Fast DDS (``WriterTimes.heartbeat_period``; docs/design.md, Pose labels)."""
 LIVE_KEYS = frozenset(
     ["mass", "sigma_mass", "information"]
     + [f"{k}_{a}" for k in ("com", "sigma_com") for a in "xyz"]

@@ -259,10 +259,10 @@ class Inbox:
         name."""
         if len(positions) != len(names):
             return False
-        self._joint_states.append((int(stamp_ns), dict(zip(names, positions, strict=True))))
-        latest = self._joint_latest
+        stamp, latest = int(stamp_ns), self._joint_latest
+        self._joint_states.append((stamp, dict(zip(names, positions, strict=True))))
         for name in names:
-            latest[name] = max(latest.get(name, int(stamp_ns)), int(stamp_ns))
+            latest[name] = max(latest.get(name, stamp), stamp)
         return True
 
     def joint_states_until(self, names: Iterable[str]) -> int | None:
