@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import re
+import time
 from pathlib import Path
 
 import numpy as np
@@ -646,3 +647,36 @@ def test_the_robot_model_received_again_keeps_the_joint_states_and_the_counts(
     assert arm.contact_error() < 1e-9
     statuses = listener.compensation[seen:]
     assert status_counts(statuses) == (100, 0), [s.message for s in statuses]
+
+
+def test_a_run_is_solved_once_the_arms_joint_states_pass_its_done(start_node, listener):
+    """A run's ``done`` waits for its input: with the kinematic information, for the
+    joint states of the arm as for the wrenches (each publisher's stream comes on its own,
+    and under load a reliable one's lost sample comes again seconds later). The wrenches
+    pass ``done`` at once while the arm's joint states stop 0.1 s before it for 0.5 s; the
+    run is solved only once they pass it, not at the wrenches, and not at solve_timeout."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile
+    from std_msgs.msg import Header
+
+    from com_core.contract import DONE, POSE_TOPIC
+
+    arm = Arm(listener.node, panda_payload())
+    start_node("estimator_node", PACKAGE)
+    listener.wait_for_node()
+    arm.wait_for_estimator()
+    labels = listener.node.create_publisher(
+        Header, POSE_TOPIC, QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    )
+    first = arm.tick  # the ticks of the run: joint states and wrenches, then wrenches alone
+    for label, tick in (("tare/home", first + 10), (DONE, first + 60)):
+        msg = Header(frame_id=label)
+        msg.stamp.sec, msg.stamp.nanosec = divmod(SENSOR_START + tick * PERIOD, 1_000_000_000)
+        labels.publish(msg)
+    seen = len(listener.diagnostics)
+    arm.run((50, True, True), (50, False, True))
+    assert spin_until(listener.node, lambda: arm.idle, 5.0), "the phases did not end"
+    assert len(listener.diagnostics) == seen, "solved before the arm's joint states passed done"
+    resumed = time.monotonic()  # the arm's joint states from the next tick on
+    status, _ = listener.next_status(seen, timeout=3.0)
+    assert time.monotonic() - resumed < 2.0  # at them, not at solve_timeout (4 s)
+    assert status.message.startswith("no object windows"), status.message
