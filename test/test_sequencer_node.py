@@ -29,6 +29,7 @@ from com_core.contract import (
     TRUTH_TOPIC,
     WRENCH_TOPIC,
 )
+from com_core.estimation.fits.estimators import DEFAULT_ALPHA
 from com_core.estimation.runs.solution import window_counts
 from com_core.report.run import read_run
 from com_core.robot.config import BAG_ROBOT_FILE, read_robot_config, robot_config_path
@@ -45,6 +46,12 @@ SIM = {"real_time_factor": 10.0, "rate": 250.0, **WHITE, **NOISE}
 publish at, ten times faster than real time. The 1 kHz default is run by the defaults'
 test, the demo's, the compensated stream's, the Explore action's progress test and
 test_recording_under_load.py (2 kHz)."""
+CHECKS = {"alpha": 1e-5}
+"""The estimator these tests run: its checks (the object-moved test, the verification,
+the bias drift's) at a false-alarm rate of 1e-5 each. At the default 1e-3 a correct run
+is flagged by chance about once in 300 (three checks), so the ~20 runs here would fail
+about one suite in 15; at 1e-5, one in 1,500. A test of a check's power runs it at
+the default (``DEFAULT_ALPHA``), as a user does."""
 SEQUENCER = {"use_sim_time": True, "tare_dwell": 2.0}
 """The sequencer these tests run: on sim time, the tare pass's windows 2 s long (5 s by
 default, for the noise's learning; the estimator's error bars count the samples)."""
@@ -136,7 +143,7 @@ def start_system(
     start_node(
         "estimator_node",
         "com_estimator",
-        params={"use_sim_time": True, **NOISE, **cache, **(estimator or {})},
+        params={"use_sim_time": True, **NOISE, **CHECKS, **cache, **(estimator or {})},
         args=config,
     )
     start_node(
@@ -353,7 +360,10 @@ def test_a_friction_grasp_is_flagged(start_node, client, tmp_path):
     5 N per finger depends on when the commands land in sim time (0.06-4.6 mm over the
     runs seen), so the size of the slip is not asserted here. That the ground truth
     follows a slip is tested with a grip too weak for a tilt in test_sim_physics.py."""
-    start_system(start_node, tmp_path, {"object": "box", "grasp_mode": "friction"})
+    at_default = {"alpha": DEFAULT_ALPHA}
+    start_system(
+        start_node, tmp_path, {"object": "box", "grasp_mode": "friction"}, estimator=at_default
+    )
     result = client.wait(client.call())
     assert not result.success and result.message.startswith("[WARN]"), result.message
     assert "moved in the grasp at pose" in result.message
