@@ -51,10 +51,10 @@ CHECKS = {"alpha": 1e-5}
 the bias drift's) at a false-alarm rate of 1e-5 each. At the default 1e-3 a correct run
 is flagged by chance about once in 300 (three checks), so the ~20 runs here would fail
 about one suite in 15; at 1e-5, one in 1,500. A box put back and grasped again holds
-less rigidly than at its first grasp: over 54 second runs of seed 8's box the
-verification's residual spread 1.22 times its sigma in torque, 1.15 in force (a fresh
-tare pass does not change it), which 1e-3 flags in ~2 % of runs and 1e-5 in ~0.1 %. A
-test of a check's power runs it at the default (``DEFAULT_ALPHA``), as a user does."""
+less rigidly than at its first grasp: over 46 second runs of seed 8's box the
+verification's residual spread 1.28 times its sigma in torque, 1.14 in force (a fresh
+tare pass does not change it), which 1e-3 flags in ~2.5 % of runs and 1e-5 in ~0.15 %.
+A test of a check's power runs it at the default (``DEFAULT_ALPHA``), as a user does."""
 SEQUENCER = {"use_sim_time": True, "tare_dwell": 2.0}
 """The sequencer these tests run: on sim time, the tare pass's windows 2 s long (5 s by
 default, for the noise's learning; the estimator's error bars count the samples)."""
