@@ -50,11 +50,12 @@ CHECKS = {"alpha": 1e-5}
 """The estimator these tests run: its checks (the object-moved test, the verification,
 the bias drift's) at a false-alarm rate of 1e-5 each. At the default 1e-3 a correct run
 is flagged by chance about once in 300 (three checks), so the ~20 runs here would fail
-about one suite in 15; at 1e-5, one in 1,500. A box put back and grasped again holds
-less rigidly than at its first grasp: over 46 second runs of seed 8's box the
-verification's residual spread 1.28 times its sigma in torque, 1.14 in force (a fresh
-tare pass does not change it), which 1e-3 flags in ~2.5 % of runs and 1e-5 in ~0.15 %.
-A test of a check's power runs it at the default (``DEFAULT_ALPHA``), as a user does."""
+about one suite in 15; at 1e-5, one in 1,500. A seed fixes the sim's noise sample by
+sample, so a test's runs share much of their noise, and one test's odds are not a fresh
+draw's: over 46 runs of the cached-hand test (seed 8) its second run's verification
+spread 1.28 times its sigma in torque and 1.14 in force, which 1e-3 flags about once in
+40 runs and 1e-5 about once in 700. A test of a check's power runs it at the default
+(``DEFAULT_ALPHA``), as a user does."""
 SEQUENCER = {"use_sim_time": True, "tare_dwell": 2.0}
 """The sequencer these tests run: on sim time, the tare pass's windows 2 s long (5 s by
 default, for the noise's learning; the estimator's error bars count the samples)."""
