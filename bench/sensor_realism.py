@@ -172,8 +172,9 @@ class Run:
         ex = exploration_from(self.settings | {"accuracy": accuracy})
         use_cached_tares(ex, self.bag / BAG_TARE_FILE)
         ex.noise = None
-        if c is not None:
-            ex.tares = {p: replace(w, mean=c @ w.mean) for p, w in ex.tares.items()}
+        if c is not None and ex.cached_tare is not None:
+            windows = {p: replace(w, mean=c @ w.mean) for p, w in ex.tares.items()}
+            ex.cached_tare = replace(ex.cached_tare, windows=windows)
         ex.robot, ex.robot_problem = robot_from(self.settings, self.urdf)
         ex.add_samples(self.stamps, read, self.frames)
         for stamp, label in self.rec.labels:

@@ -161,13 +161,13 @@ def test_cached_windows_and_their_ways_read_as_the_samples_do(tmp_path):
     as_read = exploration.samples()[1][0]
     assert np.abs(as_read[:3] / read[:3] - 1.0).min() > 0.015  # the gain: 3.5, 3.5, 1.8 %
     np.testing.assert_allclose(exploration.tares["tilt"].mean, as_read, rtol=1e-12)
-    way = exploration.tare_ways["tilt"]
+    way = exploration.cached_tare.ways["tilt"]
     np.testing.assert_allclose(way.beyond, as_read * 1e-3, rtol=1e-12)
     np.testing.assert_allclose(way.reach, np.outer([-6.0, 9.5], as_read / read), rtol=1e-12)
     np.testing.assert_allclose(way.travel, 3.0 * as_read / read, rtol=1e-12)
     untold = Exploration(expected_frame="")  # no hysteresis stated: the windows as read
     use_cached_tares(untold, path)
-    assert not untold.tare_ways and np.array_equal(untold.tares["tilt"].mean, read)
+    assert not untold.cached_tare.ways and np.array_equal(untold.tares["tilt"].mean, read)
 
 
 def test_a_drift_since_the_tare_is_a_warning_only_beyond_what_the_fit_can_tell():

@@ -271,7 +271,8 @@ def test_a_cached_tare_pass_is_weighed_as_its_own_run_weighed_it(tmp_path):
             "fresh": told.with_ways(obs, stamps, reads),
             "cached": [with_way(Observation(exploration.tares[o.window.pose], o.rotation,
                                             False, 1, o.time),
-                                exploration.tare_ways[o.window.pose]) for o in tare] + run,
+                                exploration.cached_tare.ways[o.window.pose])
+                       for o in tare] + run,
             "straight": [Observation(exploration.tares[o.window.pose], o.rotation, False, 1,
                                      o.time) for o in tare] + run,
             "as read": [Observation(read[o.window.pose], o.rotation, False, 1, o.time)

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -57,6 +57,7 @@ from com_core.estimation.fits.stats import chi2_isf, chi2_sf
 from com_core.estimation.fits.windows import Window
 from com_core.estimation.runs.cutting import window_rotation, window_time
 from com_core.estimation.runs.inbox import Inbox
+from com_core.estimation.runs.tare_cache import TareCache
 from com_core.robot.model import KinematicsError, RobotModel
 from com_core.sensing.calibration import Calibration
 from com_core.sensing.hysteresis import Hysteresis, Way
@@ -105,12 +106,11 @@ class FitSetup:
     alpha : false-alarm rate of the consistency and verification tests, and the drift's.
     min_tilt_sigmas : refuse tilts below this many sigma of noise.
     g : m/s^2, the gravity the wrench-only fits divide by.
-    tares : tare windows known from before (a cached tare pass), by pose; an
-        exploration's own tare windows take precedence.
-    tare_joints, tare_times : the joint positions (rad, m; by name) and the time (s) of
-        each cached tare window, for the hand model of the kinematic information.
-    tare_ways : each cached tare window's way from the one before it in its pass
-        (``sensing.hysteresis.Way``), for a sensor of stated hysteresis.
+    cached_tare : a tare pass known from before (``tare_cache.TareCache``, its windows
+        as this exploration's samples are read): its windows by pose (``tares``; an
+        exploration's own tare windows take precedence), with the joint positions and
+        the time of each for the hand model of the kinematic information, and, for a
+        sensor of stated hysteresis, each one's way from the one before it in its pass.
     untared : estimate the whole load beyond the sensor (hand + object) without any
         tare; the solution is then at best WARN and says so.
     information : 'wrenches', 'kinematics' or 'kinematics+mount' (see module); with no
@@ -138,10 +138,7 @@ class FitSetup:
     alpha: float = DEFAULT_ALPHA
     min_tilt_sigmas: float = MIN_TILT_SIGMAS
     g: float = STANDARD_GRAVITY
-    tares: Mapping[str, Window] = field(default_factory=dict)
-    tare_joints: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
-    tare_times: Mapping[str, float] = field(default_factory=dict)
-    tare_ways: Mapping[str, Way] = field(default_factory=dict)
+    cached_tare: TareCache | None = None
     untared: bool = False
     information: str = WRENCHES
     robot: RobotModel | None = None
@@ -159,6 +156,11 @@ class FitSetup:
             raise ValueError(f"method must be one of {sorted(METHODS)}, got {self.method!r}")
         if self.information not in INFORMATION:
             raise ValueError(f"information must be one of {INFORMATION}, got {self.information!r}")
+
+    @property
+    def tares(self) -> Mapping[str, Window]:
+        """The cached tare pass's windows by pose ({} without one)."""
+        return {} if self.cached_tare is None else self.cached_tare.windows
 
     def information_used(self, notes: list[str]) -> str:
         """The information the fit can use: ``information``; 'wrenches' for a method other
@@ -310,11 +312,12 @@ class FitSetup:
         if not self.untared:
             for pose, window in fresh_tares.items():
                 add(window, TARE_PREFIX + pose, False, 0)
-            for pose, window in self.tares.items():
-                if pose not in fresh_tares and pose in self.tare_joints:
-                    cached = (self.tare_joints[pose], self.tare_times.get(pose, 0.0))
-                    way = self.tare_ways.get(pose)
-                    add(window, f"cached tare {pose!r}", False, 1, cached, way)
+            if (tare := self.cached_tare) is not None:
+                for pose, window in tare.windows.items():
+                    if pose not in fresh_tares and pose in tare.joints:
+                        cached = (tare.joints[pose], tare.times.get(pose, 0.0))
+                        way = tare.ways.get(pose)
+                        add(window, f"cached tare {pose!r}", False, 1, cached, way)
         loads = objects
         if not self.untared and all(o.load for o in observations):
             if not subtracted:

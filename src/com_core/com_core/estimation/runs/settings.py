@@ -274,15 +274,14 @@ def use_cached_tares(exploration: Exploration, path: str | Path) -> None:
     gain of that hysteresis and a calibration in place, ``use_sensor_calibration``;
     ``Exploration.samples``), their joint positions and times, and the noise learnt from
     them (none for '', no file or a broken one)."""
-    cache = load_cached_tares(path) or TareCache("", 0.0, {})
-    exploration.tares, exploration.tare_joints = cache.windows, cache.joints
-    exploration.tare_ways = cache.ways if exploration.hysteresis is not None else {}
+    cache = load_cached_tares(path)
+    if cache is not None and exploration.hysteresis is None:
+        cache = replace(cache, ways={})
     m = reading_correction(exploration.calibration, exploration.hysteresis)
-    if m is not None:  # the cache keeps the windows as read; the samples are read corrected
-        exploration.tares = {pose: replace(w, mean=m @ w.mean, cov=m @ w.cov @ m.T)
-                             for pose, w in cache.windows.items()}  # fmt: skip
-        exploration.tare_ways = {pose: w.corrected(m) for pose, w in exploration.tare_ways.items()}
-    exploration.tare_times, exploration.noise = cache.times, cache.noise
+    if cache is not None and m is not None:  # the file keeps the windows as read
+        cache = cache.corrected(m)
+    exploration.cached_tare = cache
+    exploration.noise = None if cache is None else cache.noise
 
 
 def use_sensor_calibration(exploration: Exploration, entry: SensorCalibration | None) -> None:

@@ -23,10 +23,11 @@ import json
 import math
 import time
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from com_core.estimation.fits.stats import chi2_sf
 from com_core.estimation.fits.windows import Window, window_from_mean
@@ -74,6 +75,16 @@ class TareCache:
 
     def age(self) -> float:
         return time.time() - self.created
+
+    def corrected(self, correction: NDArray[np.float64]) -> TareCache:
+        """The pass as read through ``correction`` (6, 6; a calibration in place, a
+        hysteresis's gain: ``sensing.calibration.reading_correction``): each window's
+        mean and covariance, and each way, so mapped."""
+        m = correction
+        windows = {pose: replace(w, mean=m @ w.mean, cov=m @ w.cov @ m.T)
+                   for pose, w in self.windows.items()}  # fmt: skip
+        ways = {pose: way.corrected(m) for pose, way in self.ways.items()}
+        return replace(self, windows=windows, ways=ways)
 
     @property
     def owner(self) -> str:
