@@ -90,8 +90,9 @@ class Exploration(Inbox, FitSetup):
         latest = self.latest_stamp
         if latest is None or latest < until_ns:
             return f"the wrenches (up to {_reached(latest)})"
-        if self.information == WRENCHES or self.robot is None:
+        if self.information_used([]) == WRENCHES:  # no joint states for the fit
             return ""
+        assert self.robot is not None  # information_used: none without it
         joints = self.joint_states_until(self.robot.chain_names)
         if joints is None or joints < until_ns:
             return (
